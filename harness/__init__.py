@@ -1,0 +1,1 @@
+"""The `harness` command: experiment grid, executors, records, resume."""

@@ -1,0 +1,5 @@
+"""Vertex mirror map (placeholder until packing's symmetry lands)."""
+
+
+def mirror_map(neutral, **options):
+    raise NotImplementedError

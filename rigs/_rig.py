@@ -1,0 +1,208 @@
+"""The `Rig` value: a neutral mesh and its delta blendshapes (Carrigan et al. 2020, sec. 3)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+class RigError(ValueError):
+    """A rig, or a file that should hold one, is malformed.
+
+    The message names the source (file or field), the shape if one is at fault, and what is wrong.
+    """
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array = np.ascontiguousarray(array)
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Rig:
+    """A blendshape rig: neutral mesh, K delta blendshapes, triangles and optional vertex regions.
+
+    Delta blendshapes follow Carrigan et al. 2020, sec. 3: ``deltas[k] = v_k - v_0``.
+    All arrays are stored read-only; use :func:`dataclasses.replace` to derive a new rig.
+
+    Parameters
+    ----------
+    neutral : (N, 3) float array
+        Vertex positions of the neutral expression ``v_0``.
+    deltas : (K, N, 3) float array
+        Displacement of each blendshape from the neutral.
+    triangles : (T, 3) int array
+        Triangle vertex indices (polygons are triangulated on load).
+    names : sequence of K unique str
+        Blendshape names, in the order of ``deltas``.
+    regions : mapping str -> int array, optional
+        Named vertex sets (e.g. ``upper_lip``), used for motion symmetry (sec. 4.4.2).
+    faces : sequence of int arrays, optional
+        The original polygons (quads, n-gons) as loaded, kept for OBJ export. ``None`` means the
+        triangles are the faces.
+    meta : mapping, optional
+        Free-form provenance: ``source``, ``units``, generator ``truth``, load reports.
+
+    Raises
+    ------
+    RigError
+        When shapes disagree, values are not finite, indices are out of range or names repeat.
+        The message names the field and the bad value.
+    """
+
+    neutral: np.ndarray
+    deltas: np.ndarray
+    triangles: np.ndarray
+    names: tuple[str, ...]
+    regions: Mapping[str, np.ndarray] = field(default_factory=dict)
+    faces: tuple[np.ndarray, ...] | None = None
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        source = self.meta.get("source", "rig") if isinstance(self.meta, Mapping) else "rig"
+        neutral = np.asarray(self.neutral, dtype=np.float64)
+        if neutral.ndim != 2 or neutral.shape[1] != 3:
+            raise RigError(f"{source}: neutral must have shape (N, 3), got {neutral.shape}")
+        n_vertices = neutral.shape[0]
+        if n_vertices == 0:
+            raise RigError(f"{source}: neutral has no vertices")
+        if not np.isfinite(neutral).all():
+            bad = int(np.argwhere(~np.isfinite(neutral))[0, 0])
+            raise RigError(f"{source}: neutral has a non-finite coordinate at vertex {bad}")
+
+        deltas = np.asarray(self.deltas, dtype=np.float64)
+        if deltas.ndim == 2 and deltas.shape == (0, 0):
+            deltas = np.zeros((0, n_vertices, 3))
+        if deltas.ndim != 3 or deltas.shape[1:] != (n_vertices, 3):
+            raise RigError(
+                f"{source}: deltas must have shape (K, {n_vertices}, 3) to match the neutral, got {deltas.shape}"
+            )
+
+        names = tuple(str(name) for name in self.names)
+        if len(names) != deltas.shape[0]:
+            raise RigError(f"{source}: {len(names)} names for {deltas.shape[0]} blendshapes")
+        seen: set[str] = set()
+        for name in names:
+            if not name:
+                raise RigError(f"{source}: a blendshape has an empty name")
+            if name in seen:
+                raise RigError(f"{source}: duplicate blendshape name {name!r}")
+            seen.add(name)
+        finite = np.isfinite(deltas).all(axis=(1, 2))
+        if not finite.all():
+            bad = int(np.flatnonzero(~finite)[0])
+            vertex = int(np.argwhere(~np.isfinite(deltas[bad]))[0, 0])
+            raise RigError(f"{source}: blendshape {names[bad]!r} has a non-finite displacement at vertex {vertex}")
+
+        triangles = np.asarray(self.triangles)
+        if triangles.size == 0:
+            triangles = triangles.reshape(0, 3)
+        if triangles.ndim != 2 or triangles.shape[1] != 3:
+            raise RigError(f"{source}: triangles must have shape (T, 3), got {triangles.shape}")
+        if not np.issubdtype(triangles.dtype, np.integer):
+            if not np.all(np.mod(triangles, 1) == 0):
+                raise RigError(f"{source}: triangles must hold integer vertex indices")
+        triangles = triangles.astype(np.int64)
+        if triangles.size and (triangles.min() < 0 or triangles.max() >= n_vertices):
+            bad = int(np.flatnonzero((triangles < 0).any(axis=1) | (triangles >= n_vertices).any(axis=1))[0])
+            raise RigError(
+                f"{source}: triangle {bad} {triangles[bad].tolist()} indexes outside 0..{n_vertices - 1}"
+            )
+
+        regions: dict[str, np.ndarray] = {}
+        for region_name, indices in dict(self.regions).items():
+            indices = np.asarray(indices)
+            if indices.dtype == bool:
+                if indices.shape != (n_vertices,):
+                    raise RigError(f"{source}: region {region_name!r} mask has shape {indices.shape}")
+                indices = np.flatnonzero(indices)
+            indices = np.unique(indices.astype(np.int64).ravel())
+            if indices.size and (indices[0] < 0 or indices[-1] >= n_vertices):
+                raise RigError(f"{source}: region {region_name!r} indexes outside 0..{n_vertices - 1}")
+            regions[str(region_name)] = _frozen(indices)
+
+        faces = None
+        if self.faces is not None:
+            faces = tuple(_frozen(np.asarray(face, dtype=np.int64)) for face in self.faces)
+            for index, face in enumerate(faces):
+                if face.size < 3 or face.min() < 0 or face.max() >= n_vertices:
+                    raise RigError(f"{source}: face {index} {face.tolist()} is not a polygon of this mesh")
+
+        object.__setattr__(self, "neutral", _frozen(neutral))
+        object.__setattr__(self, "deltas", _frozen(deltas))
+        object.__setattr__(self, "triangles", _frozen(triangles))
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "regions", regions)
+        object.__setattr__(self, "faces", faces)
+        object.__setattr__(self, "meta", dict(self.meta))
+
+    # -- sizes -------------------------------------------------------------------------------------------
+    @property
+    def n_vertices(self) -> int:
+        """N, the number of vertices."""
+        return int(self.neutral.shape[0])
+
+    @property
+    def n_shapes(self) -> int:
+        """K, the number of blendshapes."""
+        return int(self.deltas.shape[0])
+
+    @property
+    def n_triangles(self) -> int:
+        """T, the number of triangles."""
+        return int(self.triangles.shape[0])
+
+    # -- look-ups ----------------------------------------------------------------------------------------
+    def index(self, name: str) -> int:
+        """Position of blendshape ``name``; raises `RigError` listing near names when absent."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            import difflib
+
+            close = difflib.get_close_matches(name, self.names, n=3)
+            hint = f" (did you mean {', '.join(close)}?)" if close else ""
+            raise RigError(f"{self.meta.get('source', 'rig')}: no blendshape named {name!r}{hint}") from None
+
+    def indices(self, names: Sequence[str]) -> np.ndarray:
+        """Positions of several blendshapes, in the given order."""
+        return np.array([self.index(name) for name in names], dtype=np.int64)
+
+    def shape(self, name: str) -> np.ndarray:
+        """Absolute vertex positions of blendshape ``name`` (neutral + delta)."""
+        return self.neutral + self.deltas[self.index(name)]
+
+    def degenerate_triangles(self, rel_tol: float = 1e-12) -> np.ndarray:
+        """Indices of zero-area triangles of the neutral (reported, not fatal)."""
+        if self.n_triangles == 0:
+            return np.zeros(0, dtype=np.int64)
+        a, b, c = (self.neutral[self.triangles[:, i]] for i in range(3))
+        doubled_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        scale = float(np.ptp(self.neutral, axis=0).max()) or 1.0
+        return np.flatnonzero(doubled_area <= rel_tol * scale * scale)
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners of the neutral's axis-aligned bounding box."""
+        return self.neutral.min(axis=0), self.neutral.max(axis=0)
+
+    def diagonal(self) -> float:
+        """Length of the neutral's bounding-box diagonal (the rig's scale)."""
+        low, high = self.bounding_box()
+        return float(np.linalg.norm(high - low))
+
+    def subset(self, names: Sequence[str]) -> Rig:
+        """A rig with only the named blendshapes, in the given order."""
+        from dataclasses import replace
+
+        order = self.indices(names)
+        return replace(self, deltas=self.deltas[order], names=tuple(self.names[i] for i in order))
+
+    def __repr__(self) -> str:
+        return (
+            f"Rig(N={self.n_vertices}, K={self.n_shapes}, T={self.n_triangles}, "
+            f"regions={sorted(self.regions)}, source={self.meta.get('source', '?')!r})"
+        )

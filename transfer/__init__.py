@@ -1,0 +1,1 @@
+"""transfer package (filled by its issue)."""
