@@ -79,7 +79,8 @@ class Rig:
             deltas = np.zeros((0, n_vertices, 3))
         if deltas.ndim != 3 or deltas.shape[1:] != (n_vertices, 3):
             raise RigError(
-                f"{source}: deltas must have shape (K, {n_vertices}, 3) to match the neutral, got {deltas.shape}"
+                f"{source}: deltas must have shape (K, {n_vertices}, 3) to match the neutral, "
+                f"got {deltas.shape}"
             )
 
         names = tuple(str(name) for name in self.names)
@@ -96,7 +97,9 @@ class Rig:
         if not finite.all():
             bad = int(np.flatnonzero(~finite)[0])
             vertex = int(np.argwhere(~np.isfinite(deltas[bad]))[0, 0])
-            raise RigError(f"{source}: blendshape {names[bad]!r} has a non-finite displacement at vertex {vertex}")
+            raise RigError(
+                f"{source}: blendshape {names[bad]!r} has a non-finite displacement at vertex {vertex}"
+            )
 
         triangles = np.asarray(self.triangles)
         if triangles.size == 0:
@@ -127,10 +130,16 @@ class Rig:
 
         faces = None
         if self.faces is not None:
-            faces = tuple(_frozen(np.asarray(face, dtype=np.int64)) for face in self.faces)
-            for index, face in enumerate(faces):
-                if face.size < 3 or face.min() < 0 or face.max() >= n_vertices:
-                    raise RigError(f"{source}: face {index} {face.tolist()} is not a polygon of this mesh")
+            faces = tuple(_frozen(np.asarray(face, dtype=np.int64).ravel()) for face in self.faces)
+            if faces:
+                sizes = np.fromiter((face.size for face in faces), dtype=np.int64, count=len(faces))
+                flat = np.concatenate(faces)
+                outside = np.add.reduceat((flat < 0) | (flat >= n_vertices), np.cumsum(sizes) - sizes)
+                bad = np.flatnonzero((sizes < 3) | (outside > 0))
+                if bad.size:
+                    index = int(bad[0])
+                    polygon = faces[index].tolist()
+                    raise RigError(f"{source}: face {index} {polygon} is not a polygon of this mesh")
 
         object.__setattr__(self, "neutral", _frozen(neutral))
         object.__setattr__(self, "deltas", _frozen(deltas))

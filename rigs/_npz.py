@@ -1,0 +1,114 @@
+"""The native rig format: a NumPy ``.npz`` archive.
+
+The archive holds exactly the keys ``neutral`` (N, 3) float64, ``deltas`` (K, N, 3) float64,
+``triangles`` (T, 3) int64, ``names`` (K,) unicode, and ``region__<name>`` (int64 vertex indices) for
+each region. Nothing else is stored: ``faces`` (original polygons) and ``meta`` do not survive; every
+array does, bit for bit.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from rigs._rig import Rig, RigError
+
+REQUIRED_KEYS = ("neutral", "deltas", "triangles", "names")
+REGION_PREFIX = "region__"
+
+
+def save_npz(rig: Rig, path: str | Path) -> Path:
+    """Write ``rig`` to ``path`` (compressed, written to a temporary file then moved into place).
+
+    Raises
+    ------
+    RigError
+        When a region name is empty (it would not make a key).
+    """
+    path = Path(path)
+    arrays = {
+        "neutral": rig.neutral,
+        "deltas": rig.deltas,
+        "triangles": rig.triangles,
+        "names": np.array(rig.names, dtype=np.str_) if rig.names else np.zeros(0, dtype="<U1"),
+    }
+    for name, indices in rig.regions.items():
+        if not name:
+            raise RigError(f"{path}: a region has an empty name")
+        arrays[REGION_PREFIX + name] = indices
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    try:
+        with open(temporary, "xb") as stream:
+            np.savez_compressed(stream, **arrays)
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_npz(path: str | Path) -> Rig:
+    """Read a rig written by :func:`save_npz`.
+
+    Returns
+    -------
+    Rig with ``meta = {"source": str(path), "format": "npz"}``.
+
+    Raises
+    ------
+    RigError
+        One line naming the file and the problem: missing file, not an ``.npz`` archive, a missing or
+        unexpected key, a key holding Python objects, or a rig that fails validation.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RigError(f"{path}: no such rig file")
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as error:
+        raise RigError(f"{path}: not a NumPy .npz archive ({error})") from None
+    if not isinstance(archive, np.lib.npyio.NpzFile):
+        raise RigError(
+            f"{path}: holds a single array, not a rig archive (.npz with keys {', '.join(REQUIRED_KEYS)})"
+        )
+    with archive:
+        keys = set(archive.files)
+        missing = [key for key in REQUIRED_KEYS if key not in keys]
+        if missing:
+            raise RigError(f"{path}: missing key {missing[0]!r} (a rig needs {', '.join(REQUIRED_KEYS)})")
+        unexpected = sorted(key for key in keys - set(REQUIRED_KEYS) if not key.startswith(REGION_PREFIX))
+        if unexpected:
+            raise RigError(
+                f"{path}: unexpected key {unexpected[0]!r} (only {', '.join(REQUIRED_KEYS)}, region__*)"
+            )
+        arrays = {key: _read(archive, key, path) for key in sorted(keys)}
+    names = arrays["names"]
+    if names.ndim != 1 or names.dtype.kind not in "US":
+        raise RigError(
+            f"{path}: 'names' must be a 1-D string array, got dtype {names.dtype} shape {names.shape}"
+        )
+    regions = {
+        key[len(REGION_PREFIX) :]: value for key, value in arrays.items() if key.startswith(REGION_PREFIX)
+    }
+    return Rig(
+        neutral=arrays["neutral"],
+        deltas=arrays["deltas"],
+        triangles=arrays["triangles"],
+        names=tuple(name.decode() if isinstance(name, bytes) else str(name) for name in names.tolist()),
+        regions=regions,
+        meta={"source": str(path), "format": "npz"},
+    )
+
+
+def _read(archive: np.lib.npyio.NpzFile, key: str, path: Path) -> np.ndarray:
+    try:
+        return archive[key]
+    except ValueError as error:
+        raise RigError(f"{path}: key {key!r} cannot be read without pickle ({error})") from None
+    except (OSError, zipfile.BadZipFile, EOFError) as error:
+        raise RigError(f"{path}: key {key!r} is corrupt ({error})") from None

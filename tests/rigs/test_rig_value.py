@@ -1,0 +1,129 @@
+"""Validation of the `Rig` value: shapes, finiteness, index ranges, names, regions, faces; messages."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rigs import Rig, RigError
+
+SQUARE = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def square_rig(**changes) -> Rig:
+    deltas = np.zeros((2, 4, 3))
+    deltas[0, 2] = [0.0, 0.0, 0.5]
+    deltas[1, 0] = [0.0, -0.2, 0.0]
+    values = dict(
+        neutral=SQUARE,
+        deltas=deltas,
+        triangles=TRIANGLES,
+        names=("up", "down"),
+        regions={"corner": [2]},
+        meta={"source": "square.npz"},
+    )
+    values.update(changes)
+    return Rig(**values)
+
+
+def test_valid_rig_has_sizes_and_frozen_read_only_arrays():
+    rig = square_rig()
+    assert (rig.n_vertices, rig.n_shapes, rig.n_triangles) == (4, 2, 2)
+    assert rig.neutral.dtype == np.float64 and rig.triangles.dtype == np.int64
+    for array in (rig.neutral, rig.deltas, rig.triangles, rig.regions["corner"]):
+        assert not array.flags.writeable
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rig.names = ("x", "y")
+    np.testing.assert_array_equal(rig.shape("up")[2], [1.0, 1.0, 0.5])
+    assert rig.diagonal() == pytest.approx(np.sqrt(2.0))
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"neutral": SQUARE[:, :2]}, "square.npz: neutral must have shape (N, 3), got (4, 2)"),
+        (
+            {"neutral": np.zeros((0, 3)), "deltas": np.zeros((0, 0, 3)), "names": ()},
+            "neutral has no vertices",
+        ),
+        (
+            {"deltas": np.zeros((2, 3, 3))},
+            "deltas must have shape (K, 4, 3) to match the neutral, got (2, 3, 3)",
+        ),
+        ({"names": ("up",)}, "square.npz: 1 names for 2 blendshapes"),
+        ({"names": ("up", "up")}, "square.npz: duplicate blendshape name 'up'"),
+        ({"names": ("up", "")}, "square.npz: a blendshape has an empty name"),
+        ({"triangles": np.array([[0, 1, 2], [0, 2, 9]])}, "triangle 1 [0, 2, 9] indexes outside 0..3"),
+        ({"triangles": np.array([[0, -1, 2]])}, "triangle 0 [0, -1, 2] indexes outside 0..3"),
+        ({"triangles": np.array([[0, 1, 2, 3]])}, "triangles must have shape (T, 3), got (1, 4)"),
+        ({"triangles": np.array([[0.0, 1.5, 2.0]])}, "triangles must hold integer vertex indices"),
+        ({"regions": {"lip": [1, 4]}}, "square.npz: region 'lip' indexes outside 0..3"),
+        ({"regions": {"lip": np.array([True, False])}}, "region 'lip' mask has shape (2,)"),
+        ({"faces": (np.array([0, 1]),)}, "face 0 [0, 1] is not a polygon of this mesh"),
+        ({"faces": (np.array([0, 1, 2, 7]),)}, "face 0 [0, 1, 2, 7] is not a polygon of this mesh"),
+    ],
+)
+def test_invalid_rig_names_field_and_value(changes, message):
+    with pytest.raises(RigError) as caught:
+        square_rig(**changes)
+    assert message in str(caught.value)
+    assert "\n" not in str(caught.value)
+
+
+def test_non_finite_values_name_the_vertex_and_shape():
+    neutral = SQUARE.copy()
+    neutral[3, 1] = np.nan
+    with pytest.raises(RigError, match=r"square.npz: neutral has a non-finite coordinate at vertex 3"):
+        square_rig(neutral=neutral)
+    deltas = np.zeros((2, 4, 3))
+    deltas[1, 2, 0] = np.inf
+    with pytest.raises(RigError, match=r"blendshape 'down' has a non-finite displacement at vertex 2"):
+        square_rig(deltas=deltas)
+
+
+def test_empty_blendshape_and_degenerate_triangle_are_allowed_and_reported():
+    neutral = np.vstack([SQUARE, [[2.0, 0.0, 0.0]]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4]])
+    rig = Rig(neutral=neutral, deltas=np.zeros((1, 5, 3)), triangles=triangles, names=("idle",))
+    assert rig.n_shapes == 1 and not rig.deltas.any()
+    np.testing.assert_array_equal(rig.degenerate_triangles(), [2])
+
+
+def test_regions_accept_masks_and_are_sorted_unique():
+    rig = square_rig(regions={"mask": np.array([False, True, True, False]), "list": [3, 0, 3]})
+    np.testing.assert_array_equal(rig.regions["mask"], [1, 2])
+    np.testing.assert_array_equal(rig.regions["list"], [0, 3])
+
+
+def test_replace_revalidates():
+    rig = square_rig()
+    with pytest.raises(RigError, match="duplicate blendshape name 'up'"):
+        dataclasses.replace(rig, names=("up", "up"))
+
+
+def test_index_suggests_close_names():
+    with pytest.raises(RigError, match=r"no blendshape named 'upp' \(did you mean up\?\)"):
+        square_rig().index("upp")
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n_vertices=st.integers(3, 12),
+    n_shapes=st.integers(0, 5),
+    seed=st.integers(0, 2**16),
+)
+def test_random_valid_rigs_construct_and_subset_keeps_values(n_vertices, n_shapes, seed):
+    generator = np.random.default_rng(seed)
+    neutral = generator.normal(size=(n_vertices, 3))
+    deltas = generator.normal(size=(n_shapes, n_vertices, 3))
+    triangles = generator.integers(0, n_vertices, size=(5, 3))
+    names = tuple(f"shape{k}" for k in range(n_shapes))
+    rig = Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=names)
+    reordered = rig.subset(names[::-1])
+    np.testing.assert_array_equal(reordered.deltas, deltas[::-1])
+    assert reordered.names == names[::-1]
