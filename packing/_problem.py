@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+
+from packing._presolve import maximal_conflict_sets, restrict_conflict_sets
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +42,9 @@ class PackingProblem:
         Number of eq. 3b rows before presolve (vertices active in at least one item).
     meta : mapping
         Provenance: parameters, timings of the build and presolve.
+    tie_break : (I,) float array, optional
+        The deterministic perturbation included in ``weights`` (see `packing.build_problem`); the
+        unperturbed objective of a set of items is ``objective(items) - tie_break[items].sum()``.
     """
 
     shape_names: tuple[str, ...]
@@ -50,6 +55,7 @@ class PackingProblem:
     cap: int | None = None
     n_vertex_rows: int = 0
     meta: Mapping[str, Any] = field(default_factory=dict)
+    tie_break: np.ndarray | None = None
 
     @property
     def n_items(self) -> int:
@@ -78,21 +84,61 @@ class PackingProblem:
         """Objective value (eq. 3a) of a set of items."""
         return float(self.weights[np.fromiter(chosen, dtype=np.int64)].sum())
 
+    @property
+    def n_clique_rows(self) -> int:
+        """Number of conflict rows after presolve (the maximal conflict sets)."""
+        return len(self.cliques)
+
+    def unperturbed_objective(self, chosen: Iterable[int]) -> float:
+        """Objective of a set of items without the tie-break perturbation (the importance sum)."""
+        index = np.fromiter(chosen, dtype=np.int64)
+        perturbation = 0.0 if self.tie_break is None else float(self.tie_break[index].sum())
+        return float(self.weights[index].sum()) - perturbation
+
     def restrict(self, keep: Iterable[int]) -> PackingProblem:
         """The same problem over a subset of its items (renumbered in ascending order), presolved anew.
 
         Used by the expression sequence (Algorithm 1 removes the items already used) and by artist
-        refinement (sec. 4.5.3 excludes rejected items from the current expression).
+        refinement (sec. 4.5.3 excludes rejected items from the current expression). The new conflict
+        sets are derived from this problem's maximal sets, not from the vertices
+        (`packing._presolve.restrict_conflict_sets`).
         """
         keep_index = np.unique(np.fromiter(keep, dtype=np.int64))
-        return problem_from_incidence(
-            self.incidence[keep_index],
-            self.weights[keep_index],
+        if keep_index.size and (keep_index[0] < 0 or keep_index[-1] >= self.n_items):
+            raise ValueError(
+                f"restrict: item indices must be in 0..{self.n_items - 1}, got {keep_index.tolist()}"
+            )
+        incidence = self.incidence[keep_index]
+        weights = self.weights[keep_index]
+        weights.flags.writeable = False
+        return replace(
+            self,
             items=tuple(self.items[i] for i in keep_index),
-            shape_names=self.shape_names,
-            cap=self.cap,
-            meta=self.meta,
+            weights=weights,
+            incidence=incidence,
+            cliques=restrict_conflict_sets(self.cliques, keep_index, self.n_items),
+            n_vertex_rows=int(np.count_nonzero(np.bincount(incidence.indices, minlength=incidence.shape[1]))),
+            meta=_restricted_meta(self.meta, keep_index),
+            tie_break=None if self.tie_break is None else self.tie_break[keep_index],
         )
+
+    def reweighted(self, weights: np.ndarray, tie_break: np.ndarray | None = None) -> PackingProblem:
+        """The same items and conflict sets with new objective coefficients (no new presolve)."""
+        weights = np.array(weights, dtype=np.float64).ravel()
+        if weights.shape != (self.n_items,) or not np.isfinite(weights).all():
+            raise ValueError(f"reweighted: need {self.n_items} finite weights, got shape {weights.shape}")
+        weights.flags.writeable = False
+        return replace(
+            self, weights=weights, tie_break=tie_break if tie_break is not None else self.tie_break
+        )
+
+
+def _restricted_meta(meta: Mapping[str, Any], keep: np.ndarray) -> dict[str, Any]:
+    """Meta of a restricted problem; ``item_index`` (items of an originating problem) follows the items."""
+    restricted = dict(meta)
+    if "item_index" in restricted:
+        restricted["item_index"] = np.asarray(restricted["item_index"])[keep]
+    return restricted
 
 
 def problem_from_incidence(
@@ -103,6 +149,7 @@ def problem_from_incidence(
     shape_names: tuple[str, ...] | None = None,
     cap: int | None = None,
     meta: Mapping[str, Any] | None = None,
+    tie_break: np.ndarray | None = None,
 ) -> PackingProblem:
     """Build and presolve a `PackingProblem` from an item-by-vertex incidence matrix.
 
@@ -118,15 +165,17 @@ def problem_from_incidence(
         Names of the rig's shapes; default ``s0, s1, ...``.
     cap : int, optional
         Maximum blendshapes per expression (sec. 6).
+    meta : mapping, optional
+        Provenance stored with the problem.
+    tie_break : (I,) float array, optional
+        The tie-break perturbation already included in ``weights``.
 
     Returns
     -------
     PackingProblem with its maximal conflict sets computed.
     """
-    from packing._presolve import maximal_conflict_sets
-
     incidence = sp.csr_matrix(incidence, dtype=bool)
-    weights = np.asarray(weights, dtype=np.float64).ravel()
+    weights = np.array(weights, dtype=np.float64).ravel()
     n_items = incidence.shape[0]
     if weights.shape != (n_items,):
         raise ValueError(f"weights has {weights.size} entries for {n_items} items")
@@ -151,4 +200,5 @@ def problem_from_incidence(
         cap=cap,
         n_vertex_rows=n_vertex_rows,
         meta=dict(meta or {}),
+        tie_break=None if tie_break is None else np.asarray(tie_break, dtype=np.float64).ravel(),
     )

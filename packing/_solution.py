@@ -66,7 +66,11 @@ class Solution:
             return SolutionStatus.OPTIMAL
         if self.termination in (Termination.INFEASIBLE, Termination.ERROR):
             return SolutionStatus.NONE
-        return SolutionStatus.FEASIBLE if self.items or self.termination is Termination.COMPLETED else SolutionStatus.NONE
+        return (
+            SolutionStatus.FEASIBLE
+            if self.items or self.termination is Termination.COMPLETED
+            else SolutionStatus.NONE
+        )
 
     @property
     def wall_time(self) -> float:

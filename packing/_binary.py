@@ -1,0 +1,116 @@
+"""Binary blendshapes: which vertices each blendshape moves strongly (Carrigan et al. 2020, sec. 4.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing._params import check_range
+from rigs import Rig
+
+
+def displacement_norms(deltas: np.ndarray) -> np.ndarray:
+    """(K, N) array of ``|dv_k^n|``, the length of every vertex displacement."""
+    deltas = np.asarray(deltas, dtype=np.float64)
+    if deltas.ndim != 3 or deltas.shape[2] != 3:
+        raise ValueError(f"deltas must have shape (K, N, 3), got {deltas.shape}")
+    return np.sqrt(np.einsum("knd,knd->kn", deltas, deltas))
+
+
+def empty_mask(norms: np.ndarray, noise_floor: float = 1e-6, scale: float | None = None) -> np.ndarray:
+    """(K,) bool array: blendshapes with no displacement above the noise floor.
+
+    Parameters
+    ----------
+    norms : (K, N) array
+        Displacement lengths (`displacement_norms`).
+    noise_floor : float
+        Relative floor: a shape is empty when its largest displacement is at most
+        ``noise_floor * scale``.
+    scale : float, optional
+        Length scale of the rig, normally its bounding-box diagonal; default the largest displacement
+        of any blendshape.
+    """
+    largest = norms.max(axis=1, initial=0.0)
+    if scale is None:
+        scale = float(largest.max(initial=0.0))
+    return largest <= noise_floor * scale
+
+
+def empty_shapes(rig: Rig, *, noise_floor: float = 1e-6) -> tuple[str, ...]:
+    """Names of a rig's empty blendshapes: no displacement above ``noise_floor`` times its diagonal.
+
+    Empty shapes are excluded from packing (sec. 4.1 would otherwise make every vertex of an all-zero
+    shape active, since ``0 >= mu * 0``).
+    """
+    check_range("noise_floor", noise_floor, 0.0, float("inf"))
+    empty = empty_mask(displacement_norms(rig.deltas), noise_floor, rig.diagonal())
+    return tuple(rig.names[k] for k in np.flatnonzero(empty))
+
+
+def binary_blendshapes(
+    deltas: np.ndarray, mu: float = 0.3, *, noise_floor: float = 1e-6, scale: float | None = None
+) -> np.ndarray:
+    """Active-vertex masks of blendshapes (Carrigan et al. 2020, eq. 2).
+
+    A vertex is active in shape k when its displacement is at least ``mu`` times the largest
+    displacement of shape k.
+
+    Parameters
+    ----------
+    deltas : (K, N, 3) array
+        Displacements of each blendshape from the neutral.
+    mu : float in (0, 1]
+        Relative threshold; the paper recommends 0.25-0.4.
+    noise_floor : float
+        A shape whose largest displacement is at most ``noise_floor * scale`` is empty.
+    scale : float, optional
+        The rig's length scale (bounding-box diagonal); default the largest displacement of any shape.
+
+    Returns
+    -------
+    (K, N) bool array. Rows of empty shapes are all False: an empty shape is never "fully active".
+
+    Raises
+    ------
+    ValueError
+        If ``mu`` is outside (0, 1] or ``deltas`` is not (K, N, 3).
+
+    Notes
+    -----
+    O(K N) time and memory.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> deltas = np.array([[[1.0, 0, 0], [0.2, 0, 0], [0.5, 0, 0]], [[0, 0, 0], [0, 0, 0], [0, 0, 0]]])
+    >>> binary_blendshapes(deltas, mu=0.3).astype(int).tolist()
+    [[1, 0, 1], [0, 0, 0]]
+    """
+    check_range("mu", mu, 0.0, 1.0, low_open=True)
+    norms = displacement_norms(deltas)
+    return masks_from_norms(norms, mu, empty_mask(norms, noise_floor, scale))
+
+
+def sparse_masks(masks: np.ndarray | sp.spmatrix) -> sp.csr_matrix:
+    """Binary blendshapes as a (K, N) CSR bool matrix with sorted indices (few vertices are active)."""
+    if sp.issparse(masks):
+        matrix = sp.csr_matrix(masks, dtype=bool)
+        matrix.sort_indices()
+        return matrix
+    rows, cols = np.nonzero(masks)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=masks.shape[0]))])
+    return sp.csr_matrix((np.ones(rows.size, dtype=bool), cols, indptr), shape=masks.shape)
+
+
+def entries(matrix: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column index of every stored entry of a CSR matrix, in row-major order."""
+    rows = np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))
+    return rows, matrix.indices.astype(np.int64)
+
+
+def masks_from_norms(norms: np.ndarray, mu: float, empty: np.ndarray) -> np.ndarray:
+    """Eq. 2 on precomputed displacement lengths; rows of ``empty`` shapes are all False."""
+    masks = norms >= mu * norms.max(axis=1, initial=0.0)[:, None]
+    masks[empty] = False
+    return masks

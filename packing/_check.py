@@ -1,0 +1,222 @@
+"""Independent verification of an expression sequence against a rig's raw deltas."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from packing._params import params_from
+from packing._symmetry import detect_pairs
+from rigs import Rig
+
+
+class CheckError(ValueError):
+    """An expression sequence breaks a rule of the method.
+
+    Attributes
+    ----------
+    kind : str
+        ``unknown`` (a name the rig lacks), ``duplicate`` (a shape twice in one expression), ``empty``
+        (an empty shape packed), ``repeat`` (a shape the primary example of two expressions),
+        ``extra`` (an extra example not used before, or also primary), ``pair`` (a symmetry pair
+        split), ``cap`` (too many shapes), ``overlap`` (two shapes share an active vertex).
+    expression : int
+        1-based index of the offending expression.
+    """
+
+    def __init__(self, message: str, *, kind: str, expression: int) -> None:
+        super().__init__(f"expression {expression}: {message}")
+        self.kind = kind
+        self.expression = expression
+
+
+def check(
+    rig: Rig,
+    expressions: Iterable[Any],
+    *,
+    pairs: Iterable[tuple[str, str]] | None = None,
+    overlap: float = 0.0,
+    **params: Any,
+) -> None:
+    """Verify an expression sequence from the rig's raw deltas, not from any packing model.
+
+    The binary blendshapes are recomputed here from ``rig.deltas`` with the given ``mu`` (eq. 2), and
+    the symmetry pairs are detected again with the given parameters unless ``pairs`` are given. For
+    each expression in order, the first violation raises:
+
+    1. every name is a blendshape of the rig (``unknown``);
+    2. no shape appears twice in the expression, primary or extra (``duplicate``);
+    3. no empty shape is packed (``empty``);
+    4. every shape is the primary example of at most one expression (``repeat``);
+    5. extra examples (sec. 6) were primary examples of an earlier expression (``extra``; a shape both
+       primary and extra in one expression is a ``duplicate``);
+    6. both shapes of a symmetry pair appear together, both primary or both extra (``pair``, eq. 3d);
+    7. the expression holds at most ``max_per_expression`` shapes, extras included (``cap``, sec. 6);
+    8. no two of its shapes share an active vertex (``overlap``, eq. 3b), except the two shapes of a
+       symmetry pair: the pair is one item whose vertex set is their union (sec. 4.4), so overlap
+       between its own shapes is allowed. With ``overlap > 0`` (Algorithm 2 with allowed overlap),
+       the items must instead admit an order of addition in which each overlaps the items before it
+       by at most ``floor(overlap * |b_item|)`` active vertices.
+
+    Parameters
+    ----------
+    rig : Rig
+    expressions : iterable
+        Each an object with ``.shapes`` (and optionally ``.extra_examples``), a mapping with the keys
+        ``"shapes"`` (and ``"extra_examples"``) as in ``expressions.json``, or a sequence of names.
+    pairs : iterable of (str, str), optional
+        The symmetry pairs to enforce; default: detected again with ``params``.
+    overlap : float in [0, 1)
+        Fraction of an item's active vertices allowed to overlap (greedy with overlap, sec. 4.5.2);
+        0 is the strict packing of eq. 3b.
+    **params
+        The `PackingParams` of the run (``mu``, ``symmetry``, ``max_per_expression``, ...).
+
+    Raises
+    ------
+    CheckError
+        With the first violation, naming the expression, the shapes and the vertex.
+    ValueError
+        For bad parameters.
+    """
+    settings = params_from(**params)
+    if not 0.0 <= overlap < 1.0:
+        raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
+    lengths = np.linalg.norm(rig.deltas, axis=2)
+    largest = lengths.max(axis=1, initial=0.0)
+    empty = largest <= settings.noise_floor * rig.diagonal()
+    active = (lengths >= settings.mu * largest[:, None]) & ~empty[:, None]
+    if pairs is None:
+        found = detect_pairs(rig, lengths, active, empty, settings).pairs
+        pairs = [(rig.names[a], rig.names[b]) for a, b in found]
+    partner: dict[str, str] = {}
+    for a, b in pairs:
+        partner[a], partner[b] = b, a
+    position = {name: k for k, name in enumerate(rig.names)}
+
+    primary_before: set[str] = set()
+    for number, expression in enumerate(expressions, start=1):
+        primary, extra = _shapes_of(expression)
+        _check_expression(
+            number,
+            primary,
+            extra,
+            primary_before,
+            position,
+            partner,
+            empty,
+            active,
+            settings.max_per_expression,
+            overlap,
+        )
+        primary_before.update(primary)
+
+
+def _check_expression(
+    number: int,
+    primary: tuple[str, ...],
+    extra: tuple[str, ...],
+    primary_before: set[str],
+    position: Mapping[str, int],
+    partner: Mapping[str, str],
+    empty: np.ndarray,
+    active: np.ndarray,
+    cap: int | None,
+    overlap: float,
+) -> None:
+    def fail(kind: str, message: str) -> None:
+        raise CheckError(message, kind=kind, expression=number)
+
+    shapes = primary + extra
+    for name in shapes:
+        if name not in position:
+            fail("unknown", f"no blendshape named {name!r} in the rig")
+    seen: set[str] = set()
+    for name in shapes:
+        if name in seen:
+            fail("duplicate", f"{name!r} appears twice")
+        seen.add(name)
+    for name in shapes:
+        if empty[position[name]]:
+            fail("empty", f"{name!r} is an empty blendshape and cannot be packed")
+    for name in primary:
+        if name in primary_before:
+            fail("repeat", f"{name!r} was already the primary example of an earlier expression")
+    for name in extra:
+        if name not in primary_before:
+            fail("extra", f"extra example {name!r} was not the primary example of an earlier expression")
+    for group, label in ((primary, "primary"), (extra, "extra")):
+        members = set(group)
+        for name in group:
+            if name in partner and partner[name] not in members:
+                fail("pair", f"{name!r} is {label} without its symmetry partner {partner[name]!r}")
+    if cap is not None and len(shapes) > cap:
+        fail("cap", f"{len(shapes)} blendshapes exceed max_per_expression={cap}")
+    if len(shapes) < 2:
+        return
+    index = np.array([position[name] for name in shapes])
+    masks = active[index]
+    if overlap == 0:
+        shared = masks.astype(np.float64) @ masks.T.astype(np.float64)
+        for i, j in zip(*np.nonzero(np.triu(shared, k=1)), strict=True):
+            a, b = shapes[i], shapes[j]
+            if partner.get(a) == b:
+                continue
+            vertex = int(np.flatnonzero(masks[i] & masks[j])[0])
+            fail(
+                "overlap",
+                f"{a!r} and {b!r} share {int(shared[i, j])} active vertices (first: vertex {vertex})",
+            )
+        return
+    stuck = _unorderable_items(shapes, masks, partner, overlap)
+    if stuck:
+        fail(
+            "overlap",
+            f"no order of adding {', '.join(map(repr, stuck))} keeps each item's overlap with the items "
+            f"before it within overlap={overlap:g} of its active vertices",
+        )
+
+
+def _unorderable_items(
+    shapes: tuple[str, ...], masks: np.ndarray, partner: Mapping[str, str], overlap: float
+) -> list[str]:
+    """Items left when peeling off, one by one, any item whose overlap with the rest is allowed.
+
+    An order of addition in which every item overlaps the items before it by at most
+    ``floor(overlap * |b_item|)`` vertices (Algorithm 2 with allowed overlap) exists iff peeling
+    empties the expression: an item's overlap with the others only shrinks as items are removed.
+    """
+    labels: list[str] = []
+    rows: list[np.ndarray] = []
+    for i, name in enumerate(shapes):
+        if name in partner and partner[name] in shapes[:i]:
+            continue
+        mate = shapes.index(partner[name]) if partner.get(name) in shapes else None
+        labels.append(name if mate is None else f"{name}+{partner[name]}")
+        rows.append(masks[i] if mate is None else masks[i] | masks[mate])
+    items = np.array(rows)
+    allowed = np.floor(overlap * items.sum(axis=1) + 1e-9)
+    left = list(range(len(labels)))
+    while left:
+        cover = items[left].sum(axis=0)
+        overlaps = (items[left] & (cover > 1)).sum(axis=1)
+        free = [item for item, count in zip(left, overlaps, strict=True) if count <= allowed[item]]
+        if not free:
+            break
+        left.remove(free[0])
+    return [labels[item] for item in left]
+
+
+def _shapes_of(expression: Any) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Primary and extra shape names of an Expression, a mapping or a plain sequence of names."""
+    if isinstance(expression, Mapping):
+        return tuple(expression.get("shapes", ())), tuple(expression.get("extra_examples", ()) or ())
+    if hasattr(expression, "shapes"):
+        return tuple(expression.shapes), tuple(getattr(expression, "extra_examples", ()) or ())
+    if isinstance(expression, Sequence) and not isinstance(expression, str):
+        return tuple(expression), ()
+    raise TypeError(
+        f"cannot read the shapes of {expression!r}: need .shapes, a 'shapes' key or a list of names"
+    )

@@ -1,0 +1,328 @@
+"""Importance weights of blendshapes (Carrigan et al. 2020, sec. 4.3, eqs. 4-8)."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing._binary import displacement_norms, empty_mask, entries, masks_from_norms, sparse_masks
+from packing._params import params_from
+from rigs import Rig
+
+
+class MissingTargetWarning(UserWarning):
+    """Triangle distortion (eqs. 6-7) needs a target neutral; without one its term is 0."""
+
+
+def displacement_strength(norms: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """``lambda_Dis`` (eq. 5): mean active displacement of each shape, normalised by its maximum.
+
+    Parameters
+    ----------
+    norms : (K, N) array
+        Displacement lengths ``|v_k^n - v_0^n|``.
+    masks : (K, N) bool array or sparse matrix
+        Binary blendshapes (eq. 2).
+
+    Returns
+    -------
+    (K,) array in [0, 1]; 0 for shapes without active vertices.
+    """
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    counts = np.diff(active.indptr)
+    total = np.bincount(rows, weights=norms[rows, cols], minlength=active.shape[0])
+    mean = np.divide(total, counts, out=np.zeros(len(counts)), where=counts > 0)
+    return _normalised(mean)
+
+
+def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Edge-ratio distortion ``s_t`` of every triangle between two neutrals (eq. 6).
+
+    For triangle ``uvw`` (v its second vertex) with edge vectors ``vu = u - v`` and ``vw = w - v``,
+    ``s_t = max(|vu_A|/|vu_B|, |vu_B|/|vu_A|) + max(|vw_A|/|vw_B|, |vw_B|/|vw_A|)``, ranging over
+    [2, inf); 2 means both edges kept their lengths.
+
+    Parameters
+    ----------
+    template, target : (N, 3) arrays
+        The neutral of the template rig A and of the target character B (same topology).
+    triangles : (T, 3) int array
+
+    Returns
+    -------
+    (T,) array.
+
+    Raises
+    ------
+    ValueError
+        If an edge has zero length in one neutral but not in the other (an infinite distortion).
+        An edge collapsed in both counts as undistorted (ratio 1).
+    """
+    ratios = []
+    for corner in (0, 2):  # vu, then vw
+        length_a = np.linalg.norm(template[triangles[:, corner]] - template[triangles[:, 1]], axis=1)
+        length_b = np.linalg.norm(target[triangles[:, corner]] - target[triangles[:, 1]], axis=1)
+        collapsed = (length_a == 0) != (length_b == 0)
+        if collapsed.any():
+            t = int(np.flatnonzero(collapsed)[0])
+            edge = "vu" if corner == 0 else "vw"
+            raise ValueError(
+                f"triangle {t} {triangles[t].tolist()}: edge {edge} has length {length_a[t]:g} in the "
+                f"template neutral and {length_b[t]:g} in the target neutral; eq. 6 needs both zero or "
+                "both non-zero"
+            )
+        both = length_a > 0
+        ratio = np.ones(len(triangles))
+        ratio[both] = np.maximum(length_a[both] / length_b[both], length_b[both] / length_a[both])
+        ratios.append(ratio)
+    return ratios[0] + ratios[1]
+
+
+def distortion_strength(distortion: np.ndarray, masks: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``lambda_TD`` (eq. 7): summed distortion of the triangles with an active vertex, normalised.
+
+    Parameters
+    ----------
+    distortion : (T,) array
+        ``s_t`` of eq. 6.
+    masks : (K, N) bool array or sparse matrix
+        Binary blendshapes.
+    triangles : (T, 3) int array
+
+    Returns
+    -------
+    (K,) array in [0, 1].
+
+    Notes
+    -----
+    ``b_k^t = b_k^u | b_k^v | b_k^w``; one sparse product of the masks with the vertex-triangle
+    incidence, O(active vertices x triangles per vertex).
+    """
+    active = sparse_masks(masks)
+    n_vertices, n_triangles = active.shape[1], len(triangles)
+    corners = sp.csr_matrix(
+        (np.ones(3 * n_triangles), (triangles.ravel(), np.repeat(np.arange(n_triangles), 3))),
+        shape=(n_vertices, n_triangles),
+    )
+    touched = (active.astype(np.float64) @ corners).tocoo()  # (K, T): active corners of each triangle
+    summed = np.bincount(touched.row, weights=distortion[touched.col], minlength=active.shape[0])
+    return _normalised(summed)
+
+
+def cosine_similarities(deltas: np.ndarray) -> np.ndarray:
+    """(K, K) cosines ``dv_k . dv_r / (|dv_k| |dv_r|)`` of the flattened delta blendshapes (eq. 8).
+
+    Rows and columns of shapes without displacement are 0.
+    """
+    flat = np.asarray(deltas, dtype=np.float64).reshape(len(deltas), -1)
+    lengths = np.linalg.norm(flat, axis=1)
+    unit = np.divide(flat, lengths[:, None], out=np.zeros_like(flat), where=lengths[:, None] > 0)
+    return unit @ unit.T
+
+
+def uniqueness(cosines: np.ndarray, used: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """``lambda_U`` (eq. 8) given the shapes already in reference expressions.
+
+    ``U_k = (1/R) sum_{r in used} max(cos(dv_k, dv_r), 0)`` and ``lambda_U = 1 - U_k / max U`` over the
+    available shapes. The paper calls the similarity a Pearson coefficient, but its formula is the
+    (uncentred) cosine of the delta vectors; the formula is what is implemented.
+
+    Parameters
+    ----------
+    cosines : (K, K) array
+        `cosine_similarities` of the rig.
+    used : (K,) bool array
+        Shapes already in a reference expression (the set R).
+    available : (K,) bool array
+        Shapes still to be packed (the set K of Algorithm 1).
+
+    Returns
+    -------
+    (K,) array in [0, 1]. All 0 before the first expression (R empty), since the first expression is
+    unique by definition; 0 for shapes that are not available. When no available shape resembles a
+    used one (all ``U_k = 0``), every available shape is fully unique (1).
+    """
+    result = np.zeros(len(cosines))
+    n_used = int(np.count_nonzero(used))
+    if n_used == 0 or not available.any():
+        return result
+    similarity = np.maximum(cosines[np.ix_(available, used)], 0.0).sum(axis=1) / n_used
+    top = similarity.max()
+    result[available] = 1.0 - similarity / top if top > 0 else 1.0
+    return result
+
+
+@dataclass(frozen=True, eq=False)
+class ImportanceTerms:
+    """The per-shape importance terms of a rig, computed once (eqs. 5, 7) and combined per expression.
+
+    Attributes
+    ----------
+    displacement : (K,) array
+        ``lambda_Dis`` (eq. 5).
+    distortion : (K,) array
+        ``lambda_TD`` (eq. 7); all 0 when ``has_target`` is False.
+    has_target : bool
+        Whether a target neutral was given; without one the triangle distortion is not defined.
+    deltas : (K, N, 3) array
+        The rig's deltas, for the cosines of eq. 8 (computed on first use).
+    """
+
+    displacement: np.ndarray
+    distortion: np.ndarray
+    has_target: bool
+    deltas: np.ndarray
+
+    @cached_property
+    def cosines(self) -> np.ndarray:
+        """(K, K) cosines of the delta blendshapes (eq. 8); O(K^2 N), computed once."""
+        return cosine_similarities(self.deltas)
+
+    def combine(self, alpha: float, beta: float, used: np.ndarray, available: np.ndarray) -> np.ndarray:
+        """``lambda_k = alpha lambda_Dis + (1 - alpha) lambda_TD + beta lambda_U`` (eq. 4)."""
+        weights = alpha * self.displacement + (1.0 - alpha) * self.distortion
+        if beta > 0:
+            weights = weights + beta * uniqueness(self.cosines, used, available)
+        return weights
+
+
+def importance_terms(
+    rig: Rig, masks: np.ndarray, norms: np.ndarray, target: np.ndarray | None
+) -> ImportanceTerms:
+    """Eqs. 5-7 for a rig whose binary blendshapes are known."""
+    displacement = displacement_strength(norms, masks)
+    if target is None:
+        distortion = np.zeros(rig.n_shapes)
+    else:
+        distortion = distortion_strength(
+            triangle_distortion(rig.neutral, target, rig.triangles), masks, rig.triangles
+        )
+    return ImportanceTerms(displacement, distortion, target is not None, rig.deltas)
+
+
+def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray | None:
+    """The target neutral as an (N, 3) array, checked to have the template's topology."""
+    if target is None:
+        return None
+    if isinstance(target, Rig):
+        same = target.triangles.shape == rig.triangles.shape and np.array_equal(
+            target.triangles, rig.triangles
+        )
+        if not same or target.n_vertices != rig.n_vertices:
+            raise ValueError(
+                f"target rig {target.meta.get('source', '?')!r} has other topology than the template "
+                f"{rig.meta.get('source', '?')!r}: {target.n_vertices} vertices and {target.n_triangles} "
+                f"triangles against {rig.n_vertices} and {rig.n_triangles}, or different triangles"
+            )
+        return target.neutral
+    neutral = np.asarray(target, dtype=np.float64)
+    if neutral.shape != rig.neutral.shape:
+        raise ValueError(
+            f"target_neutral has shape {neutral.shape}; the template rig {rig.meta.get('source', '?')!r} "
+            f"has {rig.n_vertices} vertices, so it must be {rig.neutral.shape} (same topology)"
+        )
+    if not np.isfinite(neutral).all():
+        vertex = int(np.argwhere(~np.isfinite(neutral))[0, 0])
+        raise ValueError(f"target_neutral has a non-finite coordinate at vertex {vertex}")
+    return neutral
+
+
+def used_mask(rig: Rig, used: Iterable[str | int]) -> np.ndarray:
+    """(K,) bool mask of shapes given by name (or index)."""
+    mask = np.zeros(rig.n_shapes, dtype=bool)
+    for shape in used:
+        if isinstance(shape, str):
+            mask[rig.index(shape)] = True
+        elif isinstance(shape, (int, np.integer)) and 0 <= shape < rig.n_shapes:
+            mask[int(shape)] = True
+        else:
+            raise ValueError(
+                f"used: {shape!r} is neither a blendshape name nor an index in 0..{rig.n_shapes - 1}"
+            )
+    return mask
+
+
+def warn_missing_target(alpha: float) -> None:
+    """Say that eq. 4's triangle-distortion term is 0 because no target neutral was given."""
+    if alpha < 1:
+        warnings.warn(
+            f"no target neutral given: triangle distortion (eqs. 6-7) is 0, so importance is "
+            f"{alpha:g} * displacement strength only",
+            MissingTargetWarning,
+            stacklevel=3,
+        )
+
+
+def importance(
+    rig: Rig,
+    target_neutral: Rig | np.ndarray | None = None,
+    *,
+    alpha: float = 0.5,
+    beta: float = 0.0,
+    used: Iterable[str | int] = (),
+    mu: float = 0.3,
+    noise_floor: float = 1e-6,
+) -> np.ndarray:
+    """Importance weight ``lambda_k`` of every blendshape (Carrigan et al. 2020, eq. 4).
+
+    ``lambda_k = alpha lambda_Dis_k + (1 - alpha) lambda_TD_k + beta lambda_U_k`` with displacement
+    strength (eq. 5), triangle distortion against the target neutral (eqs. 6-7) and uniqueness with
+    respect to the shapes already used (eq. 8).
+
+    Parameters
+    ----------
+    rig : Rig
+        The template rig A.
+    target_neutral : (N, 3) array or Rig, optional
+        Neutral of the target character B (same topology). Without it ``lambda_TD = 0`` and a
+        `MissingTargetWarning` says so (when ``alpha < 1``).
+    alpha : float in [0, 1]
+    beta : float >= 0
+    used : iterable of str
+        Blendshapes already in reference expressions (the set R of eq. 8); ``lambda_U = 0`` when empty.
+    mu : float in (0, 1]
+        Threshold of the binary blendshapes (eq. 2).
+    noise_floor : float
+        Relative noise floor below which a shape is empty (see `PackingParams`).
+
+    Returns
+    -------
+    (K,) float array. Empty shapes weigh 0; used shapes get no uniqueness term.
+
+    Raises
+    ------
+    ValueError
+        For parameters out of range, a target with other topology, unknown ``used`` names, or a rig
+        whose every shape is empty.
+    """
+    params = params_from(mu=mu, alpha=alpha, beta=beta, noise_floor=noise_floor)
+    target = target_neutral_of(rig, target_neutral)
+    norms = displacement_norms(rig.deltas)
+    empty = empty_mask(norms, params.noise_floor, rig.diagonal())
+    require_nonempty(rig, empty)
+    masks = masks_from_norms(norms, params.mu, empty)
+    if target is None:
+        warn_missing_target(params.alpha)
+    used_shapes = used_mask(rig, used)
+    terms = importance_terms(rig, masks, norms, target)
+    return terms.combine(params.alpha, params.beta, used_shapes, ~used_shapes & ~empty)
+
+
+def require_nonempty(rig: Rig, empty: np.ndarray) -> None:
+    """Refuse a rig with nothing to pack."""
+    if empty.all():
+        raise ValueError(
+            f"rig {rig.meta.get('source', '?')!r}: every one of its {rig.n_shapes} blendshapes is empty "
+            "(no displacement above the noise floor); there is nothing to pack"
+        )
+
+
+def _normalised(values: np.ndarray) -> np.ndarray:
+    top = values.max(initial=0.0)
+    return values / top if top > 0 else np.zeros_like(values)

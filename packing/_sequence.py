@@ -1,0 +1,238 @@
+"""The expression sequence (Carrigan et al. 2020, Algorithm 1) with the extensions of sec. 6."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Any, Protocol
+
+import numpy as np
+
+from packing._analysis import Analysis, analyse
+from packing._problem import PackingProblem
+from packing._solution import Solution, SolutionStatus, Termination
+from rigs import Rig
+
+
+class PackingSolver(Protocol):
+    """What `sequence` needs from a solver: any object with this method (see the `solvers` package)."""
+
+    def solve(
+        self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0
+    ) -> Solution: ...
+
+
+@dataclass(frozen=True)
+class Expression:
+    """One reference expression of the sequence.
+
+    Attributes
+    ----------
+    index : int
+        1-based position in the sequence.
+    shapes : tuple of str
+        Blendshapes this expression is the primary example of (both shapes of a pair).
+    items : tuple of str
+        Labels of the chosen items (``a+b`` for a pair).
+    objective : float
+        Eq. 3a value the solver maximised (weights include the tie-break perturbation).
+    weight : float
+        The same without the perturbation: the importance (eq. 4) of the chosen shapes.
+    bound : float or None
+        The solver's best bound on the objective (None for heuristics).
+    termination : Termination
+        Why the solver stopped.
+    status : SolutionStatus
+        Optimal, feasible or none.
+    presolve_time : float
+        Seconds to derive this expression's problem from the analysis (restrict and presolve).
+    build_time, solve_time : float
+        The solver's model build and solve seconds.
+    backend, version : str
+        Solver plugin and backend version.
+    n_items : int
+        Items available to this expression.
+    vertex_rows, clique_rows : int
+        Conflict rows before presolve (one per vertex active in an available item, eq. 3b) and after
+        (maximal conflict sets).
+    extra_examples : tuple of str
+        Shapes already used earlier and added again by the second pass of sec. 6.
+    extra_time : float
+        Seconds spent by the solver choosing the extra examples.
+    message : str
+        The solver's message, if any.
+    """
+
+    index: int
+    shapes: tuple[str, ...]
+    items: tuple[str, ...]
+    objective: float
+    weight: float
+    bound: float | None
+    termination: Termination
+    status: SolutionStatus
+    presolve_time: float
+    build_time: float
+    solve_time: float
+    backend: str
+    version: str
+    n_items: int
+    vertex_rows: int
+    clique_rows: int
+    extra_examples: tuple[str, ...] = ()
+    extra_time: float = 0.0
+    message: str = ""
+
+    @property
+    def wall_time(self) -> float:
+        """Presolve, build and solve seconds of the primary problem."""
+        return self.presolve_time + self.build_time + self.solve_time
+
+
+def sequence(
+    rig: Rig,
+    solver: PackingSolver,
+    *,
+    target_neutral: Rig | np.ndarray | None = None,
+    jmax: int | None = None,
+    time_limit: float | None = None,
+    seed: int = 0,
+    analysis: Analysis | None = None,
+    **params: Any,
+) -> list[Expression]:
+    """Reference expressions one after another (Carrigan et al. 2020, Algorithm 1).
+
+    Each iteration solves eq. 3 over the items not used yet, with importance recomputed (the
+    uniqueness term of eq. 8 when ``beta > 0``), and removes the chosen items. The loop stops when
+    every non-empty shape is used *or* ``jmax`` expressions exist (the paper's "or" in the loop
+    condition is a typo for "and" of the negations), or when the solver returns nothing.
+
+    Parameters
+    ----------
+    rig : Rig
+        The template rig.
+    solver : object with ``solve(problem, *, time_limit, seed) -> Solution``
+        Any solver; `packing` never imports a solver library.
+    target_neutral : (N, 3) array or Rig, optional
+        Target neutral for triangle distortion (eqs. 6-7).
+    jmax : int, optional
+        Maximum number of expressions (J_max); default until every shape is used.
+    time_limit : float, optional
+        Seconds per solve, passed to the solver.
+    seed : int
+        Passed to the solver.
+    analysis : Analysis, optional
+        A ready analysis of ``rig`` (e.g. shared by several solvers); then no ``target_neutral`` or
+        ``params`` may be given.
+    **params
+        `PackingParams` fields, among them ``max_per_expression`` (cap, sec. 6) and
+        ``extra_examples`` (the second pass of sec. 6: after each expression, the solver packs
+        already-used items that fit beside it without overlap and within the cap, weighted by
+        importance without the uniqueness term; they are recorded in ``extra_examples``).
+
+    Returns
+    -------
+    list of Expression
+
+    Raises
+    ------
+    ValueError
+        For bad parameters, or a solver answer naming items the problem does not have.
+    """
+    if analysis is None:
+        analysis = analyse(rig, target_neutral, **params)
+    elif params or target_neutral is not None:
+        raise ValueError("sequence: give either analysis or target_neutral/params, not both")
+    elif analysis.rig.names != rig.names or analysis.rig.neutral.shape != rig.neutral.shape:
+        raise ValueError(
+            f"sequence: the analysis was made for rig {analysis.rig.meta.get('source', '?')!r}, "
+            f"not for {rig.meta.get('source', '?')!r}"
+        )
+    if jmax is not None and (isinstance(jmax, bool) or not isinstance(jmax, int) or jmax < 0):
+        raise ValueError(f"jmax must be a non-negative integer or None, got {jmax!r}")
+
+    names = analysis.rig.names
+    remaining = int(np.count_nonzero(analysis.packable))
+    used: list[str] = []
+    used_items: list[int] = []
+    expressions: list[Expression] = []
+    while remaining > 0 and (jmax is None or len(expressions) < jmax):
+        start = time.perf_counter()
+        problem = analysis.problem_for(used)
+        presolve_time = time.perf_counter() - start
+        solution = solver.solve(problem, time_limit=time_limit, seed=seed)
+        chosen = _chosen_items(problem, solution)
+        full_items = problem.meta["item_index"][chosen]
+        shapes = tuple(names[k] for i in full_items for k in analysis.problem.items[i])
+        extra, extra_time = (), 0.0
+        if analysis.params.extra_examples and used_items and chosen.size:
+            extra, extra_time = _extra_examples(analysis, solver, used_items, full_items, time_limit, seed)
+        expressions.append(
+            Expression(
+                index=len(expressions) + 1,
+                shapes=shapes,
+                items=tuple(problem.item_label(i) for i in chosen),
+                objective=problem.objective(chosen),
+                weight=problem.unperturbed_objective(chosen),
+                bound=solution.bound,
+                termination=solution.termination,
+                status=solution.status,
+                presolve_time=presolve_time,
+                build_time=solution.build_time,
+                solve_time=solution.solve_time,
+                backend=solution.backend,
+                version=solution.version,
+                n_items=problem.n_items,
+                vertex_rows=problem.n_vertex_rows,
+                clique_rows=len(problem.cliques),
+                extra_examples=extra,
+                extra_time=extra_time,
+                message=solution.message,
+            )
+        )
+        if not shapes:
+            break
+        used.extend(shapes)
+        used_items.extend(int(i) for i in full_items)
+        remaining -= len(shapes)
+    return expressions
+
+
+def _chosen_items(problem: PackingProblem, solution: Solution) -> np.ndarray:
+    chosen = np.unique(np.asarray(solution.items, dtype=np.int64))
+    if chosen.size and (chosen[0] < 0 or chosen[-1] >= problem.n_items):
+        raise ValueError(
+            f"solver {solution.backend or '?'} returned items {list(solution.items)} "
+            f"outside 0..{problem.n_items - 1}"
+        )
+    return chosen
+
+
+def _extra_examples(
+    analysis: Analysis,
+    solver: PackingSolver,
+    used_items: list[int],
+    chosen: np.ndarray,
+    time_limit: float | None,
+    seed: int,
+) -> tuple[tuple[str, ...], float]:
+    """Sec. 6 second pass: already-used items that fit beside the expression's chosen items."""
+    full = analysis.problem
+    cap = full.cap
+    room = None if cap is None else cap - int(full.item_shape_counts[chosen].sum())
+    if room is not None and room <= 0:
+        return (), 0.0
+    occupied = np.asarray(full.incidence[chosen].sum(axis=0)).ravel() > 0
+    candidates = np.array(sorted(set(used_items)), dtype=np.int64)
+    clash = full.incidence[candidates] @ occupied.astype(np.float64)
+    candidates = candidates[clash == 0]
+    if room is not None:
+        candidates = candidates[full.item_shape_counts[candidates] <= room]
+    if candidates.size == 0:
+        return (), 0.0
+    problem = full.reweighted(analysis.item_weights()).restrict(candidates)
+    problem = replace(problem, cap=room)
+    solution = solver.solve(problem, time_limit=time_limit, seed=seed)
+    extra = _chosen_items(problem, solution)
+    names = tuple(analysis.rig.names[k] for i in candidates[extra] for k in full.items[i])
+    return names, solution.build_time + solution.solve_time

@@ -1,0 +1,117 @@
+"""The presolve to maximal conflict sets keeps exactly the feasible set of the per-vertex model (eq. 3b)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from packing import problem_from_incidence
+from packing._presolve import maximal_conflict_sets, restrict_conflict_sets
+
+
+@st.composite
+def instances(draw):
+    """Random shapes over a few vertices, some merged into pair items, random weights, maybe a cap."""
+    n_shapes = draw(st.integers(1, 8))
+    n_vertices = draw(st.integers(1, 10))
+    masks = np.array(
+        draw(
+            st.lists(
+                st.lists(st.booleans(), min_size=n_vertices, max_size=n_vertices),
+                min_size=n_shapes,
+                max_size=n_shapes,
+            )
+        )
+    )
+    order = draw(st.permutations(range(n_shapes)))
+    n_pairs = draw(st.integers(0, n_shapes // 2))
+    items = [tuple(sorted(order[2 * p : 2 * p + 2])) for p in range(n_pairs)]
+    items += [(k,) for k in order[2 * n_pairs :]]
+    items.sort()
+    incidence = np.array([masks[list(item)].any(axis=0) for item in items])
+    weights = np.array(draw(st.lists(st.floats(0.0, 2.0), min_size=len(items), max_size=len(items))))
+    cap = draw(st.none() | st.integers(1, n_shapes))
+    return incidence, weights, tuple(items), cap
+
+
+def _feasible_per_vertex(incidence, chosen, sizes, cap):
+    if cap is not None and sizes[list(chosen)].sum() > cap:
+        return False
+    return incidence[list(chosen)].sum(axis=0).max(initial=0) <= 1
+
+
+def _feasible_presolved(problem, chosen):
+    if problem.cap is not None and problem.item_shape_counts[list(chosen)].sum() > problem.cap:
+        return False
+    members = set(chosen)
+    return all(len(members.intersection(clique.tolist())) <= 1 for clique in problem.cliques)
+
+
+def _subsets(n):
+    return itertools.chain.from_iterable(itertools.combinations(range(n), r) for r in range(n + 1))
+
+
+@settings(max_examples=150, deadline=None)
+@given(instances())
+def test_presolve_keeps_the_feasible_set_and_the_optimum(instance):
+    incidence, weights, items, cap = instance
+    problem = problem_from_incidence(incidence, weights, items=items, cap=cap)
+    sizes = problem.item_shape_counts
+    by_vertex = {s for s in _subsets(len(items)) if _feasible_per_vertex(incidence, s, sizes, cap)}
+    by_clique = {s for s in _subsets(len(items)) if _feasible_presolved(problem, s)}
+    assert by_vertex == by_clique
+    best = max(weights[list(s)].sum() for s in by_vertex)
+    assert max(problem.objective(s) for s in by_clique) == pytest.approx(best)
+
+
+@settings(max_examples=150, deadline=None)
+@given(instances(), st.data())
+def test_restricted_presolve_equals_presolving_from_the_vertices(instance, data):
+    incidence, weights, items, cap = instance
+    problem = problem_from_incidence(incidence, weights, items=items, cap=cap)
+    keep = sorted(data.draw(st.sets(st.integers(0, len(items) - 1))))
+    restricted = problem.restrict(keep)
+    fresh = problem_from_incidence(
+        incidence[keep], weights[keep], items=tuple(items[i] for i in keep), cap=cap
+    )
+    assert [c.tolist() for c in restricted.cliques] == [c.tolist() for c in fresh.cliques]
+    assert restricted.n_vertex_rows == fresh.n_vertex_rows
+    assert restricted.items == fresh.items
+    assert restricted.weights.tolist() == fresh.weights.tolist()
+
+
+def test_rows_before_and_after():
+    # Vertices: 0 in {0}, 1 in {0, 1}, 2 in {0, 1, 2}, 3 in {1, 2}, 4 in {2, 3}, 5 in {2, 3}, 6 in none.
+    incidence = np.zeros((4, 7), dtype=bool)
+    for vertex, members in enumerate([{0}, {0, 1}, {0, 1, 2}, {1, 2}, {2, 3}, {2, 3}, set()]):
+        incidence[list(members), vertex] = True
+    cliques, rows = maximal_conflict_sets(sp.csr_matrix(incidence))
+    assert rows == 6
+    assert [c.tolist() for c in cliques] == [[0, 1, 2], [2, 3]]
+
+
+def test_restrict_drops_singletons_and_dominated_sets():
+    cliques = (np.array([0, 1, 2]), np.array([2, 3]), np.array([1, 3]))
+    assert [c.tolist() for c in restrict_conflict_sets(cliques, np.array([1, 2, 3]), 4)] == [
+        [0, 1],
+        [0, 2],
+        [1, 2],
+    ]
+    assert restrict_conflict_sets(cliques, np.array([0, 3]), 4) == ()
+
+
+def test_restrict_rejects_items_out_of_range():
+    problem = problem_from_incidence(np.eye(3, dtype=bool), [1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"item indices must be in 0..2, got \[1, 5\]"):
+        problem.restrict([1, 5])
+
+
+def test_weights_given_are_not_frozen_in_place():
+    weights = np.array([1.0, 2.0])
+    problem_from_incidence(np.eye(2, dtype=bool), weights)
+    weights[0] = 3.0  # the caller's array stays writable
