@@ -1,0 +1,244 @@
+"""The solver plugin contract: capabilities, availability, the `Solver` protocol (DESIGN.md, "Plugin").
+
+A solver plugin is a class with a ``name``, typed ``capabilities``, a cheap ``availability()`` that never
+imports the backend library, and ``solve(problem, *, time_limit, seed) -> Solution``. Built-in backends share
+the helpers below (argument checks, timing, building the returned `Solution`); third-party plugins only need
+the protocol.
+"""
+
+from __future__ import annotations
+
+import enum
+import functools
+import importlib.metadata
+import importlib.util
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import numpy as np
+
+from packing import PackingProblem, Solution, Termination
+
+#: Largest seed every backend accepts (CP-SAT and HiGHS take a 32-bit signed int).
+MAX_SEED = 2**31 - 1
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a solver plugin can do (typed tags, as scikit-learn's estimator tags).
+
+    Attributes
+    ----------
+    exact : bool
+        Proves optimality of eq. 3 (MILP / CP-SAT); False for heuristics (Algorithm 2 and variants).
+    time_limit : bool
+        Honours ``time_limit`` natively and returns its incumbent with ``Termination.TIME_LIMIT``.
+    supports_cap : bool
+        Respects the per-expression cap on blendshapes (sec. 6).
+    deterministic : bool
+        The same problem and seed give the same items.
+    isolated_process : bool
+        Runs its backend in a separate worker process (its library cannot share a process with others).
+    strict : bool
+        Chosen items never share an active vertex (eq. 3b). False for solvers that allow overlap on
+        purpose (sec. 4.5.2); their results are checked with the allowed overlap instead.
+    """
+
+    exact: bool
+    time_limit: bool
+    supports_cap: bool = True
+    deterministic: bool = True
+    isolated_process: bool = False
+    strict: bool = True
+
+    def as_dict(self) -> dict[str, bool]:
+        """Plain mapping for JSON output."""
+        return asdict(self)
+
+
+class AvailabilityStatus(enum.StrEnum):
+    """Whether a solver can run here, and if not, why (Pyomo's ``Availability`` idea)."""
+
+    AVAILABLE = "available"
+    MISSING_PACKAGE = "missing_package"
+    MISSING_BINARY = "missing_binary"
+    VERSION_MISMATCH = "version_mismatch"
+    LOAD_ERROR = "load_error"
+
+
+@dataclass(frozen=True)
+class Availability:
+    """Result of `Solver.availability`: truthy when the solver can run, else falsy with the reason.
+
+    Attributes
+    ----------
+    status : AvailabilityStatus
+        Available, or which kind of problem prevents it.
+    version : str
+        Backend version that would run (empty when unknown).
+    reason : str
+        Human-readable explanation of an unavailable status, including how to fix it.
+    """
+
+    status: AvailabilityStatus
+    version: str = ""
+    reason: str = ""
+
+    def __bool__(self) -> bool:
+        return self.status is AvailabilityStatus.AVAILABLE
+
+    @classmethod
+    def available(cls, version: str = "") -> Availability:
+        """The solver can run; ``version`` names the backend that would."""
+        return cls(AvailabilityStatus.AVAILABLE, version)
+
+    @classmethod
+    def missing_package(cls, distribution: str, hint: str = "") -> Availability:
+        """A required Python distribution is not installed."""
+        reason = f"package {distribution!r} is not installed" + (f"; {hint}" if hint else "")
+        return cls(AvailabilityStatus.MISSING_PACKAGE, reason=reason)
+
+    @classmethod
+    def missing_binary(cls, binary: str, hint: str = "") -> Availability:
+        """A required executable was not found."""
+        reason = f"executable {binary!r} was not found" + (f"; {hint}" if hint else "")
+        return cls(AvailabilityStatus.MISSING_BINARY, reason=reason)
+
+    @classmethod
+    def version_mismatch(cls, version: str, reason: str) -> Availability:
+        """The installed backend version cannot run here."""
+        return cls(AvailabilityStatus.VERSION_MISMATCH, version, reason)
+
+    @classmethod
+    def load_error(cls, error: BaseException | str) -> Availability:
+        """The plugin itself failed to load or to report its availability."""
+        text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
+        return cls(AvailabilityStatus.LOAD_ERROR, reason=text)
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """A backend that solves one expression's packing problem (eq. 3).
+
+    Implementations keep the backend import inside their methods, so that listing solvers stays cheap
+    and a missing backend never breaks the others.
+    """
+
+    name: ClassVar[str]
+    capabilities: ClassVar[Capabilities]
+
+    @classmethod
+    def availability(cls) -> Availability:
+        """Whether the backend can run here (cheap: never imports it)."""
+        ...
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """Choose items for one expression; see `packing.Solution` for the fields."""
+        ...
+
+
+def package_availability(distribution: str, module: str | None = None, hint: str = "") -> Availability:
+    """Availability of a backend provided by one Python distribution, without importing it.
+
+    Parameters
+    ----------
+    distribution : str
+        Distribution name as installed (``importlib.metadata``), e.g. ``"highspy"``.
+    module : str, optional
+        Top-level module it provides, when it differs from ``distribution``.
+    hint : str
+        How to install it, appended to the reason when missing.
+    """
+    try:
+        version = importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return Availability.missing_package(distribution, hint or f"pip install {distribution}")
+    try:
+        spec = importlib.util.find_spec(module or distribution)
+    except (ImportError, ValueError) as error:
+        return Availability.load_error(error)
+    if spec is None:
+        return Availability.missing_package(
+            distribution, f"module {module or distribution!r} is not importable"
+        )
+    return Availability.available(version)
+
+
+@functools.cache
+def distribution_version(distribution: str) -> str:
+    """Installed version of a distribution, or an empty string (read once per process)."""
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return ""
+
+
+def check_solve_arguments(problem: Any, time_limit: float | None, seed: int) -> None:
+    """Raise one clear ValueError/TypeError for bad `Solver.solve` arguments."""
+    if not isinstance(problem, PackingProblem):
+        raise TypeError(f"problem must be a packing.PackingProblem, got {type(problem).__name__}")
+    if time_limit is not None and not (isinstance(time_limit, int | float) and math.isfinite(time_limit)):
+        raise ValueError(f"time_limit must be a finite number of seconds or None, got {time_limit!r}")
+    if time_limit is not None and time_limit <= 0:
+        raise ValueError(f"time_limit must be positive, got {time_limit!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed must be an integer in [0, {MAX_SEED}], got {seed!r}")
+
+
+def make_solution(
+    problem: PackingProblem,
+    items: Iterable[int],
+    *,
+    termination: Termination,
+    bound: float | None,
+    build_time: float,
+    solve_time: float,
+    backend: str,
+    version: str,
+    message: str = "",
+) -> Solution:
+    """A `Solution` with items sorted, shape names and the objective recomputed from the problem's weights.
+
+    Backends report the chosen items only; the objective is always evaluated here in double precision so
+    that every backend's value is comparable to 1e-9 (eq. 3a). A proved bound is never reported below the
+    objective it bounds.
+    """
+    chosen = tuple(sorted(int(i) for i in items))
+    objective = problem.objective(chosen)
+    if termination is Termination.OPTIMAL:
+        bound = objective
+    elif bound is not None:
+        bound = max(float(bound), objective)
+    return Solution(
+        items=chosen,
+        shapes=problem.shapes_of(chosen),
+        objective=objective,
+        bound=bound,
+        termination=termination,
+        build_time=float(build_time),
+        solve_time=float(solve_time),
+        backend=backend,
+        version=version,
+        message=message,
+    )
+
+
+def trivial_bound(problem: PackingProblem) -> float:
+    """Upper bound on eq. 3a that needs no solver: the sum of the positive weights."""
+    return float(np.clip(problem.weights, 0.0, None).sum())
+
+
+class Stopwatch:
+    """Seconds elapsed since creation or the last `lap` (``time.perf_counter``)."""
+
+    def __init__(self) -> None:
+        self._start = time.perf_counter()
+
+    def lap(self) -> float:
+        """Seconds since the previous lap, and start a new one."""
+        now = time.perf_counter()
+        elapsed, self._start = now - self._start, now
+        return elapsed

@@ -1,0 +1,490 @@
+"""The fewest expressions that cover every item, and the ordered sequence that keeps that count.
+
+Beyond the paper: Algorithm 1 repeats eq. 3 until no blendshape is left, and the number of expressions
+it needs is not minimal. Covering every item with the fewest expressions is a colouring of the item
+conflict graph (two items conflict iff they share an active vertex, i.e. a presolved conflict set; a
+symmetry pair is one item), with at most ``cap`` blendshapes per colour when a cap is set (sec. 6).
+
+Models (CP-SAT, or HiGHS as the MILP backend) assign item i to colour c by a Boolean ``x[i, c]``:
+exactly one colour per item; for every conflict set and colour ``sum x[i, c] <= used[c]`` (the clique
+rows, far stronger than pairwise edges); ``used[c] >= used[c + 1]``; the cap row per colour. The items
+of the largest conflict set get distinct fixed colours (symmetry breaking), and its size is the lower
+bound. A first-fit colouring gives the number of colours to model and the starting solution.
+
+The *ordered minimum* sequence then maximises each expression's weight (eq. 3a, as Algorithm 1) subject
+to the remaining items still fitting in the remaining expressions of the minimum count.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing import PackingProblem, SolutionStatus, Termination
+from solvers._base import Stopwatch, check_solve_arguments, distribution_version
+from solvers._model import conflict_graph
+from solvers.cpsat import cpsat_parameters, integer_weights
+
+#: Backends of `minimum_expressions`.
+MINIMUM_SOLVERS = ("cpsat", "highs")
+
+
+@dataclass(frozen=True)
+class MinimumExpressions:
+    """The fewest expressions covering every item (a colouring of the conflict graph).
+
+    Attributes
+    ----------
+    count : int
+        Expressions in the best cover found (the minimum when ``termination`` is OPTIMAL).
+    lower_bound : int
+        Proved lower bound: the largest conflict set, the cap bound, or the solver's bound.
+    expressions : tuple of tuple of int
+        Items of each expression, heaviest expression first.
+    termination : Termination
+        OPTIMAL (count proved minimal) or TIME_LIMIT (count feasible, not proved).
+    solve_time : float
+        Seconds including model build.
+    backend : str
+    version : str
+    """
+
+    count: int
+    lower_bound: int
+    expressions: tuple[tuple[int, ...], ...]
+    termination: Termination
+    solve_time: float
+    backend: str
+    version: str
+
+    @property
+    def status(self) -> SolutionStatus:
+        """OPTIMAL when the count is proved minimal, else FEASIBLE."""
+        return SolutionStatus.OPTIMAL if self.termination is Termination.OPTIMAL else SolutionStatus.FEASIBLE
+
+
+@dataclass(frozen=True)
+class OrderedSequence:
+    """Expressions that use the minimum count, each as heavy as that count allows.
+
+    Attributes
+    ----------
+    expressions : tuple of tuple of int
+        Items of each expression in sequence order.
+    objectives : tuple of float
+        Eq. 3a weight of each expression.
+    terminations : tuple of Termination
+        Per step: OPTIMAL when the step's weight is proved maximal under the count constraint.
+    minimum : MinimumExpressions
+        The cover whose count the sequence keeps.
+    solve_time : float
+    """
+
+    expressions: tuple[tuple[int, ...], ...]
+    objectives: tuple[float, ...]
+    terminations: tuple[Termination, ...]
+    minimum: MinimumExpressions
+    solve_time: float
+
+
+def _check_cap(problem: PackingProblem) -> None:
+    counts = problem.item_shape_counts
+    if problem.cap is not None and counts.size and counts.max() > problem.cap:
+        item = int(np.argmax(counts))
+        raise ValueError(
+            f"item {problem.item_label(item)!r} has {counts[item]} blendshapes, more than the cap of "
+            f"{problem.cap} per expression: no cover exists"
+        )
+
+
+def _lower_bound(problem: PackingProblem) -> int:
+    if problem.n_items == 0:
+        return 0
+    largest = max((c.size for c in problem.cliques), default=1)
+    if problem.cap is None:
+        return int(largest)
+    return int(max(largest, -(-int(problem.item_shape_counts.sum()) // problem.cap)))
+
+
+def first_fit_colouring(problem: PackingProblem, adjacency: sp.csr_matrix | None = None) -> np.ndarray:
+    """Colour of every item by first fit in decreasing conflict degree (respecting the cap).
+
+    Returns
+    -------
+    (I,) int array of colours 0..H-1, a valid cover by H expressions.
+    """
+    adjacency = conflict_graph(problem) if adjacency is None else adjacency
+    degrees = np.diff(adjacency.indptr)
+    counts = problem.item_shape_counts
+    colour = np.full(problem.n_items, -1, dtype=np.int64)
+    load: list[int] = []
+    cap = np.inf if problem.cap is None else problem.cap
+    for item in np.argsort(-degrees, kind="stable").tolist():
+        taken = set(colour[adjacency.indices[adjacency.indptr[item] : adjacency.indptr[item + 1]]].tolist())
+        chosen = next((c for c in range(len(load)) if c not in taken and load[c] + counts[item] <= cap), None)
+        if chosen is None:
+            chosen = len(load)
+            load.append(0)
+        colour[item] = chosen
+        load[chosen] += int(counts[item])
+    return colour
+
+
+def _classes(problem: PackingProblem, colour: np.ndarray) -> tuple[tuple[int, ...], ...]:
+    """Items per colour, heaviest expression first (ties by smallest item)."""
+    groups = [tuple(np.flatnonzero(colour == c).tolist()) for c in np.unique(colour)]
+    return tuple(sorted(groups, key=lambda g: (-problem.objective(g), g)))
+
+
+def minimum_expressions(
+    problem: PackingProblem, *, solver: str = "cpsat", time_limit: float | None = None, seed: int = 0
+) -> MinimumExpressions:
+    """The fewest expressions that cover every item of ``problem``.
+
+    Parameters
+    ----------
+    problem : PackingProblem
+        All items (blendshapes and symmetry pairs) to cover, with the optional cap.
+    solver : {"cpsat", "highs"}
+        CP-SAT, or HiGHS for the same model as a MILP.
+    time_limit : float, optional
+        Seconds for the solver; when reached, the best cover found is returned with TIME_LIMIT.
+    seed : int
+
+    Returns
+    -------
+    MinimumExpressions
+
+    Raises
+    ------
+    ValueError
+        Unknown ``solver``, or an item with more blendshapes than the cap.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from packing import problem_from_incidence
+    >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]]), [1.0, 1.0, 1.0])
+    >>> minimum_expressions(problem).count  # a triangle of conflicts needs 3 expressions
+    3
+    """
+    check_solve_arguments(problem, time_limit, seed)
+    if solver not in MINIMUM_SOLVERS:
+        raise ValueError(
+            f"minimum_expressions: solver must be one of {', '.join(MINIMUM_SOLVERS)}, got {solver!r}"
+        )
+    _check_cap(problem)
+    clock = Stopwatch()
+    lower = _lower_bound(problem)
+    if problem.n_items == 0:
+        return MinimumExpressions(0, 0, (), Termination.OPTIMAL, 0.0, solver, "")
+    start = first_fit_colouring(problem)
+    n_colours = int(start.max()) + 1
+    if n_colours == lower:
+        version = distribution_version("ortools" if solver == "cpsat" else "highspy")
+        return MinimumExpressions(
+            n_colours, lower, _classes(problem, start), Termination.OPTIMAL, clock.lap(), solver, version
+        )
+    solve = _colour_cpsat if solver == "cpsat" else _colour_highs
+    colour, bound, proved, version = solve(problem, start, lower, time_limit, seed)
+    count = int(colour.max()) + 1
+    lower = max(lower, bound)
+    termination = Termination.OPTIMAL if proved or count == lower else Termination.TIME_LIMIT
+    return MinimumExpressions(
+        count, lower, _classes(problem, colour), termination, clock.lap(), solver, version
+    )
+
+
+def _largest_clique(problem: PackingProblem) -> np.ndarray:
+    return max(problem.cliques, key=lambda c: (c.size, -c[0])) if problem.cliques else np.zeros(0, np.int64)
+
+
+def _colour_cpsat(problem, start, lower, time_limit, seed):
+    from ortools.sat.python import cp_model
+
+    n_items, n_colours = problem.n_items, int(start.max()) + 1
+    model = cp_model.CpModel()
+    x = [[model.new_bool_var(f"x{i}_{c}") for c in range(n_colours)] for i in range(n_items)]
+    used = [model.new_bool_var(f"used{c}") for c in range(n_colours)]
+    _add_colouring(model, cp_model, problem, x, n_colours, used)
+    for c in range(n_colours - 1):
+        model.add_implication(used[c + 1], used[c])
+    for c, item in enumerate(_largest_clique(problem).tolist()):
+        model.add(x[item][c] == 1)
+    model.add(sum(used) >= lower)
+    model.minimize(sum(used))
+    _hint(model, x, start, n_colours)
+    solver = cp_model.CpSolver()
+    cpsat_parameters(solver, time_limit, seed, workers=1)
+    status = solver.solve(model)
+    version = f"ortools {distribution_version('ortools')}"
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return start, lower, False, version
+    colour = np.array(
+        [next(c for c in range(n_colours) if solver.boolean_value(x[i][c])) for i in range(n_items)]
+    )
+    return (
+        _compact(colour),
+        int(np.ceil(solver.best_objective_bound - 1e-9)),
+        status == cp_model.OPTIMAL,
+        version,
+    )
+
+
+def _add_colouring(model, cp_model, problem, x, n_colours, used) -> None:
+    """Exactly one colour per item; clique rows per colour (linked to ``used`` when given); the cap."""
+    for row in x:
+        model.add_exactly_one(row)
+    in_clique = np.zeros(problem.n_items, dtype=bool)
+    for clique in problem.cliques:
+        in_clique[clique] = True
+        for c in range(n_colours):
+            members = [x[i][c] for i in clique.tolist()]
+            if used is None:
+                model.add_at_most_one(members)
+            else:
+                model.add(sum(members) <= used[c])
+    if used is not None:
+        for i in np.flatnonzero(~in_clique).tolist():
+            for c in range(n_colours):
+                model.add_implication(x[i][c], used[c])
+    if problem.cap is not None:
+        counts = problem.item_shape_counts.tolist()
+        for c in range(n_colours):
+            model.add(cp_model.LinearExpr.weighted_sum([row[c] for row in x], counts) <= problem.cap)
+
+
+def _hint(model, x, colour, n_colours) -> None:
+    for i, row in enumerate(x):
+        for c in range(n_colours):
+            model.add_hint(row[c], int(colour[i] == c))
+
+
+def _compact(colour: np.ndarray) -> np.ndarray:
+    """Renumber colours to 0..H-1 in order of first use."""
+    _, first = np.unique(colour, return_index=True)
+    order = colour[np.sort(first)]
+    mapping = np.empty(colour.max() + 1, dtype=np.int64)
+    mapping[order] = np.arange(order.size)
+    return mapping[colour]
+
+
+def _colour_highs(problem, start, lower, time_limit, seed):
+    import highspy
+
+    n_items, n_colours = problem.n_items, int(start.max()) + 1
+    n_x = n_items * n_colours  # x[i, c] is column i * n_colours + c, used[c] is column n_x + c
+    rows, cols, vals, lower_rows, upper_rows = [], [], [], [], []
+
+    def add_row(columns, values, low, high):
+        index = len(lower_rows)
+        rows.append(np.full(len(columns), index))
+        cols.append(np.asarray(columns))
+        vals.append(np.asarray(values, dtype=float))
+        lower_rows.append(low)
+        upper_rows.append(high)
+
+    colours = np.arange(n_colours)
+    for i in range(n_items):
+        add_row(i * n_colours + colours, np.ones(n_colours), 1.0, 1.0)
+    in_clique = np.zeros(n_items, dtype=bool)
+    for clique in problem.cliques:
+        in_clique[clique] = True
+        for c in range(n_colours):
+            add_row(
+                np.append(clique * n_colours + c, n_x + c),
+                np.append(np.ones(clique.size), -1.0),
+                -np.inf,
+                0.0,
+            )
+    for i in np.flatnonzero(~in_clique).tolist():
+        for c in range(n_colours):
+            add_row([i * n_colours + c, n_x + c], [1.0, -1.0], -np.inf, 0.0)
+    for c in range(n_colours - 1):
+        add_row([n_x + c + 1, n_x + c], [1.0, -1.0], -np.inf, 0.0)
+    if problem.cap is not None:
+        counts = problem.item_shape_counts.astype(float)
+        for c in range(n_colours):
+            add_row(
+                np.append(np.arange(n_items) * n_colours + c, n_x + c),
+                np.append(counts, -problem.cap),
+                -np.inf,
+                0.0,
+            )
+    matrix = sp.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(len(lower_rows), n_x + n_colours),
+    )
+    col_lower = np.zeros(n_x + n_colours)
+    for c, item in enumerate(_largest_clique(problem).tolist()):
+        col_lower[item * n_colours + c] = 1.0
+    col_lower[n_x : n_x + lower] = 1.0  # used[c] for c < lower bound
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = n_x + n_colours, len(lower_rows)
+    lp.col_cost_ = np.concatenate([np.zeros(n_x), np.ones(n_colours)])
+    lp.col_lower_, lp.col_upper_ = col_lower, np.ones(n_x + n_colours)
+    lp.row_lower_, lp.row_upper_ = np.array(lower_rows), np.array(upper_rows)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = lp.num_col_, lp.num_row_
+    lp.a_matrix_.start_, lp.a_matrix_.index_ = matrix.indptr.astype(np.int32), matrix.indices.astype(np.int32)
+    lp.a_matrix_.value_ = matrix.data
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * lp.num_col_
+    highs = highspy.Highs()
+    for option, value in (
+        ("output_flag", False),
+        ("threads", 1),
+        ("random_seed", int(seed)),
+        ("mip_rel_gap", 0.0),
+    ):
+        highs.setOptionValue(option, value)
+    if time_limit is not None:
+        highs.setOptionValue("time_limit", float(time_limit))
+    highs.passModel(lp)
+    hint = np.zeros(n_x + n_colours)
+    hint[np.arange(n_items) * n_colours + start] = 1.0
+    hint[n_x:] = 1.0
+    highs.setSolution(_highs_solution(highspy, hint))
+    highs.run()
+    version = f"highspy {highs.version()}"
+    info = highs.getInfo()
+    if info.primal_solution_status != 2:
+        return start, lower, False, version
+    values = np.asarray(highs.getSolution().col_value)[:n_x].reshape(n_items, n_colours)
+    colour = _compact(np.argmax(values, axis=1))
+    bound = int(np.ceil(info.mip_dual_bound - 1e-6)) if np.isfinite(info.mip_dual_bound) else lower
+    return colour, bound, highs.getModelStatus() == highspy.HighsModelStatus.kOptimal, version
+
+
+def _highs_solution(highspy, values: np.ndarray):
+    solution = highspy.HighsSolution()
+    solution.col_value = values.tolist()
+    solution.value_valid = True
+    return solution
+
+
+def ordered_minimum_sequence(
+    problem: PackingProblem,
+    *,
+    time_limit: float | None = None,
+    seed: int = 0,
+    minimum: MinimumExpressions | None = None,
+) -> OrderedSequence:
+    """Algorithm 1's priority order within the minimum number of expressions (CP-SAT).
+
+    Step j maximises eq. 3a over the remaining items, subject to the items left after it still being
+    coverable by the ``m - j - 1`` remaining expressions, where ``m`` is ``minimum.count``. The previous
+    step's cover is a feasible start, so every step has a solution and the sequence has exactly m
+    expressions. Weights are the problem's, fixed for the whole sequence.
+
+    Parameters
+    ----------
+    problem : PackingProblem
+    time_limit : float, optional
+        Seconds per step (and for the minimum, when it is computed here).
+    seed : int
+    minimum : MinimumExpressions, optional
+        A cover computed before; default ``minimum_expressions(problem, solver="cpsat", ...)``.
+
+    Returns
+    -------
+    OrderedSequence
+    """
+    from ortools.sat.python import cp_model
+
+    check_solve_arguments(problem, time_limit, seed)
+    clock = Stopwatch()
+    if minimum is None:
+        minimum = minimum_expressions(problem, time_limit=time_limit, seed=seed)
+    cover = [list(group) for group in minimum.expressions]  # a valid cover of the remaining items
+    remaining = np.arange(problem.n_items)
+    expressions, objectives, terminations = [], [], []
+    for step in range(minimum.count):
+        left = minimum.count - step
+        if left == 1:
+            chosen, termination = remaining.tolist(), Termination.OPTIMAL
+        else:
+            chosen, cover, termination = _heaviest_step(
+                cp_model, problem, remaining, cover, left, time_limit, seed
+            )
+        expressions.append(tuple(sorted(chosen)))
+        objectives.append(problem.objective(chosen))
+        terminations.append(termination)
+        remaining = np.setdiff1d(remaining, chosen)
+    return OrderedSequence(tuple(expressions), tuple(objectives), tuple(terminations), minimum, clock.lap())
+
+
+def _heaviest_step(cp_model, problem, remaining, cover, left, time_limit, seed):
+    """Heaviest expression among ``remaining`` whose rest fits in ``left - 1`` expressions.
+
+    Returns the chosen items, a cover of the rest by ``left - 1`` expressions (the next step's start)
+    and the step's termination.
+    """
+    sub = problem.restrict(remaining)
+    shortcut = _unconstrained_step(problem, sub, remaining, left, time_limit, seed)
+    if shortcut is not None:
+        return shortcut
+    position = {int(item): k for k, item in enumerate(remaining.tolist())}
+    ordered = np.concatenate([_largest_clique(sub), np.arange(sub.n_items)])
+    ordered = ordered[np.sort(np.unique(ordered, return_index=True)[1])]
+    model = cp_model.CpModel()
+    x = [[model.new_bool_var(f"x{i}_{c}") for c in range(left)] for i in range(sub.n_items)]
+    _add_colouring(model, cp_model, sub, x, left, None)
+    for rank, item in enumerate(ordered.tolist()):  # colours 1.. are interchangeable: first-use order
+        for c in range(rank + 2, left):
+            model.add(x[item][c] == 0)
+    scaled, _ = integer_weights(sub.weights)
+    model.maximize(cp_model.LinearExpr.weighted_sum([row[0] for row in x], scaled.tolist()))
+    hint = np.empty(sub.n_items, dtype=np.int64)
+    for c, group in enumerate(cover):
+        hint[[position[i] for i in group]] = c
+    _hint(model, x, _first_use_order(hint, ordered), left)
+    solver = cp_model.CpSolver()
+    cpsat_parameters(solver, time_limit, seed, workers=1)
+    status = solver.solve(model)
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return list(cover[0]), [list(group) for group in cover[1:]], Termination.TIME_LIMIT
+    colour = np.array(
+        [next(c for c in range(left) if solver.boolean_value(x[i][c])) for i in range(sub.n_items)]
+    )
+    chosen = remaining[colour == 0].tolist()
+    rest = [remaining[colour == c].tolist() for c in range(1, left)]
+    termination = Termination.OPTIMAL if status == cp_model.OPTIMAL else Termination.TIME_LIMIT
+    return chosen, [group for group in rest if group], termination
+
+
+def _unconstrained_step(problem, sub, remaining, left, time_limit, seed):
+    """The plain optimum of eq. 3 when its rest provably fits in ``left - 1`` expressions, else None.
+
+    The constrained optimum is at most the unconstrained one, so an unconstrained optimum that
+    satisfies the count constraint is the step's answer; a first-fit cover, or a cover found by
+    `minimum_expressions` within the time limit, proves that it does.
+    """
+    from solvers.cpsat import CpSatSolver
+
+    solution = CpSatSolver().solve(sub, time_limit=time_limit, seed=seed)
+    if solution.termination is not Termination.OPTIMAL:
+        return None
+    rest_index = np.setdiff1d(np.arange(sub.n_items), solution.items)
+    chosen = remaining[list(solution.items)].tolist()
+    if rest_index.size == 0:
+        return chosen, [], Termination.OPTIMAL
+    rest = sub.restrict(rest_index)
+    colour = first_fit_colouring(rest)
+    if colour.max() + 1 > left - 1:
+        cover = minimum_expressions(rest, time_limit=time_limit, seed=seed)
+        if cover.count > left - 1:
+            return None
+        groups = [remaining[rest_index[list(group)]].tolist() for group in cover.expressions]
+    else:
+        groups = [remaining[rest_index[colour == c]].tolist() for c in range(colour.max() + 1)]
+    return chosen, groups, Termination.OPTIMAL
+
+
+def _first_use_order(colour: np.ndarray, ordered: np.ndarray) -> np.ndarray:
+    """Relabel colours 1.. by first use along ``ordered`` (colour 0 stays), matching the symmetry rows."""
+    mapping = {0: 0}
+    for item in ordered.tolist():
+        mapping.setdefault(int(colour[item]), len(mapping))
+    return np.array([mapping[int(c)] for c in colour])

@@ -1,0 +1,94 @@
+"""The presolved model every exact backend builds: one at-most-one row per conflict set, one cap row.
+
+Eq. 3b has one row per vertex; `packing` presolves them to the distinct maximal conflict sets
+(``problem.cliques``), which have the same feasible set. Symmetry pairs (eq. 3d) are already merged into
+single items, so no equality rows remain. This module turns a `PackingProblem` into plain arrays (CSR rows)
+that native solver APIs take directly and that pickle cheaply to a worker process.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing import PackingProblem
+
+
+@dataclass(frozen=True)
+class CliqueModel:
+    """``max w.x  s.t.  sum(x[c]) <= 1 for every clique c,  counts.x <= cap,  x binary`` (eq. 3, sec. 6).
+
+    Attributes
+    ----------
+    weights : (I,) float array
+        Objective coefficients (eq. 3a).
+    row_starts, row_items : int arrays
+        The cliques in CSR form: row r holds items ``row_items[row_starts[r]:row_starts[r + 1]]``.
+    shape_counts : (I,) int array
+        Blendshapes in each item (a symmetry pair counts 2), the cap row's coefficients.
+    cap : int or None
+        Right-hand side of the cap row; None when there is none or it cannot bind.
+    """
+
+    weights: np.ndarray
+    row_starts: np.ndarray
+    row_items: np.ndarray
+    shape_counts: np.ndarray
+    cap: int | None
+
+    @classmethod
+    def from_problem(cls, problem: PackingProblem) -> CliqueModel:
+        """Arrays of a problem's presolved model; a cap that all items together respect is dropped."""
+        sizes = np.fromiter((c.size for c in problem.cliques), dtype=np.int64, count=len(problem.cliques))
+        row_starts = np.zeros(sizes.size + 1, dtype=np.int64)
+        np.cumsum(sizes, out=row_starts[1:])
+        row_items = (
+            np.concatenate(problem.cliques).astype(np.int64) if problem.cliques else np.zeros(0, np.int64)
+        )
+        counts = problem.item_shape_counts
+        cap = problem.cap if problem.cap is not None and problem.cap < counts.sum() else None
+        return cls(np.asarray(problem.weights, dtype=np.float64), row_starts, row_items, counts, cap)
+
+    @property
+    def n_items(self) -> int:
+        """Number of binary variables."""
+        return int(self.weights.size)
+
+    @property
+    def n_rows(self) -> int:
+        """Number of clique rows (the cap row not included)."""
+        return int(self.row_starts.size - 1)
+
+    def row(self, r: int) -> np.ndarray:
+        """Items of clique row ``r``."""
+        return self.row_items[self.row_starts[r] : self.row_starts[r + 1]]
+
+
+def clique_matrix(problem: PackingProblem) -> sp.csr_matrix:
+    """(R, I) 0/1 CSR matrix with one row per conflict set of the problem."""
+    model = CliqueModel.from_problem(problem)
+    data = np.ones(model.row_items.size, dtype=np.int32)
+    return sp.csr_matrix((data, model.row_items, model.row_starts), shape=(model.n_rows, model.n_items))
+
+
+def conflict_graph(problem: PackingProblem) -> sp.csr_matrix:
+    """(I, I) symmetric bool CSR adjacency of the item conflict graph, without self loops.
+
+    Two items conflict iff they share an active vertex, which holds iff they share a presolved conflict
+    set; the graph is built from the sets in O(sum |c|^2).
+    """
+    cliques = clique_matrix(problem)
+    shared = (cliques.T @ cliques).tocoo()
+    off_diagonal = shared.row != shared.col
+    n_items = problem.n_items
+    adjacency = sp.csr_matrix(
+        (
+            np.ones(np.count_nonzero(off_diagonal), dtype=bool),
+            (shared.row[off_diagonal], shared.col[off_diagonal]),
+        ),
+        shape=(n_items, n_items),
+    )
+    adjacency.sort_indices()
+    return adjacency

@@ -1,0 +1,76 @@
+"""CBC through python-mip's in-memory API (plugin ``cbc-mip``), in its own worker process.
+
+DESIGN.md, "Pitfalls": python-mip's CBC library fails to load beside OR-Tools in one process (in either
+import order), so this plugin never imports ``mip`` in the caller: `solve_clique_model` runs in a
+persistent worker (`solvers._worker`), which measures the build and solve times itself.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from packing import PackingProblem, Termination
+from solvers._base import Availability, Capabilities, Stopwatch, package_availability
+from solvers._exact import BackendResult, ExactSolverBase
+from solvers._model import CliqueModel
+from solvers._worker import worker
+
+#: Seconds the caller waits for the worker beyond the solver's own time limit before giving up on it.
+WORKER_GRACE = 120.0
+
+
+class MipCbcSolver(ExactSolverBase):
+    """Eq. 3 after presolve, solved by python-mip's CBC (gaps 0, one thread, seeded, native time limit)."""
+
+    name: ClassVar[str] = "cbc-mip"
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, isolated_process=True)
+
+    @classmethod
+    def availability(cls) -> Availability:
+        """Available when the ``mip`` distribution is installed (it is only imported in the worker)."""
+        return package_availability("mip", hint="pip install mip")
+
+    def _solve_model(
+        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
+    ) -> BackendResult:
+        timeout = None if time_limit is None else time_limit + WORKER_GRACE
+        return worker(self.name).call(
+            "solvers.cbc_mip:solve_clique_model", model, time_limit, seed, timeout=timeout
+        )
+
+
+def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> BackendResult:
+    """Build and solve the clique model with python-mip (runs inside the worker process)."""
+    import mip
+
+    clock = Stopwatch()
+    lp = mip.Model(sense=mip.MAXIMIZE, solver_name=mip.CBC)
+    lp.verbose = 0
+    lp.threads = 1
+    lp.seed = int(seed)
+    lp.max_mip_gap = 0.0
+    lp.max_mip_gap_abs = 0.0
+    chosen = [lp.add_var(var_type=mip.BINARY, obj=float(w)) for w in model.weights]
+    for r in range(model.n_rows):
+        lp.add_constr(mip.xsum(chosen[i] for i in model.row(r).tolist()) <= 1)
+    if model.cap is not None:
+        lp.add_constr(
+            mip.xsum(c * x for c, x in zip(model.shape_counts.tolist(), chosen, strict=True)) <= model.cap
+        )
+    build_time = clock.lap()
+    status = lp.optimize(max_seconds=time_limit if time_limit is not None else mip.INF)
+    solve_time = clock.lap()
+    version = f"mip {mip.__version__}, cbc"
+    items: tuple[int, ...] = ()
+    if status in (mip.OptimizationStatus.OPTIMAL, mip.OptimizationStatus.FEASIBLE) and lp.num_solutions:
+        values = np.array([x.x for x in chosen], dtype=float)
+        items = tuple(np.flatnonzero(values > 0.5).tolist())
+    bound = float(lp.objective_bound) if np.isfinite(lp.objective_bound) else None
+    if status is mip.OptimizationStatus.OPTIMAL:
+        return BackendResult(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
+    if status in (mip.OptimizationStatus.FEASIBLE, mip.OptimizationStatus.NO_SOLUTION_FOUND):
+        return BackendResult(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
+    message = f"python-mip stopped with status {status.name}"
+    return BackendResult((), Termination.ERROR, None, build_time, solve_time, version, message)

@@ -1,0 +1,196 @@
+"""Greedy set packing (Carrigan et al. 2020, sec. 4.5.2, Algorithm 2), strict and with allowed overlap.
+
+Plugins ``greedy`` (`GreedySolver`) and ``greedy-overlap`` (`GreedyOverlapSolver`).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from packing import PackingProblem, Solution, Termination
+from solvers._base import (
+    Availability,
+    Capabilities,
+    Stopwatch,
+    check_solve_arguments,
+    distribution_version,
+    make_solution,
+)
+
+#: Distribution that ships the built-in pure-numpy solvers (their version is the project's).
+PROJECT_DISTRIBUTION = "expression-packing-harness"
+
+
+def greedy_scores(problem: PackingProblem) -> np.ndarray:
+    """Algorithm 2's selection key ``(lambda_max - lambda_k) * |b_k|`` of every item (smaller first).
+
+    ``lambda_k`` is the item's weight per blendshape (a symmetry pair's weight is the sum of its two
+    shapes') and ``|b_k|`` its active vertex count (the union for a pair, sec. 4.4). The paper fixes
+    ``lambda_max = 1``, which assumes importance in [0, 1] (``beta = 0``, eq. 4); here
+    ``lambda_max = max(1, max_k lambda_k)`` so that the key stays non-negative for any weights.
+
+    Returns
+    -------
+    (I,) float array.
+    """
+    return _scores(problem, problem.item_shape_counts)
+
+
+def _scores(problem: PackingProblem, counts: np.ndarray) -> np.ndarray:
+    per_shape = problem.weights / counts
+    lambda_max = max(1.0, float(per_shape.max(initial=0.0)))
+    incidence = problem.incidence
+    exact_rows = incidence.has_canonical_format and incidence.data.all()  # no duplicates, no stored zeros
+    active = np.diff(incidence.indptr) if exact_rows else problem.item_active_counts
+    return (lambda_max - per_shape) * active
+
+
+def greedy_items(
+    problem: PackingProblem, overlap: float = 0.0, order: np.ndarray | None = None
+) -> tuple[int, ...]:
+    """Items chosen by Algorithm 2 (sec. 4.5.2).
+
+    Items are visited by increasing `greedy_scores` (ties by index). An item is added when its active
+    vertices overlapping the expression built so far are at most ``overlap * |b_k|`` and the cap (sec. 6)
+    still has room for its shapes; otherwise it is dropped. Since the expression only grows, this is the
+    paper's "remove every remaining blendshape that overlaps" after each addition.
+
+    Parameters
+    ----------
+    problem : PackingProblem
+    overlap : float in [0, 1)
+        Allowed fraction of an item's active vertices already active in the expression; 0 is the strict
+        packing of eq. 3b.
+    order : (I,) int array, optional
+        Visiting order; default the increasing Algorithm 2 key.
+
+    Returns
+    -------
+    tuple of int, the chosen items in the order they were added.
+
+    Notes
+    -----
+    O(nnz(incidence) + I log I): each item's vertex list is read once.
+    """
+    if not 0.0 <= overlap < 1.0:
+        raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
+    counts = problem.item_shape_counts
+    if order is None:
+        order = np.argsort(_scores(problem, counts), kind="stable")
+    if overlap == 0.0:
+        return _strict_greedy(problem, order, counts)
+    incidence = problem.incidence
+    indptr, indices = incidence.indptr, incidence.indices
+    allowed = np.floor(overlap * problem.item_active_counts + 1e-9).astype(np.int64)
+    room = np.inf if problem.cap is None else problem.cap
+    active = np.zeros(incidence.shape[1], dtype=bool)
+    chosen: list[int] = []
+    for item in order.tolist():
+        if counts[item] > room:
+            continue
+        vertices = indices[indptr[item] : indptr[item + 1]]
+        if np.count_nonzero(active[vertices]) > allowed[item]:
+            continue
+        active[vertices] = True
+        chosen.append(item)
+        room -= counts[item]
+    return tuple(chosen)
+
+
+def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarray) -> tuple[int, ...]:
+    """`greedy_items` without overlap, on the presolved conflict sets instead of the vertices.
+
+    Two items share a vertex iff they share a conflict set, so adding an item blocks every member of
+    its sets: plain list operations over the sets, no vertex is read.
+    """
+    members = [c.tolist() for c in problem.cliques]
+    sets_of: list[list[int]] = [[] for _ in range(problem.n_items)]
+    for r, clique in enumerate(members):
+        for item in clique:
+            sets_of[item].append(r)
+    blocked = [False] * problem.n_items
+    counts = counts.tolist()
+    room = np.inf if problem.cap is None else problem.cap
+    chosen: list[int] = []
+    for item in order.tolist():
+        if blocked[item] or counts[item] > room:
+            continue
+        for r in sets_of[item]:
+            for other in members[r]:
+                blocked[other] = True
+        chosen.append(item)
+        room -= counts[item]
+    return tuple(chosen)
+
+
+class GreedySolver:
+    """Algorithm 2 (sec. 4.5.2): strict greedy set packing with symmetry pairs as single items.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from packing import problem_from_incidence
+    >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
+    >>> GreedySolver().solve(problem).items
+    (0, 2)
+    """
+
+    name: ClassVar[str] = "greedy"
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=False, time_limit=False)
+
+    @classmethod
+    def availability(cls) -> Availability:
+        """Always available: numpy only."""
+        return Availability.available(distribution_version(PROJECT_DISTRIBUTION))
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """Run Algorithm 2 to completion (``time_limit`` and ``seed`` are accepted and unused)."""
+        check_solve_arguments(problem, time_limit, seed)
+        return self._run(problem, 0.0)
+
+    def _run(self, problem: PackingProblem, overlap: float) -> Solution:
+        clock = Stopwatch()
+        order = np.argsort(_scores(problem, problem.item_shape_counts), kind="stable")
+        build_time = clock.lap()
+        items = greedy_items(problem, overlap, order)
+        return make_solution(
+            problem,
+            items,
+            termination=Termination.COMPLETED,
+            bound=None,
+            build_time=build_time,
+            solve_time=clock.lap(),
+            backend=self.name,
+            version=distribution_version(PROJECT_DISTRIBUTION),
+            message=f"overlap_allowed={overlap:g}" if overlap else "",
+        )
+
+
+class GreedyOverlapSolver(GreedySolver):
+    """Algorithm 2 with an allowed overlap fraction (sec. 4.5.2, "a small percentage of overlap").
+
+    Its expressions may violate eq. 3b by design, so ``capabilities.strict`` is False: check its
+    results with the same allowed overlap (``solvers.testing.check_packing(..., overlap=...)``), and
+    record the fraction with the run (the solution's ``message`` carries ``overlap_allowed=<f>``).
+
+    Parameters
+    ----------
+    overlap : float in [0, 1)
+        An item may join the expression while at most this fraction of its active vertices is already
+        active there.
+    """
+
+    name: ClassVar[str] = "greedy-overlap"
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=False, time_limit=False, strict=False)
+
+    def __init__(self, overlap: float = 0.1) -> None:
+        if not 0.0 <= overlap < 1.0:
+            raise ValueError(f"greedy-overlap: overlap must be a fraction in [0, 1), got {overlap!r}")
+        self.overlap = float(overlap)
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """Run Algorithm 2 with the allowed overlap to completion."""
+        check_solve_arguments(problem, time_limit, seed)
+        return self._run(problem, self.overlap)
