@@ -1,1 +1,27 @@
-"""transfer package (filled by its issue)."""
+"""Blendshape transfer: what a choice of training expressions is worth (Carrigan et al. 2020, sec. 5).
+
+Methods are plugins in the ``harness.transfers`` entry-point group, each a callable
+``(template, target_neutral, weights, examples) -> (K, N, 3) deltas``:
+
+- ``delta``: copy the template's displacements;
+- ``dt``: deformation transfer (Sumner & Popovic 2004);
+- ``ebfr``: example-based facial rigging in gradient space with known 0/1 weights (Li et al. 2010, step A);
+- ``ebfr-full``: the same alternating with weight re-estimation (Li et al. 2010, steps A and B);
+- ``plbs``: patchwise linear blendshapes plus deformation transfer of the residual (Wagner et al. 2024).
+"""
+
+from transfer._base import Transfer
+from transfer._expressions import scan_expressions, training_expressions
+from transfer._metrics import TransferMetrics, metrics, rms
+from transfer._registry import get, names
+
+__all__ = [
+    "Transfer",
+    "TransferMetrics",
+    "get",
+    "metrics",
+    "names",
+    "rms",
+    "scan_expressions",
+    "training_expressions",
+]

@@ -1,0 +1,130 @@
+"""Frames, the vertex solve and the patch layout."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+import transfer
+from transfer._frames import edge_vectors, frames, rigid_rotation, vertex_major
+from transfer._patches import blend_weights, edge_graph, partition
+from transfer._reconstruct import FrameReconstruction
+
+
+def test_frames_have_edges_and_the_scaled_normal():
+    positions = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    frame = frames(positions, np.array([[0, 1, 2]]))[0]
+    np.testing.assert_allclose(frame[:, 0], [2.0, 0.0, 0.0])
+    np.testing.assert_allclose(frame[:, 1], [0.0, 2.0, 0.0])
+    np.testing.assert_allclose(frame[:, 2], [0.0, 0.0, 2.0])  # |n| = 4, scaled to sqrt(4)
+
+
+def test_rigid_rotation_recovers_a_rotation():
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(30, 3))
+    rotation, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    rotation *= np.sign(np.linalg.det(rotation))
+    np.testing.assert_allclose(rigid_rotation(points, points @ rotation.T + 5.0), rotation, atol=1e-12)
+
+
+def cotangent_laplacian(neutral: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The textbook cotangent Laplacian: edge (i, j) weighs half the cotangents of its opposite angles."""
+    laplacian = np.zeros((neutral.shape[0],) * 2)
+    for corner in range(3):
+        i, j, k = (triangles[:, (corner + shift) % 3] for shift in range(3))
+        u, v = neutral[i] - neutral[k], neutral[j] - neutral[k]
+        cotangent = np.einsum("ij,ij->i", u, v) / np.linalg.norm(np.cross(u, v), axis=1)
+        np.add.at(laplacian, (i, j), -0.5 * cotangent)
+        np.add.at(laplacian, (j, i), -0.5 * cotangent)
+        np.add.at(laplacian, (i, i), 0.5 * cotangent)
+        np.add.at(laplacian, (j, j), 0.5 * cotangent)
+    return laplacian
+
+
+def test_normal_matrix_is_the_cotangent_laplacian(sheet, bulge):
+    rig = sheet(9, 10, 1)
+    neutral = bulge(rig.neutral)  # obtuse and skewed triangles
+    solver = FrameReconstruction(neutral, rig.triangles)
+    np.testing.assert_allclose(
+        solver.laplacian.toarray(), cotangent_laplacian(neutral, rig.triangles), atol=1e-12
+    )
+
+
+def test_reconstruction_recovers_a_field_from_its_own_edges(sheet):
+    rig = sheet(12, 14, 3)
+    field = vertex_major(rig.deltas)
+    solver = FrameReconstruction(rig.neutral * [1.0, 2.0, 0.5], rig.triangles)
+    fixed = solver.constraints(field, 1e-6)
+    result = solver.solve(edge_vectors(field, rig.triangles), fixed, field)
+    np.testing.assert_allclose(result, field, atol=1e-12)
+
+
+def test_reconstruction_anchors_every_separate_part(sheet):
+    rig = sheet(6, 7, 2)
+    n_vertices = rig.n_vertices
+    neutral = np.r_[rig.neutral, rig.neutral + [3.0, 0.0, 0.0]]
+    triangles = np.r_[rig.triangles, rig.triangles + n_vertices]
+    field = np.r_[rig.neutral**2, rig.neutral**2 + [1.0, -2.0, 0.5]][..., None]  # no static vertex at all
+    solver = FrameReconstruction(neutral, triangles)
+    fixed = solver.constraints(field, 0.0)
+    assert fixed[0, :n_vertices].sum() == 1 and fixed[0, n_vertices:].sum() == 1
+    result = solver.solve(edge_vectors(field, triangles), fixed, field)
+    np.testing.assert_allclose(result, field, atol=1e-12)
+
+
+def test_degenerate_triangles_do_not_break_the_transfer(sheet):
+    rig = sheet(8, 9, 3)
+    neutral = np.r_[rig.neutral, rig.neutral[:1]]  # a duplicated vertex makes a zero-area triangle
+    triangles = np.r_[rig.triangles, [[0, 1, rig.n_vertices]]]
+    deltas = np.concatenate([rig.deltas, rig.deltas[:, :1]], axis=1)
+    broken = replace(rig, neutral=neutral, triangles=triangles, deltas=deltas)
+    assert broken.degenerate_triangles().size == 1
+    target = replace(broken, neutral=broken.neutral * 1.2, deltas=broken.deltas * 1.2)
+    result = transfer.get("dt")(broken, target.neutral)
+    assert np.isfinite(result).all()
+    # The duplicate touches only the zero-area triangle: nothing constrains it, it keeps the template's
+    # displacement. Every other vertex is exact up to the near-static ones held the same way.
+    np.testing.assert_allclose(result[:, -1], broken.deltas[:, -1], atol=1e-15)
+    error = transfer.rms(result[:, :-1], target.deltas[:, :-1])
+    assert error <= 1e-5 * transfer.rms(np.zeros_like(result), target.deltas)
+
+
+def test_partition_gives_connected_compact_patches(sheet):
+    rig = sheet(40, 44, 1)
+    labels = partition(rig.neutral, rig.triangles, 80)
+    assert labels.shape == (rig.n_vertices,)
+    n_patches = labels.max() + 1
+    assert 70 <= n_patches <= 80
+    edges = edge_graph(rig.neutral, rig.triangles).tocoo()
+    inside = labels[edges.row] == labels[edges.col]
+    same = sp.csr_matrix((edges.data[inside], (edges.row[inside], edges.col[inside])), shape=edges.shape)
+    n_parts, _ = connected_components(same, directed=False)
+    assert n_parts == n_patches  # every patch is one connected piece
+    sizes = np.bincount(labels)
+    assert sizes.max() <= 4 * sizes.mean()
+    assert np.array_equal(labels, partition(rig.neutral, rig.triangles, 80))
+
+
+def test_partition_covers_separate_parts(sheet):
+    rig = sheet(6, 7, 1)
+    neutral = np.r_[rig.neutral, rig.neutral + [5.0, 0.0, 0.0]]
+    triangles = np.r_[rig.triangles, rig.triangles + rig.n_vertices]
+    labels = partition(neutral, triangles, 1)
+    assert labels.min() == 0 and labels.max() == 1
+    assert len(set(labels[: rig.n_vertices])) == 1 and len(set(labels[rig.n_vertices :])) == 1
+
+
+def test_blend_weights_are_a_partition_of_unity_that_widens_with_rings(sheet):
+    rig = sheet(20, 22, 1)
+    labels = partition(rig.neutral, rig.triangles, 12)
+    support = []
+    for rings in (0, 1, 3):
+        weights = blend_weights(labels, rig.triangles, rings)
+        np.testing.assert_allclose(np.asarray(weights.sum(axis=1)).ravel(), 1.0)
+        assert weights.min() >= 0
+        support.append(weights.nnz)
+    assert support[0] == rig.n_vertices
+    assert support[0] < support[1] < support[2]
