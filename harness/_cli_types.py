@@ -1,0 +1,98 @@
+"""What the `harness` commands share: value types (comma lists, durations, on/off/both) and the console."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import click
+from rich.console import Console
+
+from harness._durations import parse_duration
+
+NONE_WORDS = ("none", "off", "no")
+
+
+class CommaList(click.ParamType):
+    """``a,b,c`` -> tuple of items converted by ``item`` (``none`` -> None when ``allow_none``)."""
+
+    def __init__(self, item: Callable[[str], Any], name: str, *, allow_none: bool = False) -> None:
+        self.item = item
+        self.name = name
+        self.allow_none = allow_none
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[Any, ...]:
+        if isinstance(value, tuple):
+            return value
+        parts = [part.strip() for part in str(value).split(",") if part.strip()]
+        if not parts:
+            self.fail(f"expected a comma-separated list of {self.name}, got {value!r}", param, ctx)
+        converted = []
+        for part in parts:
+            if self.allow_none and part.lower() in NONE_WORDS:
+                converted.append(None)
+                continue
+            try:
+                converted.append(self.item(part))
+            except ValueError:
+                self.fail(f"{part!r} is not a valid {self.name} (in {value!r})", param, ctx)
+        return tuple(converted)
+
+
+class Duration(click.ParamType):
+    """``30s``, ``2m``, ``500ms``, ``1h`` or plain seconds -> float seconds; ``none`` -> None."""
+
+    name = "duration"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float | None:
+        if value is None or isinstance(value, float):
+            return value
+        if str(value).strip().lower() in NONE_WORDS:
+            return None
+        try:
+            seconds = parse_duration(str(value))
+        except ValueError as error:
+            self.fail(str(error), param, ctx)
+        if seconds <= 0:
+            self.fail(f"must be positive, got {value!r}", param, ctx)
+        return seconds
+
+
+class Switch(click.ParamType):
+    """``on`` / ``off`` / ``both`` -> a tuple of booleans to sweep."""
+
+    name = "on|off|both"
+    _VALUES = {"on": (True,), "off": (False,), "both": (True, False)}
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[bool, ...]:
+        if isinstance(value, tuple):
+            return value
+        try:
+            return self._VALUES[str(value).strip().lower()]
+        except KeyError:
+            self.fail(f"expected on, off or both, got {value!r}", param, ctx)
+
+
+def positive_int(text: str) -> int:
+    """An int >= 1 (ValueError otherwise)."""
+    number = int(text)
+    if number < 1:
+        raise ValueError(text)
+    return number
+
+
+NAMES = CommaList(str, "names")
+FLOATS = CommaList(float, "numbers")
+POSITIVE_INTS = CommaList(positive_int, "positive integers")
+CAPS = CommaList(positive_int, "caps", allow_none=True)
+DURATION = Duration()
+SWITCH = Switch()
+
+
+def terminal(*, stderr: bool = False) -> Console:
+    """The console commands print to (made per use, so its width follows ``COLUMNS``); stderr for errors."""
+    return Console(highlight=False, stderr=stderr, soft_wrap=stderr)

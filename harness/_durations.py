@@ -1,0 +1,47 @@
+"""Durations on the command line: ``30s``, ``2m``, ``500ms``, ``1h``, or plain seconds."""
+
+from __future__ import annotations
+
+import re
+
+_UNITS = {"ms": 0.001, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0}
+_PATTERN = re.compile(r"^\s*(?P<value>\d+(?:\.\d*)?|\.\d+)\s*(?P<unit>ms|s|min|m|h)?\s*$")
+
+
+def parse_duration(text: str) -> float:
+    """Seconds in a duration such as ``30s``, ``2m``, ``500ms``, ``1.5h`` or ``90`` (seconds).
+
+    Parameters
+    ----------
+    text : str
+        A non-negative number with an optional unit: ``ms``, ``s``, ``m`` / ``min``, ``h``.
+
+    Returns
+    -------
+    float
+        The duration in seconds.
+
+    Raises
+    ------
+    ValueError
+        When ``text`` is not a duration; the message shows the accepted forms.
+
+    Examples
+    --------
+    >>> parse_duration("2m"), parse_duration("500ms"), parse_duration("30")
+    (120.0, 0.5, 30.0)
+    """
+    match = _PATTERN.match(str(text))
+    if match is None:
+        raise ValueError(f"not a duration: {text!r} (use e.g. 30s, 2m, 500ms, 1h or plain seconds)")
+    return float(match["value"]) * _UNITS[match["unit"] or "s"]
+
+
+def format_duration(seconds: float) -> str:
+    """Short human form of a duration: ``850ms``, ``12.3s``, ``4m05s``."""
+    if seconds < 1:
+        return f"{seconds * 1000:.0f}ms"
+    if seconds < 60:
+        return f"{seconds:.1f}s"
+    minutes, rest = divmod(int(round(seconds)), 60)
+    return f"{minutes}m{rest:02d}s"

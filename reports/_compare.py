@@ -1,0 +1,381 @@
+"""Comparing two runs (record directories) or two pytest-benchmark JSON files, metric by metric.
+
+Quality figures (objective, coverage, expression count, transfer RMS, benchmark ``extra_info``) must not
+change beyond a relative tolerance; times may not grow by more than a threshold. Absolute times are noisy on
+shared machines, so run times are compared as ratios to `BASELINE_SOLVER`'s time measured in the same run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import pandas as pd
+from rich.table import Table
+
+import harness
+from reports._tables import (
+    BASELINE_SOLVER,
+    CASE_COLUMNS,
+    SETTING_COLUMNS,
+    cell_times,
+    rig_label,
+    setting_label,
+)
+
+Kind = Literal["time", "quality"]
+Verdict = Literal["same", "slower", "faster", "changed", "missing", "added"]
+Value = float | str | tuple
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One figure of one case: a time (scalar seconds or ratio) or a quality value (scalar or vector).
+
+    ``case`` is a benchmark's name or a run's case label (a tuple of `CASE_COLUMNS` values while reading).
+    """
+
+    case: Any
+    name: str
+    kind: Kind
+    value: Value
+    seconds: float | None = None  #: the absolute time behind a time metric
+
+
+@dataclass(frozen=True)
+class Change:
+    """How one metric moved from the old to the new run.
+
+    ``old`` and ``new`` are shown values: for vectors (per expression, per J) the first element that differs,
+    named in ``where``. ``ratio`` is new / old for times.
+    """
+
+    case: str
+    metric: str
+    kind: Kind
+    old: Value | None
+    new: Value | None
+    verdict: Verdict
+    ratio: float | None = None
+    where: str = ""
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """All metric changes between two runs and the rules that judge them."""
+
+    old: str
+    new: str
+    threshold: float
+    tolerance: float
+    min_time: float
+    time_basis: str
+    changes: tuple[Change, ...]
+
+    def regressions(self, *, fail_on_time: bool = False) -> list[Change]:
+        """Changes that fail: any quality change or loss, and slower times if ``fail_on_time``."""
+        failing: dict[Kind, set[Verdict]] = {
+            "quality": {"changed", "missing"},
+            "time": {"slower", "missing"} if fail_on_time else set(),
+        }
+        return [change for change in self.changes if change.verdict in failing[change.kind]]
+
+    def warnings(self, *, fail_on_time: bool = False) -> list[Change]:
+        """Slower times that do not fail (timing noise is a warning unless ``fail_on_time``)."""
+        if fail_on_time:
+            return []
+        return [
+            change
+            for change in self.changes
+            if change.kind == "time" and change.verdict in ("slower", "missing")
+        ]
+
+
+# -- reading metrics ---------------------------------------------------------------------------------------
+
+
+def _case_labels(cases: Iterable[tuple]) -> dict[tuple, str]:
+    """``rig/warp/solver`` of each case, plus the seed and settings that vary among ``cases``."""
+    cases = list(cases)
+    frame = pd.DataFrame(cases, columns=list(CASE_COLUMNS))
+    settings = [
+        c for c in ("rig_seed", *SETTING_COLUMNS) if frame[c].astype(object).fillna("none").nunique() > 1
+    ]
+    return {
+        case: "/".join(
+            [rig_label(str(row["rig"])), str(row["warp"]), str(row["solver"])]
+            + ([setting_label(row, settings)] if settings else [])
+        )
+        for case, (_, row) in zip(cases, frame.iterrows(), strict=True)
+    }
+
+
+def _case_keys(frame: pd.DataFrame) -> list[tuple]:
+    return [
+        tuple(None if pd.isna(v) else v for v in row)
+        for row in frame[list(CASE_COLUMNS)].itertuples(index=False)
+    ]
+
+
+def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
+    """Metrics of a run keyed by case tuples; times as ratios to the baseline solver when ``ratios``.
+
+    Quality comes from the first repetition (repetitions only differ in time); times are medians over
+    repetitions, each carrying its absolute seconds for the noise floor.
+    """
+    cells = records[records["kind"] == "cell"].sort_values("repetition")
+    metrics = [
+        Metric(case, "cell status per repetition", "quality", tuple(rows["status"].astype(str)))
+        for case, rows in zip(*_grouped(cells), strict=True)
+    ]
+    first_repetition = records[records["repetition"] == records["repetition"].min()]
+    ok = first_repetition[(first_repetition["kind"] == "cell") & (first_repetition["status"] == "ok")]
+    for case, (_, cell) in zip(_case_keys(ok), ok.iterrows(), strict=True):
+        metrics.append(Metric(case, "expressions", "quality", float(cell["n_expressions"])))
+        if pd.notna(cell.get("min_expressions")):
+            metrics.append(Metric(case, "minimum expressions", "quality", float(cell["min_expressions"])))
+    expressions = first_repetition[first_repetition["kind"] == "expression"].sort_values("expression")
+    for case, rows in zip(*_grouped(expressions), strict=True):
+        metrics.append(
+            Metric(case, "objective per expression", "quality", tuple(rows["objective"].astype(float)))
+        )
+        metrics.append(
+            Metric(case, "shapes covered per expression", "quality", tuple(rows["covered"].astype(float)))
+        )
+    transfers = first_repetition[first_repetition["kind"] == "transfer"].sort_values("j")
+    for transfer, of_method in transfers.groupby("transfer", sort=True):
+        for case, rows in zip(*_grouped(of_method), strict=True):
+            metrics.append(Metric(case, f"RMS {transfer} per J", "quality", tuple(rows["rms"].astype(float))))
+    times = cell_times(records)
+    if ratios:
+        times = times[times["solver"] != BASELINE_SOLVER]
+        timed = (
+            (f"first expression / {BASELINE_SOLVER}", "first_ratio", "first_time"),
+            (f"sequence / {BASELINE_SOLVER}", "sequence_ratio", "sequence_time"),
+        )
+    else:
+        timed = (
+            ("first expression (s)", "first_time", "first_time"),
+            ("sequence (s)", "sequence_time", "sequence_time"),
+        )
+    for case, rows in zip(*_grouped(times), strict=True):
+        for name, column, seconds in timed:
+            metrics.append(
+                Metric(case, name, "time", float(rows[column].median()), float(rows[seconds].median()))
+            )
+    return metrics
+
+
+def _grouped(frame: pd.DataFrame) -> tuple[list[tuple], list[pd.DataFrame]]:
+    if frame.empty:
+        return [], []
+    groups = list(frame.groupby(list(CASE_COLUMNS), sort=True, dropna=False))
+    return [tuple(None if pd.isna(v) else v for v in key) for key, _ in groups], [rows for _, rows in groups]
+
+
+def _benchmark_metrics(path: Path) -> list[Metric]:
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+        benchmarks = document["benchmarks"]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{path}: not a pytest-benchmark JSON file ({error})") from None
+    metrics = []
+    for benchmark in benchmarks:
+        name = benchmark.get("fullname") or benchmark["name"]
+        stats = benchmark.get("stats") or {}
+        if "median" in stats:
+            metrics.append(Metric(name, "median time (s)", "time", float(stats["median"])))
+        for key, value in sorted((benchmark.get("extra_info") or {}).items()):
+            shown = (
+                float(value)
+                if isinstance(value, int | float) and not isinstance(value, bool)
+                else json.dumps(value)
+            )
+            metrics.append(Metric(name, key, "quality", shown))
+    return metrics
+
+
+def _read_run(path: Path) -> pd.DataFrame:
+    if not (path / "records").is_dir():
+        raise ValueError(f"{path}: neither a run directory (with records/) nor a pytest-benchmark JSON file")
+    return harness.read_records(path)
+
+
+def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]:
+    """Metrics of two run directories or two pytest-benchmark files, and how their times are measured.
+
+    Runs are timed as ratios to `BASELINE_SOLVER` when both have it, else in seconds; their cases are
+    labelled ``rig/warp/solver`` plus the settings that vary over both runs.
+
+    Raises
+    ------
+    ValueError
+        When a path is neither kind or the two kinds differ.
+    """
+    if old.is_file() != new.is_file():
+        raise ValueError(
+            f"compare: {old} and {new} must both be run directories or both benchmark JSON files"
+        )
+    if old.is_file():
+        return _benchmark_metrics(old), _benchmark_metrics(new), "median seconds per benchmark"
+    old_records, new_records = _read_run(old), _read_run(new)
+    ratios = all(cell_times(records)["first_ratio"].notna().any() for records in (old_records, new_records))
+    old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
+    labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
+    old_metrics, new_metrics = (
+        [dataclasses.replace(metric, case=labels[metric.case]) for metric in metrics]
+        for metrics in (old_metrics, new_metrics)
+    )
+    basis = (
+        f"ratio to {BASELINE_SOLVER} in the same run" if ratios else f"seconds (no {BASELINE_SOLVER} in both)"
+    )
+    return old_metrics, new_metrics, basis
+
+
+# -- judging changes ---------------------------------------------------------------------------------------
+
+
+def _close(old: Value, new: Value, tolerance: float) -> bool:
+    if isinstance(old, float) and isinstance(new, float):
+        if math.isnan(old) or math.isnan(new):
+            return math.isnan(old) and math.isnan(new)
+        return abs(new - old) <= tolerance * max(abs(old), abs(new))
+    return old == new
+
+
+def _quality_change(old: Metric, new: Metric, tolerance: float) -> Change:
+    if isinstance(old.value, tuple) and isinstance(new.value, tuple):
+        for position, (a, b) in enumerate(zip(old.value, new.value, strict=False)):
+            if not _close(a, b, tolerance):
+                return Change(old.case, old.name, "quality", a, b, "changed", where=f"at {position + 1}")
+        if len(old.value) != len(new.value):
+            where = f"length {len(old.value)} -> {len(new.value)}"
+            return Change(
+                old.case, old.name, "quality", len(old.value), len(new.value), "changed", where=where
+            )
+        last = old.value[-1] if old.value else None
+        return Change(old.case, old.name, "quality", last, new.value[-1] if new.value else None, "same")
+    verdict: Verdict = "same" if _close(old.value, new.value, tolerance) else "changed"
+    return Change(old.case, old.name, "quality", old.value, new.value, verdict)
+
+
+def _time_change(old: Metric, new: Metric, threshold: float, min_time: float) -> Change:
+    assert isinstance(old.value, float) and isinstance(new.value, float)
+    ratio = new.value / old.value if old.value > 0 else math.inf if new.value > 0 else 1.0
+    seconds = max(old.seconds or 0.0, new.seconds or 0.0)
+    if (old.seconds is not None or new.seconds is not None) and seconds < min_time:
+        where = f"(< {min_time:g} s)"
+        return Change(old.case, old.name, "time", old.value, new.value, "same", ratio=ratio, where=where)
+    verdict: Verdict = "same"
+    if math.isnan(ratio):
+        verdict = "changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
+    elif ratio > 1.0 + threshold:
+        verdict = "slower"
+    elif ratio < 1.0 / (1.0 + threshold):
+        verdict = "faster"
+    return Change(old.case, old.name, "time", old.value, new.value, verdict, ratio=ratio)
+
+
+def compare(
+    old: str | os.PathLike,
+    new: str | os.PathLike,
+    *,
+    threshold: float = 0.25,
+    tolerance: float = 1e-9,
+    min_time: float = 0.01,
+) -> Comparison:
+    """Compare two runs (record directories) or two pytest-benchmark JSON files metric by metric.
+
+    Parameters
+    ----------
+    old, new : path
+        Two run directories (``harness run --out``) or two ``--benchmark-json`` files.
+    threshold : float
+        A time counts as slower when new / old > 1 + threshold (0.25 = 25 %).
+    tolerance : float
+        Quality values count as changed when they differ by more than this, relative to the larger.
+    min_time : float
+        Seconds below which a run's time (in both runs) is timer noise and never counts as slower or
+        faster. Benchmark medians (many rounds each) are always judged.
+
+    Returns
+    -------
+    Comparison
+        Every metric of either side; one only in ``old`` is ``missing``, one only in ``new`` ``added``.
+
+    Raises
+    ------
+    ValueError
+        When a path is neither kind, the two kinds differ, or a threshold or tolerance is negative.
+    """
+    if min(threshold, tolerance, min_time) < 0:
+        raise ValueError(
+            f"compare: threshold, tolerance and min_time must be >= 0, "
+            f"got {threshold}, {tolerance} and {min_time}"
+        )
+    old_metrics, new_metrics, basis = read_metrics(Path(old), Path(new))
+    by_key = {(m.case, m.name): m for m in new_metrics}
+    changes = []
+    for metric in old_metrics:
+        other = by_key.pop((metric.case, metric.name), None)
+        if other is None:
+            changes.append(Change(metric.case, metric.name, metric.kind, metric.value, None, "missing"))
+        elif metric.kind == "time":
+            changes.append(_time_change(metric, other, threshold, min_time))
+        else:
+            changes.append(_quality_change(metric, other, tolerance))
+    changes += [Change(m.case, m.name, m.kind, None, m.value, "added") for m in by_key.values()]
+    changes.sort(key=lambda change: change.case)
+    floor = 0.0 if Path(old).is_file() else min_time  # benchmark medians are never floored
+    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes))
+
+
+# -- showing changes ---------------------------------------------------------------------------------------
+
+_STYLES = {
+    "same": "green",
+    "faster": "cyan",
+    "added": "dim",
+    "slower": "yellow",
+    "changed": "red",
+    "missing": "red",
+}
+
+
+def _shown(value: Value | None) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def comparison_table(
+    comparison: Comparison, *, fail_on_time: bool = False, only_changes: bool = False
+) -> Table:
+    """A rich table with one row per metric: case, metric, old, new, ratio and verdict (failures in red)."""
+    failing = set(comparison.regressions(fail_on_time=fail_on_time))
+    floor = f" (times under {comparison.min_time:g} s are noise)" if comparison.min_time else ""
+    table = Table(
+        title=f"{comparison.old} -> {comparison.new}",
+        caption=f"times: {comparison.time_basis}; slower means > +{comparison.threshold:.0%}{floor}; "
+        f"quality tolerance {comparison.tolerance:g} relative",
+    )
+    for column in ("case", "metric", "old", "new", "new/old", "verdict"):
+        table.add_column(column, justify="right" if column in ("old", "new", "new/old") else "left")
+    for change in comparison.changes:
+        if only_changes and change.verdict == "same":
+            continue
+        style = "bold red" if change in failing else _STYLES[change.verdict]
+        verdict = f"{change.verdict} {change.where}".strip() + (" (fails)" if change in failing else "")
+        ratio = "" if change.ratio is None else f"{change.ratio:.3f}"
+        table.add_row(
+            change.case, change.metric, _shown(change.old), _shown(change.new), ratio, verdict, style=style
+        )
+    return table

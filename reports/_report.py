@@ -1,0 +1,223 @@
+"""Assembling the report of a run: tables, figures and contact sheets, written as HTML and Markdown."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import pandas as pd
+
+import harness
+from reports._contact import contact_sheet
+from reports._document import Image, Section, write_documents
+from reports._figures import coverage_figure, rms_figure
+from reports._png import png_bytes
+from reports._tables import (
+    BASELINE_SOLVER,
+    GROUP_COLUMNS,
+    SETTING_COLUMNS,
+    expression_count_table,
+    expression_rows,
+    ok_cells,
+    overlap_table,
+    problem_table,
+    rig_label,
+    setting_label,
+    timing_table,
+    varying_settings,
+    worst_shapes_table,
+)
+
+#: Folder inside the run directory that receives the report.
+REPORT_DIR = "report"
+
+
+def _slug(*parts: object) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "-", "-".join(str(part) for part in parts)).strip("-").lower()
+
+
+def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
+    cells = records[records["kind"] == "cell"]
+    counts = ", ".join(
+        f"{count} {status}" for status, count in cells["status"].value_counts().sort_index().items()
+    )
+    git = run.get("git") or {}
+    machine = run.get("machine") or {}
+    solvers = (run.get("versions") or {}).get("solvers") or {}
+    solver_versions = ", ".join(
+        f"{name} {info.get('version') or '?'}" if info.get("available") else f"{name} unavailable"
+        for name, info in sorted(solvers.items())
+    )
+    return [
+        f"Command: {' '.join(run.get('command', [])) or 'not recorded'}",
+        f"State: {run.get('state', 'unknown')}; started {run.get('started', '?')}, "
+        f"finished {run.get('finished', '?')}.",
+        f"Cells: {counts or 'none'}. Git commit: {git.get('commit') or 'none'}"
+        f"{' (dirty)' if git.get('dirty') else ''}. Machine: {machine.get('hostname', '?')}, "
+        f"{machine.get('cpu_count', '?')} CPUs, {machine.get('platform', '?')}.",
+        f"Solvers: {solver_versions or 'not recorded'}.",
+    ]
+
+
+def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str]:
+    """One contact sheet per rig, warp and setting (first repetition); identical sequences share a row."""
+    rows = expression_rows(records)
+    rows = rows[rows["repetition"] == rows["repetition"].min()]
+    settings = varying_settings(records)
+    blocks: list[Image | str] = []
+    for (rig_name, rig_seed), of_rig in rows.groupby(["rig", "rig_seed"], sort=True):
+        try:
+            rig = harness.resolve_rig(rig_name, seed=int(rig_seed))
+        except (OSError, ValueError) as error:
+            blocks.append(
+                f"No contact sheet for rig {rig_label(rig_name)}: it could not be rebuilt ({error})."
+            )
+            continue
+        keys = [c for c in GROUP_COLUMNS if c not in ("rig", "rig_seed", "repetition")]
+        for _, group in of_rig.groupby(keys, sort=True, dropna=False):
+            sequences = {
+                solver: [list(shapes) for shapes in cell.sort_values("expression")["shapes"]]
+                for solver, cell in group.groupby("solver", sort=True)
+            }
+            first = group.iloc[0]
+            title = ", ".join(
+                filter(None, [rig_label(rig_name), f"warp {first['warp']}", setting_label(first, settings)])
+            )
+            figure = contact_sheet(
+                rig, sequences, expressions=expressions, mu=float(first["mu"]), title=title
+            )
+            blocks.append(
+                Image(
+                    _slug("contact", rig_label(rig_name), first["warp"], setting_label(first, settings)),
+                    png_bytes(figure),
+                    f"First {expressions} expressions of every solver on {title}; solvers with identical "
+                    "expressions share a row. Active vertices (eq. 2) of each shape in its colour.",
+                )
+            )
+    return blocks
+
+
+def _overlap_block(run_dir: Path) -> pd.DataFrame | str:
+    try:
+        return overlap_table(harness.read_overlap(run_dir))
+    except FileNotFoundError as error:  # written when a run finishes; an interrupted run has none yet
+        return f"No overlap table: {error}."
+
+
+def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
+    """The sections of the report of the run in ``run_dir`` (see `build_report`)."""
+    run = harness.read_run(run_dir)
+    records = harness.read_records(run_dir)
+    finished = ok_cells(records)
+    rigs_shown = sorted(expression_rows(records)["rig"].unique())
+    transfer_rigs = sorted(
+        records[(records["kind"] == "transfer") & (records["status"] == "ok") & records["rms"].notna()][
+            "rig"
+        ].unique()
+    )
+    constant = [c for c in SETTING_COLUMNS if c not in varying_settings(records)]
+    shared = finished.iloc[0] if not finished.empty else None
+    sections = [
+        Section(
+            "Run",
+            _run_summary(run, records)
+            + (
+                [f"Settings shared by every cell: {setting_label(shared, constant)}."]
+                if shared is not None and constant
+                else []
+            ),
+        ),
+        Section(
+            "Timings (paper Table 2)",
+            [
+                "Seconds on this machine, median over repetitions; spread = max - min over repetitions. "
+                "First expression = presolve + model build + solve of expression 1; sequence = all "
+                f"expressions. The last column divides by {BASELINE_SOLVER} (the paper's formulation) in "
+                "the same run. The paper's rows give its published times (PuLP with CPLEX, and greedy) on "
+                "its own rigs.",
+                timing_table(records),
+            ],
+        ),
+        Section(
+            "Overlap of chosen shapes (paper Table 3)",
+            [
+                "a/b (shared): distinct shapes chosen by solver a and by solver b in their first 5, 10 "
+                "and 20 expressions, and how many both chose; [x/y expr.] when a sequence is shorter.",
+                _overlap_block(run_dir),
+            ],
+        ),
+        Section(
+            "Coverage",
+            [
+                Image(
+                    _slug("coverage", rig_label(rig)),
+                    png_bytes(coverage_figure(records, rig)),
+                    f"Shapes covered against the number of expressions on {rig_label(rig)}.",
+                )
+                for rig in rigs_shown
+            ],
+        ),
+        Section(
+            "Transfer error (paper Figs. 9 and 10)",
+            [
+                Image(
+                    _slug("rms", rig_label(rig)),
+                    png_bytes(rms_figure(records, rig)),
+                    "Per-vertex RMS error of the transferred blendshapes against ground truth on "
+                    f"{rig_label(rig)}, against the number of training expressions J.",
+                )
+                for rig in transfer_rigs
+            ]
+            or ["The run has no transfer records."],
+        ),
+        Section(
+            "Worst transferred shapes",
+            [
+                "Per solver, the shapes with the largest per-vertex RMS error after transfer with all J "
+                "training expressions of its sequence (rig length units).",
+                worst_shapes_table(records),
+            ],
+        ),
+        Section(
+            "Expression counts",
+            [
+                "Expressions in each solver's sequence (+: stopped at jmax before covering every "
+                "non-empty shape), against packing's lower bound (the largest conflict clique) and the "
+                "exact minimum when recorded.",
+                expression_count_table(records),
+            ],
+        ),
+        Section("Contact sheets", _contact_sheets(records, expressions) or ["No finished expressions."]),
+    ]
+    problems = problem_table(records)
+    if not problems.empty:
+        sections.append(Section("Cells that did not finish", [problems]))
+    return sections
+
+
+def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[Path, Path]:
+    """Write the report of a run to ``RUN_DIR/report/index.html`` and ``RUN_DIR/report/report.md``.
+
+    Parameters
+    ----------
+    run_dir : path
+        A run directory written by ``harness run`` (``run.json``, ``records/``, ``overlap.parquet``).
+    expressions : int
+        How many leading expressions each contact-sheet row shows.
+
+    Returns
+    -------
+    (index.html, report.md) paths. The HTML page is self-contained (figures inline, no network); the
+    Markdown references PNG files in ``report/figures/``. Same records, same bytes.
+
+    Raises
+    ------
+    FileNotFoundError
+        When ``run_dir`` holds no run or no records.
+    """
+    run_dir = Path(run_dir)
+    sections = report_sections(run_dir, expressions=expressions)
+    return write_documents(
+        f"Expression packing report: {run_dir.resolve().name}", sections, run_dir / REPORT_DIR
+    )

@@ -1,0 +1,315 @@
+"""Tables read from a run's records: timings (Table 2), overlap (Table 3), expression counts, problems.
+
+Every function takes the records DataFrame of `harness.read_records` (or the overlap table of
+`harness.read_overlap`) and only selects, groups and formats; nothing is recomputed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
+
+#: The solver whose times every other solver's are divided by (measured in the same run).
+BASELINE_SOLVER = "naive-pulp-cbc"
+
+#: Packing parameters of a cell (a "setting"); a report labels lines and rows by those that vary.
+SETTING_COLUMNS: tuple[str, ...] = (
+    "mu",
+    "alpha",
+    "beta",
+    "symmetry",
+    "importance",
+    "cap",
+    "jmax",
+    "time_limit",
+)
+
+#: Columns that identify a group of cells solving the same problems with different solvers.
+GROUP_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "repetition")
+
+#: Columns that identify a cell apart from its repetition.
+CASE_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "solver")
+
+
+def rig_label(rig: str) -> str:
+    """Short name of a rig: a preset name as is, a rig file by its stem (``faces/actor.npz`` -> ``actor``)."""
+    path = Path(rig)
+    return path.stem if len(path.parts) > 1 or path.suffix else rig
+
+
+def varying_settings(records: pd.DataFrame) -> list[str]:
+    """The setting columns that take more than one value in ``records`` (constant ones need no label)."""
+    return [c for c in SETTING_COLUMNS if records[c].astype(object).fillna("none").nunique() > 1]
+
+
+def setting_label(row: pd.Series | dict, columns: list[str]) -> str:
+    """A short human label of the given setting columns of one row, e.g. ``importance off, mu=0.3``."""
+    parts = []
+    for column in columns:
+        value = row[column]
+        if column in ("symmetry", "importance"):
+            parts.append(f"{column} {'on' if value else 'off'}")
+        elif pd.isna(value):
+            parts.append(f"no {column}")
+        else:
+            parts.append(f"{column}={value:g}" if isinstance(value, float) else f"{column}={value}")
+    return ", ".join(parts)
+
+
+def ok_cells(records: pd.DataFrame) -> pd.DataFrame:
+    """The ``cell`` rows of finished cells whose status is ``ok``."""
+    return records[(records["kind"] == "cell") & (records["status"] == "ok")]
+
+
+#: Timed steps of one expression; their sum is its share of the cell's ``sequence_time``.
+EXPRESSION_TIME_COLUMNS: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
+
+
+def expression_rows(records: pd.DataFrame) -> pd.DataFrame:
+    """The ``expression`` rows, with ``seconds`` = presolve + build + solve + extra time (null = 0)."""
+    rows = records[records["kind"] == "expression"].copy()
+    rows["seconds"] = rows[list(EXPRESSION_TIME_COLUMNS)].astype(float).fillna(0.0).sum(axis=1)
+    return rows
+
+
+def cell_times(records: pd.DataFrame) -> pd.DataFrame:
+    """Per finished cell: first-expression and whole-sequence seconds, and both as ratios to the baseline.
+
+    The ratio divides by `BASELINE_SOLVER`'s time in the cell of the same group (same rig, warp, setting and
+    repetition) of the same run, so that machine speed cancels out; it is NaN when the run has no such cell.
+
+    Returns
+    -------
+    DataFrame with the `GROUP_COLUMNS`, ``solver``, ``n_vertices``, ``n_shapes``, ``analysis_time``,
+    ``first_time``, ``sequence_time``, ``first_ratio`` and ``sequence_ratio``.
+    """
+    cells = ok_cells(records)
+    expressions = expression_rows(records)
+    first = expressions[expressions["expression"] == 1].set_index("cell")["seconds"]
+    keys = [*GROUP_COLUMNS, "solver"]
+    times = cells[[*keys, "cell", "n_vertices", "n_shapes", "analysis_time", "sequence_time"]].copy()
+    times["first_time"] = times["cell"].map(first).astype(float)
+    times["sequence_time"] = times["sequence_time"].astype(float)
+    baseline = times[times["solver"] == BASELINE_SOLVER][[*GROUP_COLUMNS, "first_time", "sequence_time"]]
+    times = times.merge(baseline, on=list(GROUP_COLUMNS), how="left", suffixes=("", "_baseline"))
+    times["first_ratio"] = times["first_time"] / times["first_time_baseline"]
+    times["sequence_ratio"] = times["sequence_time"] / times["sequence_time_baseline"]
+    return times.drop(columns=["first_time_baseline", "sequence_time_baseline"])
+
+
+def _median_and_spread(values: pd.Series) -> tuple[float, float]:
+    return float(values.median()), float(values.max() - values.min())
+
+
+_TIMING_COLUMNS = [
+    "rig",
+    "warp",
+    "setting",
+    "solver",
+    "N",
+    "K",
+    "repetitions",
+    "analysis (s)",
+    "first expression (s)",
+    "first spread (s)",
+    "sequence (s)",
+    "sequence spread (s)",
+    f"first / {BASELINE_SOLVER}",
+]
+
+
+def timing_table(records: pd.DataFrame) -> pd.DataFrame:
+    """Table 2 of Carrigan et al. 2020 for this run, with the paper's published rows beside ours.
+
+    One row per rig (and setting, when several) and solver: N, K, the median over repetitions of the
+    rig-analysis, first-expression (presolve + build + solve) and whole-sequence seconds, their spread
+    (max - min over repetitions) and the median ratio of the first-expression time to `BASELINE_SOLVER`'s.
+    For the paper's four rigs (``male``, ``toon``, ``female``, ``digidouble``) two rows follow with the
+    published optimal (PuLP with CPLEX) and greedy first-expression times and the paper's N and K.
+    """
+    times = cell_times(records)
+    settings = varying_settings(records)
+    rows = []
+    for keys, case in times.groupby(["rig", "warp", *settings, "solver"], sort=True, dropna=False):
+        rig, warp = keys[0], keys[1]
+        first, first_spread = _median_and_spread(case["first_time"])
+        sequence, sequence_spread = _median_and_spread(case["sequence_time"])
+        rows.append(
+            {
+                "rig": rig_label(rig),
+                "warp": warp,
+                "setting": setting_label(case.iloc[0], settings),
+                "solver": keys[-1],
+                "N": int(case["n_vertices"].iloc[0]),
+                "K": int(case["n_shapes"].iloc[0]),
+                "repetitions": len(case),
+                "analysis (s)": float(case["analysis_time"].median()),
+                "first expression (s)": first,
+                "first spread (s)": first_spread,
+                "sequence (s)": sequence,
+                "sequence spread (s)": sequence_spread,
+                f"first / {BASELINE_SOLVER}": float(case["first_ratio"].median()),
+            }
+        )
+    for rig in sorted(set(times["rig"]) & set(PAPER_TIMINGS.index)):
+        paper = PAPER_TIMINGS.loc[rig]
+        for solver, seconds in (
+            ("optimal (PuLP + CPLEX)", paper["optimal_s"]),
+            ("greedy", paper["greedy_s"]),
+        ):
+            rows.append(
+                {
+                    "rig": rig,
+                    "warp": "paper, Table 2",
+                    "solver": solver,
+                    "N": int(paper["N"]),
+                    "K": int(paper["K"]),
+                    "first expression (s)": float(seconds),
+                }
+            )
+    table = pd.DataFrame(rows, columns=_TIMING_COLUMNS)
+    if not settings:
+        table = table.drop(columns="setting")
+    return table.sort_values(["rig", "warp"], kind="stable").reset_index(drop=True)
+
+
+def overlap_table(overlap: pd.DataFrame) -> pd.DataFrame:
+    """Table 3 of Carrigan et al. 2020 per solver pair: ``a/b (shared)`` in the first 5, 10, 20 expressions.
+
+    Parameters
+    ----------
+    overlap : DataFrame
+        `harness.read_overlap`: one row per group, solver pair and ``first``. Repetitions choose the same
+        shapes, so only the first repetition of each group is shown.
+
+    Returns
+    -------
+    DataFrame with rig, warp, the varying settings, ``pair`` (``a/b``) and one column per ``first`` value;
+    for the paper's four rigs a ``greedy/optimal`` row with the published figures follows.
+    """
+    if overlap.empty:
+        return pd.DataFrame(columns=["rig", "warp", "pair"])
+    settings = varying_settings(overlap)
+    first_repetition = overlap[overlap["repetition"] == overlap["repetition"].min()].copy()
+    first_repetition["cell"] = [
+        f"{a}/{b} ({shared})" if ea == eb == first else f"{a}/{b} ({shared}) [{ea}/{eb} expr.]"
+        for a, b, shared, ea, eb, first in first_repetition[
+            ["shapes_a", "shapes_b", "shared", "expressions_a", "expressions_b", "first"]
+        ].itertuples(index=False)
+    ]
+    first_repetition["pair"] = first_repetition["solver_a"] + "/" + first_repetition["solver_b"]
+    if settings:
+        first_repetition["setting"] = [setting_label(row, settings) for _, row in first_repetition.iterrows()]
+    index = ["rig", "warp", *(["setting"] if settings else []), "pair"]
+    table = first_repetition.pivot_table(index=index, columns="first", values="cell", aggfunc="first")
+    table.columns = [f"{first} ex." for first in table.columns]
+    table = table.reset_index()
+    table["rig"] = table["rig"].map(rig_label)
+    paper_rows = []
+    for rig in sorted(set(table["rig"]) & set(PAPER_OVERLAP.index.get_level_values("rig"))):
+        published = PAPER_OVERLAP.loc[rig]
+        row = {"rig": rig, "warp": "paper, Table 3", "pair": "greedy/optimal"}
+        for first, values in published.iterrows():
+            row[f"{first} ex."] = f"{values['greedy']}/{values['optimal']} ({values['shared']})"
+        paper_rows.append(row)
+    table = pd.concat([table, pd.DataFrame(paper_rows)], ignore_index=True)
+    return table.sort_values(["rig", "warp"], kind="stable").reset_index(drop=True)
+
+
+def expression_count_table(records: pd.DataFrame) -> pd.DataFrame:
+    """Expressions each solver's sequence used, against the lower bound (and the exact minimum when recorded).
+
+    One row per rig (warp and setting); one column per solver with its sequence length, marked ``+`` when
+    the sequence stopped at ``jmax`` before covering every non-empty shape. ``lower bound`` is packing's
+    bound (largest conflict clique); ``minimum`` is the proven minimum expression count, or ``<= n`` for the
+    best count found within the time limit, when the run recorded one (``min_expressions``).
+    """
+    cells = ok_cells(records).copy()
+    if cells.empty:
+        return pd.DataFrame(columns=["rig", "warp", "K", "lower bound"])
+    settings = varying_settings(records)
+    complete = cells["n_covered"] >= cells["n_shapes"] - cells["n_empty"]
+    cells["count"] = [
+        f"{count}" if done else f"{count}+"
+        for count, done in zip(cells["n_expressions"], complete, strict=True)
+    ]
+    index = ["rig", "warp", *settings]
+    first_repetition = cells[cells["repetition"] == cells["repetition"].min()]
+    table = first_repetition.pivot_table(
+        index=index, columns="solver", values="count", aggfunc="first", dropna=False
+    )
+    table.columns = list(table.columns)
+    facts = first_repetition.groupby(index, dropna=False).agg(
+        K=("n_shapes", "first"), empty=("n_empty", "first"), lower_bound=("lower_bound", "max")
+    )
+    columns = ["K", "empty", "lower bound"]
+    facts = facts.rename(columns={"lower_bound": "lower bound"})
+    if "min_expressions" in cells.columns and cells["min_expressions"].notna().any():
+        best = first_repetition[first_repetition["min_expressions"].notna()].sort_values(
+            ["min_expressions_status", "min_expressions"], key=_proved_first
+        )
+        facts["minimum"] = best.groupby(index, dropna=False).apply(_minimum_label, include_groups=False)
+        columns.append("minimum")
+    table = facts[columns].join(table).reset_index()
+    table["rig"] = table["rig"].map(rig_label)
+    if settings:
+        table.insert(2, "setting", [setting_label(row, settings) for _, row in table.iterrows()])
+        table = table.drop(columns=settings)
+    return table
+
+
+def worst_shapes_table(records: pd.DataFrame) -> pd.DataFrame:
+    """The shapes each transfer got most wrong with the most training expressions (largest J), per solver.
+
+    One row per rig, warp, setting, transfer method and solver (first repetition): J, the RMS over all shapes
+    and the recorded worst shapes as ``name (rms)``, worst first (Carrigan et al. 2020, sec. 5.2 evaluates
+    the same per-vertex RMS).
+    """
+    rows = records[(records["kind"] == "transfer") & (records["status"] == "ok") & records["rms"].notna()]
+    rows = rows[rows["repetition"] == rows["repetition"].min()]
+    columns = ["rig", "warp", "transfer", "solver", "J", "RMS", "worst shapes"]
+    if rows.empty:
+        return pd.DataFrame(columns=columns)
+    settings = varying_settings(records)
+    last = rows.sort_values("j").groupby(["cell", "transfer"], sort=False).tail(1)
+    table = pd.DataFrame(
+        {
+            "rig": last["rig"].map(rig_label),
+            "warp": last["warp"],
+            "setting": [setting_label(row, settings) for _, row in last.iterrows()],
+            "transfer": last["transfer"],
+            "solver": last["solver"],
+            "J": last["j"],
+            "RMS": last["rms"].astype(float),
+            "worst shapes": [
+                ", ".join(f"{name} ({value:.3g})" for name, value in zip(names, values, strict=True))
+                for names, values in zip(last["worst_shapes"], last["worst_rms"], strict=True)
+            ],
+        }
+    )
+    if not settings:
+        table = table.drop(columns="setting")
+    return table.sort_values(["rig", "warp", "transfer", "solver"], kind="stable").reset_index(drop=True)
+
+
+def _proved_first(column: pd.Series) -> pd.Series:
+    return column.map({"optimal": 0}).fillna(1) if column.name == "min_expressions_status" else column
+
+
+def _minimum_label(cells: pd.DataFrame) -> str:
+    """The proven minimum expression count, else ``<= n`` for the best count found within the time limit."""
+    best = cells.iloc[0]
+    proved = best["min_expressions_status"] == "optimal"
+    return f"{best['min_expressions']}" if proved else f"<= {best['min_expressions']}"
+
+
+def problem_table(records: pd.DataFrame) -> pd.DataFrame:
+    """Cells that did not finish ``ok`` (skipped, error, timeout, invalid): how many, with their messages."""
+    cells = records[(records["kind"] == "cell") & (records["status"] != "ok")]
+    columns = ["rig", "warp", "solver", "status", "message"]
+    table = cells.groupby(columns, sort=True).size().rename("cells").reset_index()
+    table["rig"] = table["rig"].map(rig_label)
+    return table[["rig", "warp", "solver", "cells", "status", "message"]]

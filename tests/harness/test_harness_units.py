@@ -1,0 +1,162 @@
+"""Durations, the records store and the grid: the harness's own pieces, without running solvers."""
+
+from __future__ import annotations
+
+import errno
+import math
+
+import pyarrow.parquet as pq
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import harness
+from harness import _records
+from harness._durations import format_duration, parse_duration
+from harness._grid import CellSpec, RunConfig
+
+
+@pytest.mark.parametrize(
+    ("text", "seconds"),
+    [
+        ("30s", 30.0),
+        ("2m", 120.0),
+        ("500ms", 0.5),
+        ("1.5h", 5400.0),
+        ("90", 90.0),
+        (" 2 min ", 120.0),
+        (".5s", 0.5),
+    ],
+)
+def test_parse_duration_accepts_units(text: str, seconds: float) -> None:
+    assert parse_duration(text) == pytest.approx(seconds)
+
+
+@pytest.mark.parametrize("text", ["", "s", "1d", "-3s", "ten", "3 s s"])
+def test_parse_duration_rejects_with_the_accepted_forms(text: str) -> None:
+    with pytest.raises(ValueError, match=r"not a duration: .* \(use e.g. 30s, 2m, 500ms"):
+        parse_duration(text)
+
+
+@given(st.floats(min_value=0, max_value=1e5, allow_nan=False))
+def test_format_duration_is_short(seconds: float) -> None:
+    text = format_duration(seconds)
+    assert len(text) <= 9 and text[-1] == "s"
+
+
+def _cell_rows(cell: str) -> list[dict]:
+    base = {
+        "cell": cell,
+        "rig": "r",
+        "rig_seed": 0,
+        "warp": "none",
+        "solver": "greedy",
+        "mu": 0.3,
+        "alpha": 0.5,
+    }
+    return [
+        {**base, "kind": "cell", "status": "ok", "message": "", "n_expressions": 1, "cap": None},
+        {
+            **base,
+            "kind": "expression",
+            "expression": 1,
+            "shapes": ["a", "b"],
+            "extra_examples": [],
+            "status": "optimal",
+        },
+        {
+            **base,
+            "kind": "transfer",
+            "transfer": "ebfr",
+            "j": 1,
+            "rms": 0.5,
+            "worst_rms": [0.7, 0.6],
+            "status": "ok",
+        },
+    ]
+
+
+def test_part_files_round_trip_in_the_documented_schema(tmp_path) -> None:
+    for cell in ("b" * 16, "a" * 16):
+        _records.write_part(tmp_path, cell, _cell_rows(cell))
+    assert _records.finished_cells(tmp_path) == {"a" * 16, "b" * 16}
+    table = pq.read_table(_records.part_path(tmp_path, "a" * 16))
+    assert table.schema.names == list(harness.RECORD_COLUMNS)
+    frame = harness.read_records(tmp_path)
+    assert list(frame["cell"]) == ["a" * 16] * 3 + ["b" * 16] * 3
+    assert list(frame["kind"][:3]) == ["cell", "expression", "transfer"]
+    assert frame["shapes"][1] == ["a", "b"] and frame["worst_rms"][2] == [0.7, 0.6]
+    assert frame["cap"].isna()[0] and str(frame["expression"].dtype) == "Int64"
+
+
+def test_unknown_record_column_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"unknown columns \['colour'\]"):
+        _records.records_table([{"cell": "x", "colour": "red"}])
+
+
+def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
+    def write_half_then_fail(table, where, **kwargs):
+        where.write(b"PAR1 half a parquet file")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(_records.pq, "write_table", write_half_then_fail)
+    with pytest.raises(harness.RecordsWriteError, match=r"could not write .*aaaa.parquet: disk full"):
+        _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
+    assert list((tmp_path / "records").iterdir()) == []
+    assert _records.finished_cells(tmp_path) == set()
+
+
+def test_partial_files_are_invisible_and_removed_on_resume(tmp_path) -> None:
+    _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
+    stale = tmp_path / "records" / f".{'b' * 16}.parquet.123.partial"
+    stale.write_bytes(b"PAR1 torn")
+    assert _records.finished_cells(tmp_path) == {"a" * 16}
+    assert len(harness.read_records(tmp_path)) == 3
+    assert _records.remove_partial_files(tmp_path) == [stale]
+    assert not stale.exists()
+
+
+def test_reading_an_empty_run_says_where_it_looked(tmp_path) -> None:
+    with pytest.raises(FileNotFoundError, match="no records"):
+        harness.read_records(tmp_path)
+
+
+def _config(**changes) -> RunConfig:
+    values = {
+        "rigs": ("r1", "r2"),
+        "warps": ("none",),
+        "solvers": ("greedy", "cpsat"),
+        "transfers": ("ebfr",),
+    }
+    return RunConfig(**{**values, **changes})
+
+
+def test_grid_is_the_product_of_its_axes_with_solvers_innermost() -> None:
+    config = _config(importance=(True, False), cap=(None, 4), repetitions=3, seed=7)
+    cells = config.cells()
+    assert len(cells) == 2 * 2 * 2 * 3 * 2
+    assert [c.solver for c in cells[:4]] == ["greedy", "cpsat", "greedy", "cpsat"]
+    assert {c.seed for c in cells} == {7, 8, 9}
+    assert len({c.id for c in cells}) == len(cells)
+
+
+def test_cell_ids_are_stable_and_depend_on_every_field() -> None:
+    cell = _config().cells()[0]
+    assert CellSpec.from_dict(cell.to_dict()) == cell
+    assert CellSpec.from_dict(cell.to_dict()).id == cell.id
+    for change in ({"mu": 0.31}, {"time_limit": 1.0}, {"j_values": (2,)}, {"transfers": ()}, {"solver": "x"}):
+        changed = CellSpec.from_dict({**cell.to_dict(), **change})
+        assert changed.id != cell.id
+
+
+def test_run_config_round_trips_through_json_and_rejects_unknown_keys() -> None:
+    config = _config(cap=(None, 3), time_limit=2.5)
+    assert RunConfig.from_dict(config.to_dict()) == config
+    with pytest.raises(ValueError, match=r"unknown keys \['colour'\]"):
+        RunConfig.from_dict({**config.to_dict(), "colour": 1})
+
+
+def test_every_run_preset_is_a_valid_config() -> None:
+    for name, values in harness.PRESETS.items():
+        config = RunConfig(preset=name, **values)
+        assert config.cells() and not math.isnan(config.cells()[0].mu)

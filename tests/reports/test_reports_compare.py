@@ -1,0 +1,196 @@
+"""`harness compare`: quality changes fail, slower times warn (fail with --fail-on-time), identical runs pass.
+
+The "slowed" and "worse" runs are fabricated exactly as a solver plugin that sleeps, or one that drops a shape
+from its answer, would leave them in the records.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from reports import compare
+from reports.cli import compare as compare_command
+
+SLOW = {"naive-pulp-cbc": 2.0, "highs": 0.06, "cpsat": 0.03, "greedy": 0.001}  # highs sleeps 0.04 s per solve
+
+
+def _invoke(*args: object):
+    result = CliRunner().invoke(compare_command, [str(a) for a in args], catch_exceptions=False)
+    print(result.output)
+    return result
+
+
+def _verdicts(comparison, verdict):
+    return sorted((c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.changes if c.verdict == verdict)
+
+
+def test_identical_runs_pass(make_run):
+    old, new = make_run("old"), make_run("new")
+    comparison = compare(old, new)
+    assert {c.verdict for c in comparison.changes} == {"same"}
+    assert comparison.time_basis == "ratio to naive-pulp-cbc in the same run"
+    result = _invoke(old, new, "--fail-on-time")
+    assert result.exit_code == 0
+    assert "0 regressions, 0 timing warnings" in result.output
+
+
+def test_a_slowed_solver_warns_by_default_and_fails_with_fail_on_time(make_run):
+    old, new = make_run("old"), make_run("new", seconds=SLOW)
+    comparison = compare(old, new)
+    assert _verdicts(comparison, "slower") == [
+        ("highs", "first expression / naive-pulp-cbc"),
+        ("highs", "sequence / naive-pulp-cbc"),
+    ]
+    slower = next(c for c in comparison.changes if c.verdict == "slower")
+    assert slower.ratio == pytest.approx(3.0)
+    assert comparison.regressions() == []
+    assert len(comparison.warnings()) == 2
+
+    result = _invoke(old, new)
+    assert result.exit_code == 0
+    assert "0 regressions, 2 timing warnings" in result.output
+    result = _invoke(old, new, "--fail-on-time")
+    assert result.exit_code == 1
+    assert "2 regressions" in result.output
+
+
+def test_a_slower_machine_is_not_a_regression(make_run):
+    old = make_run("old")
+    new = make_run("new", seconds={solver: 2.5 * s for solver, s in SLOW.items()} | {"highs": 0.05})
+    comparison = compare(old, new)
+    assert _verdicts(comparison, "slower") == []
+    assert _verdicts(comparison, "faster") == []  # highs: 0.05 / 5.0 is the same ratio as 0.02 / 2.0
+
+
+def test_a_threshold_decides_what_is_slower(make_run):
+    old, new = make_run("old"), make_run("new", seconds=SLOW)
+    assert _verdicts(compare(old, new, threshold=2.5), "slower") == []
+    assert len(_verdicts(compare(old, new, threshold=1.5), "slower")) == 2
+
+
+def test_a_solver_that_drops_a_shape_fails(make_run, fabric):
+    worse = [fabric["optimal"][0], ["smile_L", "smile_R"], fabric["optimal"][2]]
+    old = make_run("old")
+    new = make_run(
+        "new",
+        sequences={
+            "naive-pulp-cbc": fabric["optimal"],
+            "highs": worse,
+            "cpsat": fabric["optimal"],
+            "greedy": fabric["greedy"],
+        },
+    )
+    comparison = compare(old, new)
+    changed = {(c.case.rsplit("/", 1)[-1], c.metric): c for c in comparison.changes if c.verdict == "changed"}
+    assert sorted(changed) == [
+        ("highs", "RMS dt per J"),
+        ("highs", "RMS ebfr per J"),
+        ("highs", "objective per expression"),
+        ("highs", "shapes covered per expression"),
+    ]
+    objective = changed[("highs", "objective per expression")]
+    weights = fabric["weights"]
+    assert objective.where == "at 2"
+    assert objective.old == pytest.approx(weights["smile_L"] + weights["smile_R"] + weights["noseWrinkle"])
+    assert objective.new == pytest.approx(weights["smile_L"] + weights["smile_R"])
+    assert len(comparison.regressions()) == 4
+    result = _invoke(old, new, "--only-changes")
+    assert result.exit_code == 1
+    assert "FAIL" in result.output and "4 regressions" in result.output
+    assert "objective per expression" in result.output and "browUp_L" not in result.output
+
+
+def test_quality_changes_within_the_tolerance_pass(make_run):
+    old, new = make_run("old"), make_run("new", objective_scale=1 + 1e-12)
+    assert compare(old, new).regressions() == []
+    changed = compare(old, new, tolerance=1e-13).regressions()
+    assert {c.metric for c in changed} == {"objective per expression"}
+
+
+def test_a_cell_that_errors_in_the_new_run_fails(make_run, fabric):
+    old = make_run("old")
+    new = make_run(
+        "new",
+        sequences={
+            "naive-pulp-cbc": fabric["optimal"],
+            "highs": fabric["optimal"],
+            "greedy": fabric["greedy"],
+        },
+        skipped={"cpsat": "ortools failed to import"},
+    )
+    comparison = compare(old, new)
+    statuses = [c for c in comparison.regressions() if c.metric == "cell status per repetition"]
+    assert [(c.old, c.new, c.where) for c in statuses] == [("ok", "skipped", "at 1")]
+    assert {c.verdict for c in comparison.regressions()} == {"changed", "missing"}
+
+
+def _benchmark_file(path, median: float, objective: float):
+    document = {
+        "benchmarks": [
+            {
+                "name": "test_first_expression[female-highs]",
+                "fullname": "tests/benchmarks/test_bench_solvers.py::test_first_expression[female-highs]",
+                "stats": {"median": median, "mean": median, "min": median},
+                "extra_info": {"objective": objective, "backend": "highs 1.12.0"},
+            }
+        ]
+    }
+    path.write_text(json.dumps(document))
+    return path
+
+
+def test_benchmark_files_compare_median_times_and_extra_info(tmp_path):
+    old = _benchmark_file(tmp_path / "old.json", 0.010, 12.5)
+    assert compare(old, _benchmark_file(tmp_path / "same.json", 0.011, 12.5)).regressions() == []
+    slower = compare(old, _benchmark_file(tmp_path / "slow.json", 0.020, 12.5))
+    assert _verdicts(slower, "slower") == [
+        ("test_bench_solvers.py::test_first_expression[female-highs]", "median time (s)")
+    ]
+    assert slower.regressions() == [] and len(slower.regressions(fail_on_time=True)) == 1
+    worse = compare(old, _benchmark_file(tmp_path / "worse.json", 0.010, 12.0))
+    assert [(c.metric, c.old, c.new) for c in worse.regressions()] == [("objective", 12.5, 12.0)]
+    assert _invoke(old, tmp_path / "worse.json").exit_code == 1
+
+
+def test_unusable_inputs_exit_2_with_one_line(make_run, tmp_path):
+    run = make_run("run")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "junk.json").write_text("[1, 2")
+    result = _invoke(run, tmp_path / "empty")
+    assert result.exit_code == 2
+    assert "neither a run directory (with records/) nor a pytest-benchmark JSON file" in result.output
+    result = _invoke(tmp_path / "junk.json", tmp_path / "junk.json")
+    assert result.exit_code == 2 and "junk.json: not a pytest-benchmark JSON file" in result.output
+    result = _invoke(run, tmp_path / "junk.json")
+    assert (
+        result.exit_code == 2 and "must both be run directories or both benchmark JSON files" in result.output
+    )
+    with pytest.raises(ValueError, match="threshold, tolerance and min_time must be >= 0"):
+        compare(run, run, threshold=-1)
+
+
+def test_a_baseline_that_fails_in_the_new_run_is_a_regression_compared_in_seconds(make_run, fabric):
+    old = make_run("old")
+    new = make_run(
+        "new",
+        sequences={"highs": fabric["optimal"], "cpsat": fabric["optimal"], "greedy": fabric["greedy"]},
+        skipped={"naive-pulp-cbc": "pulp failed to import"},
+    )
+    comparison = compare(old, new)
+    assert comparison.time_basis == "seconds (no naive-pulp-cbc in both)"
+    failing = {(c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.regressions()}
+    assert ("naive-pulp-cbc", "cell status per repetition") in failing
+    assert ("highs", "first expression (s)") not in failing
+    assert _invoke(old, new).exit_code == 1
+
+
+def test_times_below_the_noise_floor_are_not_judged(make_run):
+    old, new = make_run("old"), make_run("new", seconds=SLOW | {"greedy": 0.002})  # greedy 2x slower, in ms
+    greedy = [c for c in compare(old, new).changes if c.case.endswith("/greedy") and c.kind == "time"]
+    assert {(c.verdict, c.where) for c in greedy} == {("same", "(< 0.01 s)")}
+    assert greedy[0].ratio == pytest.approx(2.0)
+    sensitive = compare(old, new, min_time=0.0).changes
+    assert {c.verdict for c in sensitive if c.case.endswith("/greedy") and c.kind == "time"} == {"slower"}

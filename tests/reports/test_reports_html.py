@@ -1,0 +1,222 @@
+"""`harness report`: the Markdown and the self-contained HTML page, checked in headless Chromium."""
+
+from __future__ import annotations
+
+import html as html_module
+import json
+import os
+import re
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+import harness
+from reports import build_report
+from reports._document import CONTENT_SECURITY_POLICY, Image, Section, html_page
+from reports.cli import report as report_command
+
+#: The committed run of the quick preset that CI compares against (``benchmarks/baseline``).
+BASELINE = Path(__file__).resolve().parents[2] / "benchmarks" / "baseline"
+
+_CHROMIUM_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+)
+
+# Injected first into <head> of a copy of the page: records failed images, error events, console errors and
+# policy violations, and writes them into the DOM once the page has loaded, where --dump-dom shows them.
+_PROBE = """<script nonce="probe">
+window.__problems = [];
+const describe = e => e.message || (e.target && e.target.outerHTML.slice(0, 80));
+window.addEventListener("error", e => __problems.push("error: " + describe(e)), true);
+window.addEventListener("securitypolicyviolation", e => __problems.push("blocked: " + e.blockedURI));
+for (const level of ["error", "warn"]) {
+  const original = console[level];
+  console[level] = (...args) => { __problems.push(`console.${level}: ${args}`); original(...args); };
+}
+window.addEventListener("load", () => {
+  const images = [...document.images].map(i => ({width: i.naturalWidth, complete: i.complete}));
+  const probe = document.createElement("pre");
+  probe.id = "probe";
+  probe.textContent = JSON.stringify({images, problems: __problems});
+  document.body.appendChild(probe);
+});
+</script>"""
+
+
+@pytest.fixture(scope="module")
+def chromium() -> str:
+    """Path of the Debian ``chromium`` binary, installed with apt-get when missing (skips if impossible)."""
+    found = shutil.which("chromium")
+    if found is None and shutil.which("apt-get") and os.geteuid() == 0:
+        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+        for command in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", "chromium"]):
+            subprocess.run(command, env=env, capture_output=True, timeout=900, check=False)
+        found = shutil.which("chromium")
+    if found is None:
+        pytest.skip(
+            "headless Chromium is not installed and `apt-get install -y chromium` was not possible here"
+        )
+    return found
+
+
+@pytest.fixture(scope="module")
+def reported_run(tmp_path_factory, fabricate) -> Path:
+    """A fabricated run (importance on and off, one solver skipped) and its report, built once."""
+    run = fabricate(
+        tmp_path_factory.mktemp("reported") / "run",
+        importance=(True, False),
+        skipped={"scip": "pyscipopt is not installed"},
+    )
+    build_report(run)
+    return run
+
+
+def test_report_writes_markdown_html_and_figures(reported_run):
+    directory = reported_run / "report"
+    markdown = (directory / "report.md").read_text()
+    for heading in (
+        "Timings (paper Table 2)",
+        "Overlap of chosen shapes (paper Table 3)",
+        "Coverage",
+        "Transfer error (paper Figs. 9 and 10)",
+        "Worst transferred shapes",
+        "Expression counts",
+        "Contact sheets",
+        "Cells that did not finish",
+    ):
+        assert f"## {heading}" in markdown
+    assert "| rig | warp | setting | solver | N | K |" in markdown
+    assert "| face | alien | scip | 4 | skipped | pyscipopt is not installed |" in markdown
+    figures = sorted(path.name for path in (directory / "figures").iterdir())
+    assert figures == [
+        "contact-face-alien-importance-off.png",
+        "contact-face-alien-importance-on.png",
+        "coverage-face.png",
+        "rms-face.png",
+    ]
+    for name in figures:
+        assert f"(figures/{name})" in markdown
+
+
+def test_report_html_is_self_contained_and_deterministic(reported_run):
+    run = reported_run
+    page = (run / "report" / "index.html").read_text()
+    assert CONTENT_SECURITY_POLICY in page
+    assert not re.search(r"<script|<link|src=\"(?!data:image/png;base64,)", page)
+    assert page.count('src="data:image/png;base64,') == 4
+    first = {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
+    build_report(run)
+    assert first == {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
+
+
+def _chromium_flags(chromium: str, profile: Path) -> list[str]:
+    return [chromium, *_CHROMIUM_FLAGS, f"--user-data-dir={profile}", "--virtual-time-budget=5000"]
+
+
+def _probe(chromium: str, page: Path, profile: Path) -> dict:
+    """Load a copy of ``page`` with `_PROBE` in Chromium; return the images' states and the problems seen."""
+    html = page.read_text().replace(
+        CONTENT_SECURITY_POLICY, CONTENT_SECURITY_POLICY + "; script-src 'nonce-probe'"
+    )
+    probed = page.with_name("probed.html")
+    probed.write_text(html.replace("<title>", _PROBE + "<title>", 1))
+    dump = subprocess.run(
+        [*_chromium_flags(chromium, profile), "--dump-dom", probed.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    ).stdout
+    probed.unlink()
+    return json.loads(html_module.unescape(re.search(r'<pre id="probe">(.*?)</pre>', dump, re.S).group(1)))
+
+
+def test_the_chromium_probe_sees_broken_images_and_network_requests(chromium, tmp_path):
+    page = tmp_path / "index.html"
+    sections = [Section("Broken", [Image("ok", b"not a png", "broken")])]
+    page.write_text(
+        html_page("probe check", sections).replace("</body>", '<img src="https://a.invalid/x.png"></body>')
+    )
+    probe = _probe(chromium, page, tmp_path / "profile")
+    assert [image["width"] for image in probe["images"]] == [0, 0]
+    assert any(problem.startswith("blocked: https://a.invalid/x.png") for problem in probe["problems"])
+    assert sum(problem.startswith("error: <img") for problem in probe["problems"]) == 2
+
+
+def test_report_html_loads_in_headless_chromium(reported_run, chromium, tmp_path):
+    page = reported_run / "report" / "index.html"
+    probe = _probe(chromium, page, tmp_path / "profile")
+    assert probe["problems"] == []
+    assert len(probe["images"]) == 4
+    assert all(image["complete"] and image["width"] > 0 for image in probe["images"]), probe["images"]
+
+    screenshot = tmp_path / "report.png"
+    subprocess.run(
+        [
+            *_chromium_flags(chromium, tmp_path / "profile"),
+            "--window-size=1400,3000",
+            f"--screenshot={screenshot}",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        timeout=120,
+        check=True,
+    )
+    assert screenshot.stat().st_size > 10_000
+    print(f"report screenshot: {screenshot}")
+
+
+def test_report_command_prints_where_the_report_is(make_run, tmp_path):
+    run = make_run("run")
+    result = CliRunner().invoke(report_command, [str(run), "--expressions", "2"])
+    assert result.exit_code == 0, result.output
+    assert f"report: {run / 'report' / 'index.html'}" in result.output
+    result = CliRunner().invoke(report_command, [str(tmp_path / "nothing")])
+    assert result.exit_code == 2
+    assert "no run.json here" in result.output and "Run `harness run --out" in result.output
+
+
+def test_the_quick_preset_report_loads_in_headless_chromium(chromium, tmp_path):
+    """The committed baseline is a real `harness run --preset quick`: its report must render completely."""
+    run = shutil.copytree(BASELINE, tmp_path / "quick", ignore=shutil.ignore_patterns("report"))
+    started = time.perf_counter()
+    page, _ = build_report(run)
+    print(f"quick preset report built in {time.perf_counter() - started:.1f} s: {page}")
+    probe = _probe(chromium, page, tmp_path / "profile")
+    assert probe["problems"] == []
+    rigs_run = set(harness.read_records(run)["rig"])
+    assert len(probe["images"]) == 3 * len(rigs_run)  # coverage, RMS and a contact sheet per rig
+    assert all(image["complete"] and image["width"] > 0 for image in probe["images"]), probe["images"]
+
+
+def test_a_run_where_nothing_finished_still_gets_a_report(make_run):
+    run = make_run("run", sequences={}, seconds={}, skipped={"highs": "highspy is not installed"})
+    _, text = build_report(run)
+    markdown = text.read_text()
+    assert "No finished expressions." in markdown and "The run has no transfer records." in markdown
+    assert "| face | alien | highs | 2 | skipped | highspy is not installed |" in markdown
+
+
+def test_a_rig_that_cannot_be_rebuilt_gets_a_note_instead_of_a_contact_sheet(make_run, tmp_path):
+    run = make_run("run", rig=str(tmp_path / "moved-away.npz"))
+    _, text = build_report(run)
+    assert "No contact sheet for rig moved-away: it could not be rebuilt (unknown rig" in text.read_text()
+
+
+def test_an_interrupted_run_without_overlap_table_still_gets_a_report(make_run):
+    run = make_run("run")
+    (run / "overlap.parquet").unlink()
+    _, text = build_report(run)
+    assert "No overlap table:" in text.read_text()
