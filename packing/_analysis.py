@@ -5,7 +5,7 @@ from __future__ import annotations
 import hashlib
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,7 +21,7 @@ from packing._importance import (
     warn_missing_target,
 )
 from packing._params import PackingParams, params_from
-from packing._problem import PackingProblem, problem_from_incidence
+from packing._problem import PackingProblem, problem_from_incidence, with_meta
 from packing._symmetry import SymmetryResult, detect_pairs
 from rigs import Rig
 
@@ -36,7 +36,8 @@ class Analysis:
     Binary blendshapes (eq. 2), the importance terms that do not change between expressions
     (eqs. 5-7), the symmetry pairs (eqs. 9-12), the items (shapes, and pairs merged into one item)
     with their vertex incidence, and the presolved problem over all items. Each expression's
-    problem is derived from it by `problem_for` without visiting the vertices again.
+    problem is derived from it by `problem_for`, or from the previous expression's problem by
+    `next_problem`, without visiting the vertices again.
 
     Attributes
     ----------
@@ -146,15 +147,66 @@ class Analysis:
         gone = used_mask(self.rig, used) | used_mask(self.rig, exclude)
         keep = np.flatnonzero(self.item_shapes @ gone.astype(np.float64) == 0)
         problem = self.problem
-        if self.params.beta > 0 and self.params.importance and used:
+        if self._reweights(used):
             problem = problem.reweighted(self.item_weights(used))
         if keep.size != problem.n_items:
             problem = problem.restrict(keep)
-        return _with_meta(problem, item_index=keep, used=len(used), excluded=tuple(exclude))
+        return with_meta(problem, item_index=keep, used=len(used), excluded=tuple(exclude))
+
+    def next_problem(
+        self, problem: PackingProblem, chosen: Iterable[int], used: Iterable[str] = ()
+    ) -> PackingProblem:
+        """The problem of the expression after ``problem``, once its items ``chosen`` are used.
+
+        One step of Algorithm 1 on the shrinking problem (DESIGN.md): the chosen items are dropped
+        from ``problem``'s presolved conflict sets (`PackingProblem.restrict`), no vertex is visited,
+        and the weights are recomputed only when the uniqueness term (eq. 8) changes them
+        (``beta > 0``).
+
+        Parameters
+        ----------
+        problem : PackingProblem
+            A problem of this analysis without exclusions: from `problem_for` or `next_problem`.
+        chosen : iterable of int
+            Items of ``problem`` used by its expression.
+        used : iterable of str
+            Every shape used so far, those of ``chosen`` included.
+
+        Returns
+        -------
+        PackingProblem equal to ``problem_for(used)`` (same items, weights, conflict sets and rows).
+
+        Raises
+        ------
+        ValueError
+            For a problem that does not come from this analysis or that excludes shapes, or items
+            outside it.
+        """
+        if "item_index" not in problem.meta or problem.meta.get("excluded"):
+            raise ValueError(
+                "next_problem: need a problem of this analysis without excluded shapes "
+                "(from problem_for() or next_problem())"
+            )
+        used = tuple(used)
+        chosen = np.fromiter(chosen, dtype=np.int64)
+        if chosen.size and (chosen.min() < 0 or chosen.max() >= problem.n_items):
+            raise ValueError(
+                f"next_problem: chosen items must be in 0..{problem.n_items - 1}, got {chosen.tolist()}"
+            )
+        kept = np.ones(problem.n_items, dtype=bool)
+        kept[chosen] = False
+        following = problem.restrict(np.flatnonzero(kept), meta={"used": len(used)})
+        if self._reweights(used):
+            following = following.reweighted(self.item_weights(used)[following.meta["item_index"]])
+        return following
 
     def item_label(self, item: int) -> str:
         """Label of an item of `problem`: its shape name, or ``a+b`` for a pair."""
         return self.problem.item_label(item)
+
+    def _reweights(self, used: tuple[str | int, ...]) -> bool:
+        """Whether the weights after the shapes ``used`` differ from the first expression's (eq. 8)."""
+        return self.params.beta > 0 and self.params.importance and bool(used)
 
 
 def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: Any) -> Analysis:
@@ -349,7 +401,3 @@ def _item_matrix(n_shapes: int, empty: np.ndarray, pairs: tuple[tuple[int, int],
     matrix = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(first.size, n_shapes))
     matrix.sort_indices()
     return matrix
-
-
-def _with_meta(problem: PackingProblem, **meta: Any) -> PackingProblem:
-    return replace(problem, meta={**problem.meta, **meta})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -148,11 +149,17 @@ def uniqueness(cosines: np.ndarray, used: np.ndarray, available: np.ndarray) -> 
     unique by definition; 0 for shapes that are not available. When no available shape resembles a
     used one (all ``U_k = 0``), every available shape is fully unique (1).
     """
-    result = np.zeros(len(cosines))
+    return uniqueness_of_resemblance(np.maximum(cosines, 0.0), used, available)
+
+
+def uniqueness_of_resemblance(resemblance: np.ndarray, used: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """`uniqueness` from the cosines already clipped at 0, ``max(cos(dv_k, dv_r), 0)`` (one
+    matrix-vector product per expression)."""
+    result = np.zeros(len(resemblance))
     n_used = int(np.count_nonzero(used))
     if n_used == 0 or not available.any():
         return result
-    similarity = np.maximum(cosines[np.ix_(available, used)], 0.0).sum(axis=1) / n_used
+    similarity = (resemblance @ used.astype(np.float64))[available] / n_used
     top = similarity.max()
     result[available] = 1.0 - similarity / top if top > 0 else 1.0
     return result
@@ -184,11 +191,16 @@ class ImportanceTerms:
         """(K, K) cosines of the delta blendshapes (eq. 8); O(K^2 N), computed once."""
         return cosine_similarities(self.deltas)
 
+    @cached_property
+    def resemblance(self) -> np.ndarray:
+        """(K, K) cosines clipped at 0, the summands of eq. 8; computed once."""
+        return np.maximum(self.cosines, 0.0)
+
     def combine(self, alpha: float, beta: float, used: np.ndarray, available: np.ndarray) -> np.ndarray:
         """``lambda_k = alpha lambda_Dis + (1 - alpha) lambda_TD + beta lambda_U`` (eq. 4)."""
         weights = alpha * self.displacement + (1.0 - alpha) * self.distortion
         if beta > 0:
-            weights = weights + beta * uniqueness(self.cosines, used, available)
+            weights = weights + beta * uniqueness_of_resemblance(self.resemblance, used, available)
         return weights
 
 
@@ -235,17 +247,29 @@ def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray |
 
 def used_mask(rig: Rig, used: Iterable[str | int]) -> np.ndarray:
     """(K,) bool mask of shapes given by name (or index)."""
+    used = list(used)
+    try:
+        index = np.fromiter(map(_positions(rig.names).__getitem__, used), dtype=np.int64, count=len(used))
+    except (KeyError, TypeError):  # not only known names: one at a time, to name the bad one
+        index = np.array([_shape_index(rig, shape) for shape in used], dtype=np.int64)
     mask = np.zeros(rig.n_shapes, dtype=bool)
-    for shape in used:
-        if isinstance(shape, str):
-            mask[rig.index(shape)] = True
-        elif isinstance(shape, (int, np.integer)) and 0 <= shape < rig.n_shapes:
-            mask[int(shape)] = True
-        else:
-            raise ValueError(
-                f"used: {shape!r} is neither a blendshape name nor an index in 0..{rig.n_shapes - 1}"
-            )
+    mask[index] = True
     return mask
+
+
+def _shape_index(rig: Rig, shape: str | int) -> int:
+    """Index of a shape given by name or index; a clear error for anything else."""
+    if isinstance(shape, str):
+        return rig.index(shape)
+    if isinstance(shape, (int, np.integer)) and 0 <= shape < rig.n_shapes:
+        return int(shape)
+    raise ValueError(f"used: {shape!r} is neither a blendshape name nor an index in 0..{rig.n_shapes - 1}")
+
+
+@functools.lru_cache(maxsize=16)
+def _positions(names: tuple[str, ...]) -> dict[str, int]:
+    """Index of each blendshape name."""
+    return {name: k for k, name in enumerate(names)}
 
 
 def warn_missing_target(alpha: float) -> None:

@@ -1,6 +1,15 @@
-"""Presolve eq. 3b: from one row per vertex to the distinct maximal conflict sets (DESIGN.md)."""
+"""Presolve eq. 3b: from one row per vertex to the distinct maximal conflict sets (DESIGN.md).
+
+Sets of items are handled as rows of bits (item 0 is the highest bit of the first 64-bit word), so that
+equality, containment and the canonical order of sets are word operations. Two entry points: the presolve of
+a problem from its vertices (`maximal_conflict_sets`, once per rig), and the presolve of a sub-problem from
+the maximal sets of its parent (`ConflictSets.restrict`, every expression of Algorithm 1 and every artist
+rejection), which never visits a vertex again.
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,16 +38,12 @@ def maximal_conflict_sets(incidence: sp.spmatrix) -> tuple[tuple[np.ndarray, ...
 
     Notes
     -----
-    O(N I) to read the vertex item sets, a sort of their bit-packed rows to make them unique, and a
-    containment test of each unique set against the larger sets that hold its rarest item. Vertices
-    are never looped over.
+    O(N I / 64) word operations: the vertex item sets of the vertices in two items or more are packed
+    into bit rows, sorted to make them unique, and each unique set is compared only with the larger
+    sets that hold its rarest item. Vertices are never looped over.
     """
-    incidence = sp.csr_matrix(incidence, dtype=bool)
-    incidence.sum_duplicates()
-    items = np.repeat(np.arange(incidence.shape[0]), np.diff(incidence.indptr))
-    vertices = incidence.indices.astype(np.int64)
-    n_vertex_rows = int(np.count_nonzero(np.bincount(vertices, minlength=incidence.shape[1])))
-    return _maximal_sets(vertices, items, incidence.shape[1], incidence.shape[0]), n_vertex_rows
+    sets, n_vertex_rows = ConflictSets.from_incidence(incidence)
+    return sets.as_tuple(), n_vertex_rows
 
 
 def restrict_conflict_sets(
@@ -48,89 +53,208 @@ def restrict_conflict_sets(
 
     Every vertex item set lies inside a maximal one and every maximal one is a vertex item set, so the
     maximal sets of the restricted problem are the maximal ones among ``{C & keep}`` over the old
-    maximal sets ``C``: no vertex is visited again.
+    maximal sets ``C``: no vertex is visited again (`ConflictSets.restrict`).
 
     Parameters
     ----------
     cliques : tuple of int arrays
-        Maximal conflict sets of the full problem (`maximal_conflict_sets`).
+        Maximal conflict sets of the full problem, in the order of `maximal_conflict_sets`.
     keep : (I',) int array
-        Ascending indices of the items kept.
+        Indices of the items kept.
     n_items : int
         Number of items of the full problem.
     """
-    if not cliques or keep.size < 2:
-        return ()
-    renumber = np.full(n_items, -1, dtype=np.int64)
-    renumber[keep] = np.arange(keep.size)
-    members = renumber[np.concatenate(cliques)]
-    owner = np.repeat(np.arange(len(cliques)), [c.size for c in cliques])
-    inside = members >= 0
-    return _maximal_sets(owner[inside], members[inside], len(cliques), keep.size)
+    kept = np.zeros(n_items, dtype=bool)
+    kept[keep] = True
+    return ConflictSets.from_cliques(cliques).restrict(kept).as_tuple()
 
 
-def _maximal_sets(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> tuple[np.ndarray, ...]:
-    """Distinct inclusion-maximal sets of size >= 2 among the rows of a 0/1 matrix given by its entries.
+@dataclass(frozen=True)
+class ConflictSets:
+    """Distinct maximal conflict sets in flat (CSR) form, in canonical order.
 
-    Parameters
-    ----------
-    rows, cols : int arrays
-        Positions of the (distinct) ones: row ``rows[e]`` holds item ``cols[e]``.
-    n_rows, n_cols : int
-        Shape of the matrix.
-
-    Returns
-    -------
-    tuple of ascending int arrays, by decreasing size, then lexicographically by their index lists.
-
-    Notes
-    -----
-    Rows are packed into bit words from the entries (never densified), sorted to make them unique,
-    and each unique set is compared only with the larger sets that hold its rarest item: a set can be
-    contained in no other.
+    Set r holds items ``members[starts[r]:starts[r + 1]]``, ascending; sets are ordered by decreasing
+    size, then lexicographically by their item lists. ``sizes`` and ``owner`` (the set of each member)
+    are kept alongside for `restrict`. All arrays are read-only.
     """
-    sizes = np.bincount(rows, minlength=n_rows)
-    keep = sizes[rows] >= 2
-    rows, cols = rows[keep], cols[keep]
-    if rows.size == 0:
-        return ()
-    words = _bit_words(rows, cols, n_rows, n_cols)
-    order = np.lexsort([~words[:, w] for w in reversed(range(words.shape[1]))] + [-sizes])
-    order = order[sizes[order] >= 2]
-    distinct = np.concatenate([[True], (words[order[1:]] != words[order[:-1]]).any(axis=1)])
-    chosen = order[distinct]  # one row per distinct set: decreasing size, then lexicographic
-    words, sizes = words[chosen], sizes[chosen]
-    position = np.full(n_rows, -1, dtype=np.int64)
-    position[chosen] = np.arange(chosen.size)
-    mine = position[rows] >= 0
-    owner, item = position[rows[mine]], cols[mine]  # entries of the distinct sets
-    by_item = np.argsort(item, kind="stable")
-    owner, item = owner[by_item], item[by_item]
-    holders = np.bincount(item, minlength=n_cols)  # sets holding each item
-    holder = owner  # grouped by item
-    start = np.concatenate([[0], np.cumsum(holders)])
-    by_set = np.argsort(owner, kind="stable")
-    owner, item = owner[by_set], item[by_set]  # grouped by set, items ascending
-    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    rarest = np.minimum.reduceat(holders[item] * n_cols + item, first) % n_cols  # held by the fewest sets
+
+    members: np.ndarray
+    starts: np.ndarray
+    sizes: np.ndarray
+    owner: np.ndarray
+
+    @classmethod
+    def from_cliques(cls, cliques: tuple[np.ndarray, ...]) -> ConflictSets:
+        """The flat form of a tuple of conflict sets (as held by `PackingProblem.cliques`)."""
+        sizes = np.fromiter((c.size for c in cliques), dtype=np.int64, count=len(cliques))
+        members = np.concatenate(cliques).astype(np.int64) if cliques else np.zeros(0, dtype=np.int64)
+        return cls._frozen(members, sizes)
+
+    @classmethod
+    def from_incidence(cls, incidence: sp.spmatrix) -> tuple[ConflictSets, int]:
+        """The maximal conflict sets of an item-by-vertex incidence and the number of non-empty vertex rows
+        (see `maximal_conflict_sets`)."""
+        incidence = sp.csr_matrix(incidence, dtype=bool)
+        if not (incidence.has_canonical_format and incidence.data.all()):
+            incidence = incidence.copy()  # its index arrays may be the caller's
+            incidence.sum_duplicates()
+            incidence.eliminate_zeros()
+        n_items, n_vertices = incidence.shape
+        vertex_sizes = np.bincount(incidence.indices, minlength=n_vertices)
+        n_vertex_rows = int(np.count_nonzero(vertex_sizes))
+        conflicted = vertex_sizes >= 2  # one eq. 3b row each, to be reduced
+        n_rows = int(np.count_nonzero(conflicted))
+        if n_rows == 0:
+            return cls._frozen(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)), n_vertex_rows
+        row_of_vertex = np.cumsum(conflicted) - 1
+        inside = conflicted[incidence.indices]
+        entry_row = row_of_vertex[incidence.indices[inside]]  # entries grouped by item (CSR order)
+        entry_item = np.repeat(np.arange(n_items), np.diff(incidence.indptr))[inside]
+        rows = _bit_rows(entry_row, entry_item, n_rows, n_items)
+        words, sizes = _words(rows), vertex_sizes[conflicted]
+        order = _canonical_order(words, sizes)
+        first = np.ones(n_rows, dtype=bool)  # first row of each run of equal sets in canonical order
+        first[1:] = _differ(words, order[1:], order[:-1])
+        unique = order[first]
+        set_of_row = np.empty(n_rows, dtype=np.int64)
+        set_of_row[order] = np.cumsum(first) - 1
+        representative = np.zeros(n_rows, dtype=bool)
+        representative[unique] = True
+        mine = representative[entry_row]
+        dominated = _dominated_by_larger(
+            set_of_row[entry_row[mine]], entry_item[mine], _take(words, unique), sizes[unique], n_items
+        )
+        maximal = unique[~dominated]
+        _, members = np.nonzero(rows[maximal])
+        return cls._frozen(members.astype(np.int64), sizes[maximal]), n_vertex_rows
+
+    @classmethod
+    def _frozen(cls, members: np.ndarray, sizes: np.ndarray) -> ConflictSets:
+        starts = np.zeros(sizes.size + 1, dtype=np.int64)
+        sizes.cumsum(out=starts[1:])
+        owner = np.arange(sizes.size).repeat(sizes)
+        for array in (members, starts, sizes, owner):
+            array.flags.writeable = False
+        return cls(members, starts, sizes, owner)
+
+    def __len__(self) -> int:
+        return self.sizes.size
+
+    def as_tuple(self) -> tuple[np.ndarray, ...]:
+        """The sets as a tuple of read-only int arrays (views of `members`)."""
+        members, bounds = self.members, self.starts.tolist()
+        return tuple(members[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True))
+
+    def restrict(self, kept: np.ndarray) -> ConflictSets:
+        """The maximal conflict sets over the items where the bool mask ``kept`` is True, renumbered
+        ``0, 1, ...`` in their order.
+
+        Each set ``C`` becomes ``C & kept``; sets left with fewer than two items go. A set that kept all
+        its items stays maximal (it was not inside another set before, so it is not inside a smaller
+        one now) and stays distinct; only the sets that lost items can have become duplicates or
+        subsets of others, and only those are compared, with every set, as bit rows.
+
+        Notes
+        -----
+        O(M) for the M members of the sets, plus O(c S I / 64) word operations for the c sets that lost
+        items against the S sets, in a fixed number of numpy calls. Requires the sets to be distinct,
+        maximal and in canonical order, as `from_incidence` and `restrict` make them; then so are the
+        new ones.
+        """
+        inside = kept[self.members]
+        owner, members = self.owner[inside], (kept.cumsum() - 1)[self.members[inside]]
+        sizes = np.bincount(owner, minlength=len(self))
+        alive = sizes >= 2
+        shrunk = alive & (sizes < self.sizes)
+        if not shrunk.any():  # unchanged sets, renumbered, in the same order
+            return self._frozen(members[alive[owner]], sizes[alive])
+        words = _words(_bit_rows(owner, members, len(self), int(np.count_nonzero(kept))))
+        retained = alive & ~_dominated_among(words, sizes, shrunk.nonzero()[0])
+        order = _canonical_order(words, sizes, retained)
+        start = (sizes.cumsum() - sizes)[order]  # where each set's members are (grouped by set)
+        sizes = sizes[order]
+        ahead = sizes.cumsum() - sizes  # where they go
+        take = (start - ahead).repeat(sizes) + np.arange(ahead[-1] + sizes[-1])
+        return self._frozen(members[take], sizes)
+
+
+def _bit_rows(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> np.ndarray:
+    """(n_rows, 64 W) bool matrix with ones at ``(rows, cols)``, W the 64-bit words needed for n_cols."""
+    width = -(-n_cols // 64) * 64
+    dense = np.zeros(n_rows * width, dtype=bool)
+    dense[rows * width + cols] = True
+    return dense.reshape(n_rows, width)
+
+
+def _words(rows: np.ndarray) -> np.ndarray:
+    """(W, n) uint64 words of n bool rows, word-major; column 0 of the rows is the highest bit of word 0,
+    so the numeric order of the words is the reverse lexicographic order of equally large sets."""
+    return np.ascontiguousarray(np.packbits(rows, axis=1).view(">u8").astype(np.uint64).T)
+
+
+def _canonical_order(words: np.ndarray, sizes: np.ndarray, selected: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the sets (of the ``selected`` ones, if given) by decreasing size, then lexicographically
+    by their ascending item lists."""
+    keys = [*~words[::-1], -sizes]
+    if selected is None:
+        return np.lexsort(keys)
+    return np.lexsort([*keys, ~selected])[: np.count_nonzero(selected)]
+
+
+def _take(words: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """(W, len(index)) words of the sets ``index`` (word by word: contiguous one-dimensional gathers)."""
+    return np.stack([word[index] for word in words])
+
+
+def _differ(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Bool array: sets ``a`` and ``b`` (index arrays that broadcast) differ."""
+    differ = words[0][a] != words[0][b]
+    for word in words[1:]:
+        differ |= word[a] != word[b]
+    return differ
+
+
+def _not_inside(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Bool array: set ``a`` is not a subset of set ``b`` (index arrays that broadcast)."""
+    outside = words[0][a] & ~words[0][b]
+    for word in words[1:]:
+        outside |= word[a] & ~word[b]
+    return outside != 0
+
+
+def _dominated_by_larger(
+    entry_set: np.ndarray, entry_item: np.ndarray, words: np.ndarray, sizes: np.ndarray, n_items: int
+) -> np.ndarray:
+    """(S,) bool: distinct sets contained in a larger one.
+
+    ``entry_set`` and ``entry_item`` list the members of the sets, grouped by item. Each set is compared
+    only with the larger sets that hold its rarest item.
+    """
+    holders = np.bincount(entry_item, minlength=n_items)  # sets holding each item
+    first_holder = np.zeros(n_items + 1, dtype=np.int64)
+    np.cumsum(holders, out=first_holder[1:])
+    rarest = np.full(sizes.size, np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(rarest, entry_set, holders[entry_item] * n_items + entry_item)
+    rarest %= n_items
     counts = holders[rarest]
-    subset = np.repeat(np.arange(chosen.size), counts)
-    offset = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
-    superset = holder[start[rarest[subset]] + offset]
-    larger = sizes[superset] > sizes[subset]  # equal-sized distinct sets never contain each other
+    subset = np.repeat(np.arange(sizes.size), counts)
+    offset = np.arange(subset.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    superset = entry_set[first_holder[rarest[subset]] + offset]
+    larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
     subset, superset = subset[larger], superset[larger]
-    contained = ~(words[subset] & ~words[superset]).any(axis=1)
-    maximal = np.bincount(subset[contained], minlength=chosen.size) == 0
-    return tuple(np.split(item[maximal[owner]].astype(np.int64), np.cumsum(sizes[maximal])[:-1]))
+    contained = ~_not_inside(words, subset, superset)
+    return np.bincount(subset[contained], minlength=sizes.size) > 0
 
 
-_WORD_BITS = 52  # a sum of distinct powers of two below 2**52 is exact in float64
+def _dominated_among(words: np.ndarray, sizes: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """(S,) bool: candidate sets contained in a larger set, or equal to a set listed before them.
 
-
-def _bit_words(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> np.ndarray:
-    """(n_rows, W) uint64 words of each row's bits; item 0 is the highest bit of word 0, so the
-    numeric order of the words is the lexicographic order of the sets (reversed)."""
-    n_words = -(-n_cols // _WORD_BITS)
-    bits = np.ldexp(1.0, _WORD_BITS - 1 - cols % _WORD_BITS)
-    summed = np.bincount(rows * n_words + cols // _WORD_BITS, weights=bits, minlength=n_rows * n_words)
-    return summed.astype(np.uint64).reshape(n_rows, n_words)
+    Of a group of equal sets the first is kept (unless it lies in a larger set); sets that are not
+    candidates are never dominated. A set ``y`` dominates a contained set ``x`` when it ranks higher:
+    larger, or as large (then equal) and earlier.
+    """
+    contained = ~(words[:, candidates, None] & ~words[:, None, :]).any(axis=0)  # (candidates, S)
+    rank = sizes * sizes.size - np.arange(sizes.size)
+    dominated = np.zeros(sizes.size, dtype=bool)
+    dominated[candidates] = (contained & (rank > rank[candidates, None])).any(axis=1)
+    return dominated

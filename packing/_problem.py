@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
-from packing._presolve import maximal_conflict_sets, restrict_conflict_sets
+from packing._presolve import ConflictSets, maximal_conflict_sets
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,15 +63,19 @@ class PackingProblem:
         """I, the number of items."""
         return len(self.items)
 
-    @property
+    @cached_property
     def item_shape_counts(self) -> np.ndarray:
-        """(I,) int array: blendshapes in each item (1, or 2 for a pair); the cap counts these."""
-        return np.fromiter((len(item) for item in self.items), dtype=np.int64, count=len(self.items))
+        """(I,) read-only int array: blendshapes in each item (1, or 2 for a pair); the cap counts these."""
+        counts = np.fromiter(map(len, self.items), dtype=np.int64, count=len(self.items))
+        counts.flags.writeable = False
+        return counts
 
-    @property
+    @cached_property
     def item_active_counts(self) -> np.ndarray:
-        """(I,) int array: active vertices of each item, ``|b_k|`` in Algorithm 2."""
-        return np.asarray(self.incidence.sum(axis=1)).ravel().astype(np.int64)
+        """(I,) read-only int array: active vertices of each item, ``|b_k|`` in Algorithm 2."""
+        counts = np.asarray(self.incidence.sum(axis=1)).ravel().astype(np.int64)
+        counts.flags.writeable = False
+        return counts
 
     def item_label(self, item: int) -> str:
         """Human-readable label: the shape name, or ``a+b`` for a pair."""
@@ -95,31 +100,51 @@ class PackingProblem:
         perturbation = 0.0 if self.tie_break is None else float(self.tie_break[index].sum())
         return float(self.weights[index].sum()) - perturbation
 
-    def restrict(self, keep: Iterable[int]) -> PackingProblem:
+    def restrict(self, keep: Iterable[int], *, meta: Mapping[str, Any] | None = None) -> PackingProblem:
         """The same problem over a subset of its items (renumbered in ascending order), presolved anew.
 
         Used by the expression sequence (Algorithm 1 removes the items already used) and by artist
         refinement (sec. 4.5.3 excludes rejected items from the current expression). The new conflict
         sets are derived from this problem's maximal sets, not from the vertices
-        (`packing._presolve.restrict_conflict_sets`).
+        (`packing._presolve.ConflictSets.restrict`), and the count of vertex rows from this problem's
+        count of items per vertex, less the dropped items' vertices.
+
+        Parameters
+        ----------
+        keep : iterable of int
+            Items kept.
+        meta : mapping, optional
+            Entries to add to the restricted problem's meta.
+
+        Notes
+        -----
+        O(M + nnz) for the M members of the conflict sets and the nnz incidence entries kept, in a
+        fixed number of numpy calls; the kept items' vertices are copied, not visited. A chain of
+        restrictions (the expression sequence) gives exactly the problem that one restriction of the
+        first would.
         """
-        keep_index = np.unique(np.fromiter(keep, dtype=np.int64))
-        if keep_index.size and (keep_index[0] < 0 or keep_index[-1] >= self.n_items):
-            raise ValueError(
-                f"restrict: item indices must be in 0..{self.n_items - 1}, got {keep_index.tolist()}"
-            )
-        incidence = self.incidence[keep_index]
+        keep_index = _item_index(keep, self.n_items)
+        kept = np.zeros(self.n_items, dtype=bool)
+        kept[keep_index] = True
+        incidence, dropped_vertices = _split_rows(self.incidence, kept)
+        cover = self._vertex_cover - np.bincount(dropped_vertices, minlength=incidence.shape[1])
+        sets = self._conflict_sets.restrict(kept)
         weights = self.weights[keep_index]
         weights.flags.writeable = False
-        return replace(
+        shape_counts = self.item_shape_counts[keep_index]
+        shape_counts.flags.writeable = False
+        restricted = replace(
             self,
-            items=tuple(self.items[i] for i in keep_index),
+            items=tuple(map(self.items.__getitem__, keep_index.tolist())),
             weights=weights,
             incidence=incidence,
-            cliques=restrict_conflict_sets(self.cliques, keep_index, self.n_items),
-            n_vertex_rows=int(np.count_nonzero(np.bincount(incidence.indices, minlength=incidence.shape[1]))),
-            meta=_restricted_meta(self.meta, keep_index),
+            cliques=sets.as_tuple(),
+            n_vertex_rows=int(np.count_nonzero(cover)),
+            meta={**_restricted_meta(self.meta, keep_index), **(meta or {})},
             tie_break=None if self.tie_break is None else self.tie_break[keep_index],
+        )
+        return _with_structure(
+            restricted, _conflict_sets=sets, _vertex_cover=cover, item_shape_counts=shape_counts
         )
 
     def reweighted(self, weights: np.ndarray, tie_break: np.ndarray | None = None) -> PackingProblem:
@@ -128,9 +153,87 @@ class PackingProblem:
         if weights.shape != (self.n_items,) or not np.isfinite(weights).all():
             raise ValueError(f"reweighted: need {self.n_items} finite weights, got shape {weights.shape}")
         weights.flags.writeable = False
-        return replace(
+        reweighted = replace(
             self, weights=weights, tie_break=tie_break if tie_break is not None else self.tie_break
         )
+        return _with_structure(reweighted, **_structure_of(self))
+
+    @cached_property
+    def _conflict_sets(self) -> ConflictSets:
+        """`cliques` in flat form, for `restrict`."""
+        return ConflictSets.from_cliques(self.cliques)
+
+    @cached_property
+    def _vertex_cover(self) -> np.ndarray:
+        """(N,) int array: items active at each vertex (eq. 3b row sums of all items), for `restrict`."""
+        return np.bincount(
+            _active_vertices(self.incidence.indices, self.incidence.data), minlength=self.incidence.shape[1]
+        )
+
+
+def with_meta(problem: PackingProblem, **meta: Any) -> PackingProblem:
+    """``problem`` with entries added to its meta (structure caches kept: no presolve is redone)."""
+    return _with_structure(replace(problem, meta={**problem.meta, **meta}), **_structure_of(problem))
+
+
+#: Cached values of a problem that depend on its items and incidence only, not on its weights.
+_STRUCTURE = ("_conflict_sets", "_vertex_cover", "item_shape_counts", "item_active_counts")
+
+
+def _with_structure(problem: PackingProblem, **cached: Any) -> PackingProblem:
+    """``problem`` with structure values already known (the `cached_property` values of `_STRUCTURE`,
+    which live in the instance dictionary; a frozen dataclass only forbids assigning fields)."""
+    problem.__dict__.update(cached)
+    return problem
+
+
+def _structure_of(problem: PackingProblem) -> dict[str, Any]:
+    """The structure values of ``problem`` computed so far."""
+    return {name: problem.__dict__[name] for name in _STRUCTURE if name in problem.__dict__}
+
+
+def _item_index(keep: Iterable[int], n_items: int) -> np.ndarray:
+    """Ascending distinct item indices from any iterable of them, checked against ``0..n_items-1``."""
+    if isinstance(keep, np.ndarray):
+        index = keep.astype(np.int64, copy=False).ravel()
+    else:
+        index = np.fromiter(keep, dtype=np.int64)
+    if index.size > 1 and not (index[1:] > index[:-1]).all():
+        index = np.unique(index)
+    if index.size and (index[0] < 0 or index[-1] >= n_items):
+        raise ValueError(f"restrict: item indices must be in 0..{n_items - 1}, got {index.tolist()}")
+    return index
+
+
+def _split_rows(matrix: sp.csr_matrix, kept: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The rows of a CSR bool matrix where ``kept`` is True (canonical flag kept), and the columns of the
+    True entries of the other rows. The kept rows are copied a run of consecutive rows at a time."""
+    indptr, indices, data = matrix.indptr, matrix.indices, matrix.data
+    dropped = (~kept).nonzero()[0]
+    starts, stops = indptr[dropped].tolist(), indptr[dropped + 1].tolist()
+    kept_runs = list(zip([0, *stops], [*starts, indices.size], strict=True))
+    selected_indptr = np.zeros(kept.size - dropped.size + 1, dtype=indptr.dtype)
+    (indptr[1:] - indptr[:-1])[kept].cumsum(out=selected_indptr[1:])
+    selected = sp.csr_matrix(
+        (
+            np.concatenate([data[a:b] for a, b in kept_runs]),
+            np.concatenate([indices[a:b] for a, b in kept_runs]),
+            selected_indptr,
+        ),
+        shape=(selected_indptr.size - 1, matrix.shape[1]),
+    )
+    if matrix.has_canonical_format:
+        selected.has_canonical_format = True
+    dropped_runs = list(zip(starts, stops, strict=True))
+    return selected, _active_vertices(
+        np.concatenate([indices[a:b] for a, b in dropped_runs] or [indices[:0]]),
+        np.concatenate([data[a:b] for a, b in dropped_runs] or [data[:0]]),
+    )
+
+
+def _active_vertices(indices: np.ndarray, data: np.ndarray) -> np.ndarray:
+    """Column indices of the True entries among CSR entries."""
+    return indices if data.all() else indices[data]
 
 
 def _restricted_meta(meta: Mapping[str, Any], keep: np.ndarray) -> dict[str, Any]:
@@ -174,7 +277,9 @@ def problem_from_incidence(
     -------
     PackingProblem with its maximal conflict sets computed.
     """
-    incidence = sp.csr_matrix(incidence, dtype=bool)
+    incidence = sp.csr_matrix(incidence, dtype=bool, copy=True)
+    incidence.sum_duplicates()
+    incidence.eliminate_zeros()  # explicit False entries are no active vertices
     weights = np.array(weights, dtype=np.float64).ravel()
     n_items = incidence.shape[0]
     if weights.shape != (n_items,):

@@ -105,7 +105,9 @@ def sequence(
     Each iteration solves eq. 3 over the items not used yet, with importance recomputed (the
     uniqueness term of eq. 8 when ``beta > 0``), and removes the chosen items. The loop stops when
     every non-empty shape is used *or* ``jmax`` expressions exist (the paper's "or" in the loop
-    condition is a typo for "and" of the negations), or when the solver returns nothing.
+    condition is a typo for "and" of the negations), or when the solver returns nothing. Each problem
+    is derived from the previous one's presolved conflict sets (`Analysis.next_problem`, DESIGN.md:
+    the sequence re-solves a shrinking problem); only the analysis visits the vertices.
 
     Parameters
     ----------
@@ -156,9 +158,11 @@ def sequence(
     used: list[str] = []
     used_items: list[int] = []
     expressions: list[Expression] = []
+    problem: PackingProblem | None = None
+    chosen = np.zeros(0, dtype=np.int64)
     while remaining > 0 and (jmax is None or len(expressions) < jmax):
         start = time.perf_counter()
-        problem = analysis.problem_for(used)
+        problem = analysis.problem_for() if problem is None else analysis.next_problem(problem, chosen, used)
         presolve_time = time.perf_counter() - start
         solution = solver.solve(problem, time_limit=time_limit, seed=seed)
         chosen = _chosen_items(problem, solution)
@@ -199,7 +203,7 @@ def sequence(
 
 
 def _chosen_items(problem: PackingProblem, solution: Solution) -> np.ndarray:
-    chosen = np.unique(np.asarray(solution.items, dtype=np.int64))
+    chosen = np.array(sorted({int(item) for item in solution.items}), dtype=np.int64)
     if chosen.size and (chosen[0] < 0 or chosen[-1] >= problem.n_items):
         raise ValueError(
             f"solver {solution.backend or '?'} returned items {list(solution.items)} "

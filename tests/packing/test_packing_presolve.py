@@ -85,6 +85,96 @@ def test_restricted_presolve_equals_presolving_from_the_vertices(instance, data)
     assert restricted.weights.tolist() == fresh.weights.tolist()
 
 
+def _naive_maximal_sets(incidence):
+    """The definition, by Python sets: distinct vertex item sets of size >= 2 that lie in no other."""
+    sets = {frozenset(np.flatnonzero(column).tolist()) for column in np.asarray(incidence, dtype=bool).T}
+    sets = {s for s in sets if len(s) >= 2}
+    maximal = [sorted(s) for s in sets if not any(s < other for other in sets)]
+    return sorted(maximal, key=lambda items: (-len(items), items))
+
+
+@settings(max_examples=200, deadline=None)
+@given(instances())
+def test_presolve_gives_the_maximal_vertex_sets_in_canonical_order(instance):
+    incidence = instance[0]
+    cliques, rows = maximal_conflict_sets(sp.csr_matrix(incidence))
+    assert [c.tolist() for c in cliques] == _naive_maximal_sets(incidence)
+    assert rows == int(incidence.any(axis=0).sum())
+
+
+@st.composite
+def wide_instances(draw):
+    """Up to 140 items (three 64-bit words) on up to 60 vertices, each item on a few nearby vertices."""
+    n_items = draw(st.integers(2, 140))
+    n_vertices = draw(st.integers(2, 60))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    centre = rng.integers(0, n_vertices, size=n_items)
+    spread = rng.integers(0, 4, size=n_items)
+    vertex = np.arange(n_vertices)
+    incidence = np.abs(vertex[None, :] - centre[:, None]) <= spread[:, None]
+    incidence &= rng.random(incidence.shape) < draw(st.floats(0.5, 1.0))
+    return incidence
+
+
+@settings(max_examples=100, deadline=None)
+@given(wide_instances())
+def test_presolve_of_many_items_gives_the_maximal_vertex_sets(incidence):
+    cliques, _ = maximal_conflict_sets(sp.csr_matrix(incidence))
+    assert [c.tolist() for c in cliques] == _naive_maximal_sets(incidence)
+
+
+@settings(max_examples=100, deadline=None)
+@given(wide_instances(), st.data())
+def test_a_chain_of_restrictions_equals_presolving_from_the_vertices(incidence, data):
+    """The expression sequence restricts the previous problem again and again (incremental presolve)."""
+    n_items = incidence.shape[0]
+    weights = np.linspace(0.1, 1.0, n_items)
+    problem = problem_from_incidence(incidence, weights)
+    alive = np.arange(n_items)  # items of the first problem still in `problem`
+    for _ in range(data.draw(st.integers(1, 6))):
+        if problem.n_items == 0:
+            break
+        most = max(1, problem.n_items // 3)
+        dropped = data.draw(st.sets(st.integers(0, problem.n_items - 1), max_size=most))
+        keep = [i for i in range(problem.n_items) if i not in dropped]
+        problem, alive = problem.restrict(keep), alive[keep]
+        fresh = problem_from_incidence(incidence[alive], weights[alive])
+        assert [c.tolist() for c in problem.cliques] == [c.tolist() for c in fresh.cliques]
+        assert [c.tolist() for c in problem.cliques] == _naive_maximal_sets(incidence[alive])
+        assert problem.n_vertex_rows == fresh.n_vertex_rows
+        assert (problem.incidence != fresh.incidence).nnz == 0
+        assert problem.weights.tolist() == weights[alive].tolist()
+
+
+def test_restrict_keeps_one_of_equal_sets_and_drops_the_contained_ones():
+    cliques = (np.array([0, 1, 2]), np.array([0, 1, 3]), np.array([2, 3, 4]))
+    assert [c.tolist() for c in restrict_conflict_sets(cliques, np.array([0, 1, 4]), 5)] == [[0, 1]]
+    assert [c.tolist() for c in restrict_conflict_sets(cliques, np.array([0, 1, 2, 4]), 5)] == [
+        [0, 1, 2],
+        [2, 3],
+    ]
+    assert [c.tolist() for c in restrict_conflict_sets(cliques, np.arange(5), 5)] == [
+        [0, 1, 2],
+        [0, 1, 3],
+        [2, 3, 4],
+    ]
+
+
+def test_explicit_zeros_and_duplicate_entries_are_not_active_vertices():
+    # Item 0 on vertices 0, 1; item 1 on vertex 1 (stored twice) and an explicit zero at vertex 0.
+    incidence = sp.csr_matrix(
+        (np.array([1, 1, 0, 1, 1]), (np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 1]))), shape=(2, 3)
+    )
+    stored = incidence.copy()
+    cliques, rows = maximal_conflict_sets(incidence)
+    assert [c.tolist() for c in cliques] == [[0, 1]] and rows == 2
+    assert (incidence != stored).nnz == 0 and incidence.nnz == stored.nnz  # the caller's matrix is untouched
+    problem = problem_from_incidence(incidence, [1.0, 1.0])
+    assert problem.item_active_counts.tolist() == [2, 1]
+    assert problem.restrict([1]).n_vertex_rows == 1
+
+
 def test_rows_before_and_after():
     # Vertices: 0 in {0}, 1 in {0, 1}, 2 in {0, 1, 2}, 3 in {1, 2}, 4 in {2, 3}, 5 in {2, 3}, 6 in none.
     incidence = np.zeros((4, 7), dtype=bool)

@@ -93,6 +93,64 @@ def test_importance_is_recomputed_from_the_used_shapes(crowded, exact_solver):
     assert len(seen) > 2
 
 
+def _same_problem(derived, fresh):
+    assert derived.items == fresh.items
+    assert derived.weights.tolist() == fresh.weights.tolist()
+    assert derived.tie_break.tolist() == fresh.tie_break.tolist()
+    assert [c.tolist() for c in derived.cliques] == [c.tolist() for c in fresh.cliques]
+    assert derived.n_vertex_rows == fresh.n_vertex_rows
+    assert derived.incidence.shape == fresh.incidence.shape
+    assert (derived.incidence != fresh.incidence).nnz == 0
+    assert derived.item_shape_counts.tolist() == fresh.item_shape_counts.tolist()
+    assert derived.item_active_counts.tolist() == fresh.item_active_counts.tolist()
+    assert derived.cap == fresh.cap
+    assert derived.meta["item_index"].tolist() == fresh.meta["item_index"].tolist()
+    assert derived.meta["used"] == fresh.meta["used"]
+
+
+@pytest.mark.parametrize("params", [{}, {"beta": 0.5}, {"max_per_expression": 3, "importance": False}])
+def test_each_problem_of_the_sequence_equals_the_problem_from_the_used_shapes(crowded, exact_solver, params):
+    """The sequence derives each problem from the previous one (`Analysis.next_problem`); it must be
+    exactly the problem built for the shapes used so far (`Analysis.problem_for`)."""
+    seen = []
+
+    class Recording:
+        def solve(self, problem, *, time_limit=None, seed=0):
+            seen.append(problem)
+            return exact_solver.solve(problem, time_limit=time_limit, seed=seed)
+
+    analysis = packing.analyse(crowded, **params)
+    expressions = packing.sequence(crowded, Recording(), analysis=analysis)
+    used: list[str] = []
+    for expression, problem in zip(expressions, seen, strict=True):
+        _same_problem(problem, analysis.problem_for(used))
+        assert expression.vertex_rows == problem.n_vertex_rows
+        used.extend(expression.shapes)
+    assert len(seen) > 2
+
+
+def test_next_problem_on_a_generated_rig_follows_problem_for(exact_solver):
+    rig = rigs.generate("arkit52", seed=0)
+    analysis = packing.analyse(rig, beta=0.3)
+    problem, used = analysis.problem_for(), []
+    while problem.n_items:
+        chosen = exact_solver.solve(problem).items
+        used.extend(problem.shapes_of(chosen))
+        problem = analysis.next_problem(problem, chosen, used)
+        _same_problem(problem, analysis.problem_for(used))
+
+
+def test_next_problem_refuses_problems_it_cannot_continue(crowded):
+    analysis = packing.analyse(crowded)
+    problem = analysis.problem_for()
+    with pytest.raises(ValueError, match=r"chosen items must be in 0..\d+, got \[-1\]"):
+        analysis.next_problem(problem, [-1])
+    with pytest.raises(ValueError, match="without excluded shapes"):
+        analysis.next_problem(analysis.problem_for(exclude=["blob0"]), [0])
+    with pytest.raises(ValueError, match="problem of this analysis"):
+        analysis.next_problem(packing.problem_from_incidence(np.eye(2, dtype=bool), [1.0, 1.0]), [0])
+
+
 def test_the_analysis_is_done_once(crowded, exact_solver, monkeypatch):
     import packing._problem as problem_module
 
