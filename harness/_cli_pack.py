@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from rich.markup import escape
 from rich.table import Table
 
 from harness._cli_types import DURATION, terminal
@@ -103,7 +104,7 @@ def pack(
         rejections=parse_rejections(reject),
         decide=decide if refine else None,
     )
-    table = Table(title=f"{rig}: {len(result.document['expressions'])} expressions by {solver}")
+    table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {solver}"))
     for column, justify in (
         ("#", "right"),
         ("shapes", "right"),
@@ -113,9 +114,9 @@ def pack(
     ):
         table.add_column(column, justify=justify)  # type: ignore[arg-type]
     for index, expression in enumerate(result.document["expressions"], start=1):
-        names = ", ".join(expression["shapes"])
+        names = escape(", ".join(expression["shapes"]))
         if expression["extra_examples"]:
-            names += f" [dim](+ {', '.join(expression['extra_examples'])})[/]"
+            names += f" [dim](+ {escape(', '.join(expression['extra_examples']))})[/]"
         table.add_row(
             str(index),
             str(len(expression["shapes"])),
@@ -124,6 +125,6 @@ def pack(
             names,
         )
     for note in result.notes:
-        terminal().print(f"[dim]note: {note}[/]")
+        terminal().print(f"[dim]note: {escape(note)}[/]")
     terminal().print(table)
-    terminal().print(f"wrote {out / EXPRESSIONS_FILE} and {len(result.files) - 1} OBJ files to {out}")
+    terminal().print(escape(f"wrote {out / EXPRESSIONS_FILE} and {len(result.files) - 1} OBJ files to {out}"))

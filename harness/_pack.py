@@ -32,7 +32,18 @@ EXPRESSIONS_FILE = "expressions.json"
 
 @dataclass(frozen=True)
 class PackResult:
-    """What `pack` wrote."""
+    """What `pack` wrote.
+
+    Attributes
+    ----------
+    document : dict
+        The content of ``expressions.json``.
+    files : list of Path
+        ``expressions.json``, then the expression meshes.
+    notes : list of str
+        What the user should know: what the analysis skipped or could not do (empty shapes, vertices
+        without a mirror, no target), the symmetry pairs, and shapes left out of every expression.
+    """
 
     document: dict[str, Any]
     files: list[Path]
@@ -86,12 +97,14 @@ def target_neutral(path: str | None, rig: Any) -> np.ndarray | None:
 
 
 def read_obj_vertices(path: Path) -> np.ndarray:
-    """(N, 3) positions of the ``v`` lines of an OBJ (faces, normals and texture coordinates ignored)."""
+    """(N, 3) positions of the ``v`` lines of an OBJ (faces, normals, texture coordinates, vertex colours and
+    comments ignored; any line ends and indentation)."""
     import rigs
 
     try:
-        lines = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-        vertices = np.array(lines, dtype=np.float64).reshape(-1, 3)
+        rows = (line.split("#", 1)[0].split() for line in path.read_text(errors="replace").splitlines())
+        vertices = np.array([row[1:4] for row in rows if row and row[0] == "v"], dtype=np.float64)
+        vertices = vertices.reshape(-1, 3)
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise rigs.RigError(f"{path}: cannot read OBJ vertices ({error})") from None
     if not len(vertices) or not np.isfinite(vertices).all():
@@ -140,13 +153,16 @@ def pack(
     rig = resolve_rig(rig_argument, seed=seed)
     neutral = target_neutral(target, rig)
     solver = _refining(plugins.solver(solver_name), rig, rejections or {}, decide)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", packing.MissingTargetWarning)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
         analysis = packing.analyse(rig, neutral, **params)
     expressions = packing.sequence(
         rig, solver, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
     )
     packing.check(rig, expressions, pairs=analysis.pairs, **params)
+    refined = bool(rejections) or decide is not None
+    notes = [*analysis.notes, _symmetry_note(analysis), *_coverage_notes(analysis, expressions, refined)]
+    expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
     document = {
         "rig": rig_argument,
         "solver": solver_name,
@@ -170,7 +186,42 @@ def pack(
         stale.unlink()
     files = [_write_json(out / EXPRESSIONS_FILE, document)]
     files += _write_expression_meshes(rig, document["expressions"], out)
-    return PackResult(document, files, [str(warning.message) for warning in caught])
+    return PackResult(document, files, notes)
+
+
+def _coverage_notes(analysis: Any, expressions: Sequence[Any], refined: bool) -> list[str]:
+    """Which packable shapes no expression holds, and why the sequence stopped before them: an expression
+    came out empty (every proposal rejected, or the solver found nothing), else ``jmax`` was reached."""
+    used = {name for expression in expressions for name in expression.shapes}
+    missing = [
+        name
+        for name, ok in zip(analysis.rig.names, analysis.packable, strict=True)
+        if ok and name not in used
+    ]
+    if not missing:
+        return []
+    empty = next((expression for expression in expressions if not expression.shapes), None)
+    if empty is None:
+        reason = f"--jmax {len(expressions)} reached"
+    elif refined:
+        reason = (
+            f"every shape proposed for expression {empty.index} was rejected, so the sequence stopped there"
+        )
+    else:
+        reason = (
+            f"the solver found no expression {empty.index}: {empty.status}, {empty.message or 'no message'}"
+        )
+    return [f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}"]
+
+
+def _symmetry_note(analysis: Any) -> str:
+    symmetry = analysis.symmetry
+    if not analysis.params.symmetry:
+        return "symmetry off: no pairs"
+    return (
+        f"{len(symmetry.pairs)} symmetry pairs kept together "
+        f"({len(symmetry.shape_pairs)} mirror, {len(symmetry.motion_pairs)} motion)"
+    )
 
 
 def _refining(
@@ -210,26 +261,34 @@ def _write_expression_meshes(rig: Any, expressions: Sequence[Mapping[str, Any]],
     for row, expression in zip(weights, expressions, strict=True):
         row[rig.indices([*expression["shapes"], *expression["extra_examples"]])] = 1.0
     meshes = transfer.training_expressions(rig, weights)
-    faces = rig.faces if rig.faces is not None else tuple(rig.triangles)
+    faces = _obj_face_text(rig.faces if rig.faces is not None else rig.triangles)  # shared by every file
     width = max(2, len(str(len(expressions))))
     paths = []
     for index, (vertices, expression) in enumerate(zip(meshes, expressions, strict=True), start=1):
         path = out / f"expression_{index:0{width}d}.obj"
-        write_obj(path, vertices, faces, comment=f"expression {index}: {' '.join(expression['shapes'])}")
+        comment = f"expression {index}: {' '.join(expression['shapes'])}"
+        path.write_text(_obj_header(comment) + _obj_vertex_text(vertices) + faces)
         paths.append(path)
     return paths
 
 
 def write_obj(path: Path, vertices: np.ndarray, faces: Sequence[np.ndarray], *, comment: str = "") -> None:
     """Write one mesh as a Wavefront OBJ: ``v`` lines (round-trip floats), then 1-based ``f`` lines."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    vertex_text = ("v %r %r %r\n" * len(vertices)) % tuple(vertices.ravel().tolist())
-    if all(len(face) == 3 for face in faces):
+    path.write_text(_obj_header(comment) + _obj_vertex_text(vertices) + _obj_face_text(faces))
+
+
+def _obj_face_text(faces: Sequence[np.ndarray] | np.ndarray) -> str:
+    """The 1-based ``f`` lines of polygons (a (T, 3) array of triangles, or a sequence of polygons)."""
+    if isinstance(faces, np.ndarray) or all(len(face) == 3 for face in faces):
         corners = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
-        face_text = ("f %d %d %d\n" * len(corners)) % tuple(corners.ravel().tolist())
-    else:
-        face_text = "".join(
-            "f " + " ".join(map(str, (np.asarray(face) + 1).tolist())) + "\n" for face in faces
-        )
-    header = "".join(f"# {line}\n" for line in comment.splitlines())
-    path.write_text(header + vertex_text + face_text)
+        return ("f %d %d %d\n" * len(corners)) % tuple(corners.ravel().tolist())
+    return "".join("f " + " ".join(map(str, (np.asarray(face) + 1).tolist())) + "\n" for face in faces)
+
+
+def _obj_vertex_text(vertices: np.ndarray) -> str:
+    vertices = np.asarray(vertices, dtype=np.float64)
+    return ("v %r %r %r\n" * len(vertices)) % tuple(vertices.ravel().tolist())
+
+
+def _obj_header(comment: str) -> str:
+    return "".join(f"# {line}\n" for line in comment.splitlines())

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -30,9 +31,9 @@ def cell_summary(spec: CellSpec, rows: list[dict[str, Any]]) -> str:
     cell = rows[0]
     status = cell["status"]
     style = _STATUS_STYLE.get(status, "white")
-    head = f"[{style}]{status:>7}[/] {spec.label()}"
+    head = f"[{style}]{status:>7}[/] {escape(spec.label())}"
     if status != "ok":
-        return f"{head}: {cell.get('message', '')}"
+        return f"{head}: {escape(str(cell.get('message', '')))}"
     text = (
         f"{head}: {cell['n_expressions']} expressions, {cell['n_covered']}/{cell['n_shapes']} shapes, "
         f"analysis {format_duration(cell['analysis_time'])}, "
@@ -61,7 +62,7 @@ class RichReporter:
 
     def begin(self, total: int, done: int, pending: list[CellSpec], skipped: dict[str, str]) -> None:
         for name, reason in skipped.items():
-            self.console.print(f"[yellow]skipping solver {name}[/]: {reason}")
+            self.console.print(f"[yellow]skipping solver {escape(name)}[/]: {escape(reason)}")
         if done:
             self.console.print(f"resuming: {done} of {total} cells already recorded, {len(pending)} to run")
         if self.quiet or not pending:
@@ -82,7 +83,7 @@ class RichReporter:
             groups[_group(spec)] = groups.get(_group(spec), 0) + 1
         if len(groups) > 1:
             for name, count in groups.items():
-                self._tasks[name] = self._progress.add_task(name, total=count)
+                self._tasks[name] = self._progress.add_task(escape(name), total=count)
         self._progress.start()
 
     def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None:

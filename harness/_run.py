@@ -38,7 +38,7 @@ from harness import _environment as environment
 from harness import _plugins as plugins
 from harness._cell import failure_rows
 from harness._executors import Executor
-from harness._grid import CellSpec, RunConfig
+from harness._grid import NO_WARP, CellSpec, RunConfig
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
 from harness._records import (
     OVERLAP_FILE,
@@ -50,6 +50,7 @@ from harness._records import (
     write_part,
     write_table_atomically,
 )
+from harness._rigspec import check_rig_files
 
 RUN_FILE = "run.json"
 RUN_FORMAT = 1
@@ -140,6 +141,7 @@ def validate_config(config: RunConfig) -> RunConfig:
     )
     plugins.check_rigs(config.rigs)
     plugins.check_warps(config.warps)
+    check_rig_files(config.rigs, config.warps, no_warp=NO_WARP)
     if config.repetitions < 1:
         raise ValueError(f"--repetitions must be at least 1, got {config.repetitions}")
     if config.jmax is not None and config.jmax < 1:

@@ -15,6 +15,7 @@ import sys
 from typing import Any
 
 import click
+from rich.markup import escape
 
 from harness._cli_types import terminal
 
@@ -36,7 +37,7 @@ class UserError(click.ClickException):
     exit_code = 2
 
     def show(self, file: Any = None) -> None:
-        terminal(stderr=True).print(f"[bold red]error:[/] {self.format_message()}")
+        terminal(stderr=True).print(f"[bold red]error:[/] {escape(self.format_message())}")
 
 
 def _plugin_entry_points() -> dict[str, importlib.metadata.EntryPoint]:

@@ -25,7 +25,7 @@ from reports._tables import (
     CASE_COLUMNS,
     SETTING_COLUMNS,
     cell_times,
-    rig_label,
+    rig_labels,
     setting_label,
 )
 
@@ -107,9 +107,10 @@ def _case_labels(cases: Iterable[tuple]) -> dict[tuple, str]:
     settings = [
         c for c in ("rig_seed", *SETTING_COLUMNS) if frame[c].astype(object).fillna("none").nunique() > 1
     ]
+    labels = rig_labels(frame["rig"].astype(str))
     return {
         case: "/".join(
-            [rig_label(str(row["rig"])), str(row["warp"]), str(row["solver"])]
+            [labels[str(row["rig"])], str(row["warp"]), str(row["solver"])]
             + ([setting_label(row, settings)] if settings else [])
         )
         for case, (_, row) in zip(cases, frame.iterrows(), strict=True)

@@ -125,10 +125,15 @@ def write_documents(title: str, sections: Sequence[Section], directory: Path) ->
     directory.mkdir(parents=True, exist_ok=True)
     figures = directory / "figures"
     figures.mkdir(exist_ok=True)
+    written = set()
     for section in sections:
         for block in section.blocks:
             if isinstance(block, Image):
                 (figures / f"{block.name}.png").write_bytes(block.png)
+                written.add(f"{block.name}.png")
+    for stale in figures.glob("*.png"):  # from an earlier report of the run, e.g. a rig since renamed
+        if stale.name not in written:
+            stale.unlink()
     page = directory / "index.html"
     page.write_text(html_page(title, sections), encoding="utf-8")
     text = directory / "report.md"

@@ -88,7 +88,7 @@ def coverage_figure(records: pd.DataFrame, rig: str) -> Figure:
                     linewidth=0.8,
                     label="non-empty shapes",
                 )
-            ax.set_title(f"{rig_label(rig)}, warp {warp}")
+            ax.set_title(f"{rig_label(rig, records['rig'].unique())}, warp {warp}")
             ax.set_xlabel("expressions (count)")
             ax.xaxis.set_major_locator(MaxNLocator(integer=True))
             ax.set_ylabel("shapes covered (count)")
@@ -132,7 +132,7 @@ def rms_figure(records: pd.DataFrame, rig: str) -> Figure:
                     markersize=3,
                     **styles[(keys[0], setting)],
                 )
-            ax.set_title(f"{rig_label(rig)}, warp {warp}, transfer {transfer}")
+            ax.set_title(f"{rig_label(rig, records['rig'].unique())}, warp {warp}, transfer {transfer}")
             ax.set_xlabel("training expressions J (count)")
             ax.xaxis.set_major_locator(MaxNLocator(integer=True))
             ax.set_ylabel("RMS error per vertex (rig length units)")

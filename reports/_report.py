@@ -22,7 +22,7 @@ from reports._tables import (
     ok_cells,
     overlap_table,
     problem_table,
-    rig_label,
+    rig_labels,
     setting_label,
     timing_table,
     varying_settings,
@@ -65,14 +65,13 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
     rows = expression_rows(records)
     rows = rows[rows["repetition"] == rows["repetition"].min()]
     settings = varying_settings(records)
+    labels = rig_labels(records["rig"])
     blocks: list[Image | str] = []
     for (rig_name, rig_seed), of_rig in rows.groupby(["rig", "rig_seed"], sort=True):
         try:
             rig = harness.resolve_rig(rig_name, seed=int(rig_seed))
         except (OSError, ValueError) as error:
-            blocks.append(
-                f"No contact sheet for rig {rig_label(rig_name)}: it could not be rebuilt ({error})."
-            )
+            blocks.append(f"No contact sheet for rig {labels[rig_name]}: it could not be rebuilt ({error}).")
             continue
         keys = [c for c in GROUP_COLUMNS if c not in ("rig", "rig_seed", "repetition")]
         for _, group in of_rig.groupby(keys, sort=True, dropna=False):
@@ -82,14 +81,14 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
             }
             first = group.iloc[0]
             title = ", ".join(
-                filter(None, [rig_label(rig_name), f"warp {first['warp']}", setting_label(first, settings)])
+                filter(None, [labels[rig_name], f"warp {first['warp']}", setting_label(first, settings)])
             )
             figure = contact_sheet(
                 rig, sequences, expressions=expressions, mu=float(first["mu"]), title=title
             )
             blocks.append(
                 Image(
-                    _slug("contact", rig_label(rig_name), first["warp"], setting_label(first, settings)),
+                    _slug("contact", labels[rig_name], first["warp"], setting_label(first, settings)),
                     png_bytes(figure),
                     f"First {expressions} expressions of every solver on {title}; solvers with identical "
                     "expressions share a row. Active vertices (eq. 2) of each shape in its colour.",
@@ -117,6 +116,7 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
         ].unique()
     )
     constant = [c for c in SETTING_COLUMNS if c not in varying_settings(records)]
+    labels = rig_labels(records["rig"])
     shared = finished.iloc[0] if not finished.empty else None
     sections = [
         Section(
@@ -151,9 +151,9 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
             "Coverage",
             [
                 Image(
-                    _slug("coverage", rig_label(rig)),
+                    _slug("coverage", labels[rig]),
                     png_bytes(coverage_figure(records, rig)),
-                    f"Shapes covered against the number of expressions on {rig_label(rig)}.",
+                    f"Shapes covered against the number of expressions on {labels[rig]}.",
                 )
                 for rig in rigs_shown
             ],
@@ -162,10 +162,10 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
             "Transfer error (paper Figs. 9 and 10)",
             [
                 Image(
-                    _slug("rms", rig_label(rig)),
+                    _slug("rms", labels[rig]),
                     png_bytes(rms_figure(records, rig)),
                     "Per-vertex RMS error of the transferred blendshapes against ground truth on "
-                    f"{rig_label(rig)}, against the number of training expressions J.",
+                    f"{labels[rig]}, against the number of training expressions J.",
                 )
                 for rig in transfer_rigs
             ]

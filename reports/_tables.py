@@ -6,6 +6,7 @@ Every function takes the records DataFrame of `harness.read_records` (or the ove
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import pandas as pd
@@ -34,10 +35,43 @@ GROUP_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "
 CASE_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "solver")
 
 
-def rig_label(rig: str) -> str:
-    """Short name of a rig: a preset name as is, a rig file by its stem (``faces/actor.npz`` -> ``actor``)."""
+def rig_labels(rigs: Iterable[str]) -> dict[str, str]:
+    """Short, distinct names of the rigs of a run: a preset name as is, a rig file by its stem
+    (``faces/actor.npz`` -> ``actor``), with as many parent folders as it takes to tell it from the others
+    (``a/face.npz``, ``b/face.npz`` -> ``a/face``, ``b/face``)."""
+    names = list(dict.fromkeys(str(rig) for rig in rigs))
+    choices = {name: _label_choices(name) for name in names}
+    depth = dict.fromkeys(names, 0)
+    while True:
+        labels = {name: choices[name][depth[name]] for name in names}
+        holders: dict[str, list[str]] = {}
+        for name, label in labels.items():
+            holders.setdefault(label, []).append(name)
+        longer = [
+            name
+            for group in holders.values()
+            if len(group) > 1
+            for name in group
+            if depth[name] + 1 < len(choices[name])
+        ]
+        if not longer:
+            return labels
+        for name in longer:
+            depth[name] += 1
+
+
+def _label_choices(rig: str) -> list[str]:
+    """Labels of one rig, shortest first, ending with the full argument."""
     path = Path(rig)
-    return path.stem if len(path.parts) > 1 or path.suffix else rig
+    if len(path.parts) <= 1 and not path.suffix:
+        return [rig]
+    parts = path.with_suffix("").parts
+    return list(dict.fromkeys(["/".join(parts[-n:]) for n in range(1, len(parts) + 1)] + [rig]))
+
+
+def rig_label(rig: str, among: Iterable[str] = ()) -> str:
+    """Short name of ``rig``, distinct from those of the rigs ``among`` (see `rig_labels`)."""
+    return rig_labels([str(rig), *among])[str(rig)]
 
 
 def varying_settings(records: pd.DataFrame) -> list[str]:
@@ -132,6 +166,7 @@ def timing_table(records: pd.DataFrame) -> pd.DataFrame:
     """
     times = cell_times(records)
     settings = varying_settings(records)
+    labels = rig_labels(times["rig"])
     rows = []
     for keys, case in times.groupby(["rig", "warp", *settings, "solver"], sort=True, dropna=False):
         rig, warp = keys[0], keys[1]
@@ -139,7 +174,7 @@ def timing_table(records: pd.DataFrame) -> pd.DataFrame:
         sequence, sequence_spread = _median_and_spread(case["sequence_time"])
         rows.append(
             {
-                "rig": rig_label(rig),
+                "rig": labels[rig],
                 "warp": warp,
                 "setting": setting_label(case.iloc[0], settings),
                 "solver": keys[-1],
@@ -207,7 +242,7 @@ def overlap_table(overlap: pd.DataFrame) -> pd.DataFrame:
     table = first_repetition.pivot_table(index=index, columns="first", values="cell", aggfunc="first")
     table.columns = [f"{first} ex." for first in table.columns]
     table = table.reset_index()
-    table["rig"] = table["rig"].map(rig_label)
+    table["rig"] = table["rig"].map(rig_labels(table["rig"]))
     paper_rows = []
     for rig in sorted(set(table["rig"]) & set(PAPER_OVERLAP.index.get_level_values("rig"))):
         published = PAPER_OVERLAP.loc[rig]
@@ -254,7 +289,7 @@ def expression_count_table(records: pd.DataFrame) -> pd.DataFrame:
         facts["minimum"] = best.groupby(index, dropna=False).apply(_minimum_label, include_groups=False)
         columns.append("minimum")
     table = facts[columns].join(table).reset_index()
-    table["rig"] = table["rig"].map(rig_label)
+    table["rig"] = table["rig"].map(rig_labels(table["rig"]))
     if settings:
         table.insert(2, "setting", [setting_label(row, settings) for _, row in table.iterrows()])
         table = table.drop(columns=settings)
@@ -277,7 +312,7 @@ def worst_shapes_table(records: pd.DataFrame) -> pd.DataFrame:
     last = rows.sort_values("j").groupby(["cell", "transfer"], sort=False).tail(1)
     table = pd.DataFrame(
         {
-            "rig": last["rig"].map(rig_label),
+            "rig": last["rig"].map(rig_labels(records["rig"])),
             "warp": last["warp"],
             "setting": [setting_label(row, settings) for _, row in last.iterrows()],
             "transfer": last["transfer"],
@@ -311,5 +346,5 @@ def problem_table(records: pd.DataFrame) -> pd.DataFrame:
     cells = records[(records["kind"] == "cell") & (records["status"] != "ok")]
     columns = ["rig", "warp", "solver", "status", "message"]
     table = cells.groupby(columns, sort=True).size().rename("cells").reset_index()
-    table["rig"] = table["rig"].map(rig_label)
+    table["rig"] = table["rig"].map(rig_labels(records["rig"]))
     return table[["rig", "warp", "solver", "cells", "status", "message"]]

@@ -1,9 +1,10 @@
 """glTF 2.0 (``.gltf`` / ``.glb``) morph targets as a rig, read with pygltflib.
 
-One mesh primitive becomes the rig: its ``POSITION`` is the neutral and each morph target's ``POSITION``
-is a blendshape delta (glTF morph targets are already displacements). Target names come from
-``primitive.extras.targetNames`` when present, else ``mesh.extras.targetNames`` (the de-facto convention
-of Blender and most exporters), else ``target_<i>``.
+One mesh becomes the rig: its primitive's ``POSITION`` is the neutral and each morph target's ``POSITION``
+is a blendshape delta (glTF morph targets are already displacements). Exporters write one primitive per
+material (skin, teeth, eyelashes), all with the same morph targets; such primitives are read as one mesh.
+Target names come from ``primitive.extras.targetNames`` when present, else ``mesh.extras.targetNames``
+(the de-facto convention of Blender and most exporters), else ``target_<i>``.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ def load_gltf(
     weld_tolerance: float = 1e-6,
     transform: bool = True,
 ) -> Rig:
-    """A rig from the morph targets of one glTF 2.0 mesh primitive.
+    """A rig from the morph targets of one glTF 2.0 mesh (its primitives with the same targets).
 
     Parameters
     ----------
@@ -64,7 +65,9 @@ def load_gltf(
         Name or index of the mesh; default: the primitive with the most morph targets in the file
         (ties: more vertices, then file order).
     primitive : int, optional
-        Index of the primitive within the chosen mesh; default: its primitive with the most targets.
+        Index of the one primitive to read within the chosen mesh; default: its primitive with the most
+        targets, together with every other primitive of the mesh with as many targets and the same
+        target names (one primitive per material, as exporters write them), vertices in primitive order.
     weld : bool
         Merge vertices that exporters split along UV or normal seams: vertices closer than
         ``weld_tolerance`` whose displacements also agree within it in every target become one.
@@ -77,7 +80,8 @@ def load_gltf(
 
     Returns
     -------
-    Rig with ``meta["units"] = "m"`` (glTF's unit), ``meta["format"] = "gltf"``, and, after welding,
+    Rig with ``meta["units"] = "m"`` (glTF's unit), ``meta["format"] = "gltf"``, ``meta["primitives"]``
+    (the primitive indices read), and, after welding,
     ``meta["weld"] = {"merged": count, "vertex_map": (V,) rig vertex of each glTF vertex}``.
 
     Raises
@@ -97,36 +101,31 @@ def load_gltf(
     mesh_index, primitive_index = _choose(gltf, mesh, primitive, source)
     chosen_mesh = gltf.meshes[mesh_index]
     chosen = chosen_mesh.primitives[primitive_index]
-    label = f"{source}: mesh {chosen_mesh.name or mesh_index!r} primitive {primitive_index}"
-
-    position = _attribute(chosen.attributes, "POSITION")
-    if position is None:
-        raise RigError(f"{label}: has no POSITION attribute")
-    draco = "KHR_draco_mesh_compression"
-    if (
-        draco in (chosen.extensions or {})
-        and _accessor_count(gltf, position)
-        and gltf.accessors[position].bufferView is None
-    ):
-        raise RigError(f"{label}: compressed with {draco} ({_COMPRESSIONS[draco]})")
+    names = _target_names(
+        chosen_mesh,
+        chosen,
+        len(chosen.targets or []),
+        _label(source, chosen_mesh, mesh_index, primitive_index),
+    )
+    members = (
+        [primitive_index] if primitive is not None else _same_targets(chosen_mesh, primitive_index, names)
+    )
     buffers = _Buffers(gltf, path)
-    neutral = buffers.accessor(position, "VEC3", f"{label} POSITION")
-    deltas = np.zeros((len(chosen.targets or []), len(neutral), 3))
-    for k, target in enumerate(chosen.targets or []):
-        index = _attribute(target, "POSITION")
-        if index is not None:
-            delta = buffers.accessor(index, "VEC3", f"{label} target {k} POSITION")
-            if delta.shape != neutral.shape:
-                raise RigError(f"{label}: target {k} has {len(delta)} positions for {len(neutral)} vertices")
-            deltas[k] = delta
-    triangles = _triangles(buffers, chosen, len(neutral), label)
-    names = _target_names(chosen_mesh, chosen, len(deltas), label)
+    parts = [
+        _read_primitive(gltf, buffers, chosen_mesh, j, _label(source, chosen_mesh, mesh_index, j))
+        for j in members
+    ]
+    offsets = np.cumsum([0, *(len(part_neutral) for part_neutral, _, _ in parts[:-1])])
+    neutral = np.concatenate([part[0] for part in parts])
+    deltas = np.concatenate([part[1] for part in parts], axis=1)
+    triangles = np.concatenate([part[2] + offset for part, offset in zip(parts, offsets, strict=True)])
 
     meta: dict = {
         "source": source,
         "format": "gltf",
         "units": "m",
         "mesh": chosen_mesh.name or str(mesh_index),
+        "primitives": members,
     }
     if transform:
         matrix, node_name = _world_matrix(gltf, mesh_index)
@@ -138,6 +137,54 @@ def load_gltf(
         neutral, deltas, triangles, vertex_map = weld_seams(neutral, deltas, triangles, weld_tolerance)
         meta["weld"] = {"merged": int(len(vertex_map) - len(neutral)), "vertex_map": vertex_map}
     return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=names, meta=meta)
+
+
+def _label(source: str, mesh, mesh_index: int, primitive_index: int) -> str:
+    return f"{source}: mesh {mesh.name or mesh_index!r} primitive {primitive_index}"
+
+
+def _same_targets(mesh, chosen: int, names: tuple[str, ...]) -> list[int]:
+    """The primitives of ``mesh`` with the chosen one's morph targets (count and names), in file order."""
+    count = len(mesh.primitives[chosen].targets or [])
+    members = []
+    for j, other in enumerate(mesh.primitives):
+        if j == chosen:
+            members.append(j)
+            continue
+        if len(other.targets or []) != count or (other.mode is not None and int(other.mode) not in (4, 5, 6)):
+            continue
+        try:
+            same = _target_names(mesh, other, count, "") == names
+        except RigError:
+            same = False
+        if same:
+            members.append(j)
+    return members
+
+
+def _read_primitive(gltf, buffers: _Buffers, mesh, index: int, label: str) -> tuple[np.ndarray, ...]:
+    """Neutral positions, target deltas and triangles of one primitive."""
+    chosen = mesh.primitives[index]
+    position = _attribute(chosen.attributes, "POSITION")
+    if position is None:
+        raise RigError(f"{label}: has no POSITION attribute")
+    draco = "KHR_draco_mesh_compression"
+    if (
+        draco in (chosen.extensions or {})
+        and _accessor_count(gltf, position)
+        and gltf.accessors[position].bufferView is None
+    ):
+        raise RigError(f"{label}: compressed with {draco} ({_COMPRESSIONS[draco]})")
+    neutral = buffers.accessor(position, "VEC3", f"{label} POSITION")
+    deltas = np.zeros((len(chosen.targets or []), len(neutral), 3))
+    for k, target in enumerate(chosen.targets or []):
+        target_position = _attribute(target, "POSITION")
+        if target_position is not None:
+            delta = buffers.accessor(target_position, "VEC3", f"{label} target {k} POSITION")
+            if delta.shape != neutral.shape:
+                raise RigError(f"{label}: target {k} has {len(delta)} positions for {len(neutral)} vertices")
+            deltas[k] = delta
+    return neutral, deltas, _triangles(buffers, chosen, len(neutral), label)
 
 
 def _open(path: Path):

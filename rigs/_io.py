@@ -6,8 +6,8 @@ Formats, told apart by the path (``format=`` overrides):
 * ``*.gltf``, ``*.glb``: ``gltf``, morph targets of one mesh primitive (:mod:`rigs._gltf`);
 * a folder with ``*.target`` files, a ``*.zip`` (or, with ``format="target"``, any zip such as a wheel),
   or a ``*.json`` manifest with ``base``: ``target``, a MakeHuman/MPFB target set (:mod:`rigs._target`);
-* a folder with ``*.obj`` files, or its ``rig.json``: ``obj-folder``, neutral + one OBJ per blendshape
-  (:mod:`rigs._obj`).
+* a folder with ``*.obj`` files, its ``rig.json``, or its neutral ``*.obj`` (the other OBJ files of its
+  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj`).
 
 Interchange formats are cleaned the same way after reading: displacements shorter than a relative
 noise floor are zeroed (Carrigan et al. 2020, sec. 4.1, needs empty shapes to be truly empty), and the
@@ -28,11 +28,14 @@ import numpy as np
 
 from rigs._gltf import load_gltf
 from rigs._npz import load_npz, save_npz
-from rigs._obj import load_obj_folder, save_obj_folder
+from rigs._obj import load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
 
 DEFAULT_NOISE_FLOOR = 1e-6
+#: Displacements shorter than this many rounding steps of the file's coordinates are noise: two
+#: coordinates rounded to the same step differ by at most one step each, ``sqrt(3)`` steps in length.
+ROUNDING_STEPS = 2.0
 
 FORMATS = ("npz", "obj-folder", "gltf", "target")
 
@@ -58,9 +61,10 @@ def detect_format(path: str | Path) -> str:
     if suffix == ".json":
         return "obj-folder" if "shapes" in _json_keys(path) else "target"
     if suffix == ".obj":
-        raise RigError(f"{path}: one OBJ holds no blendshapes; load the folder of OBJs it belongs to")
+        return "obj-folder"
     raise RigError(
-        f"{path}: unknown rig format {suffix or '(no suffix)'!r} (.npz, .gltf, .glb, .zip, .json or a folder)"
+        f"{path}: unknown rig format {suffix or '(no suffix)'!r} "
+        "(.npz, .gltf, .glb, .zip, .json, a folder, or the neutral .obj of a folder of OBJs)"
     )
 
 
@@ -146,6 +150,8 @@ def _reader(path: Path, kind: str) -> Callable[..., Rig]:
     if kind == "gltf":
         return load_gltf
     if kind == "obj-folder":
+        if path.suffix.lower() == ".obj":
+            return load_obj_neutral
         return _load_obj_manifest if path.suffix.lower() == ".json" else load_obj_folder
     if path.is_dir():
         return load_target_folder
@@ -163,18 +169,22 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
     ----------
     rig : Rig
     noise_floor : float
-        Relative to the neutral's bounding-box diagonal; 0 zeroes nothing.
+        Relative to the neutral's bounding-box diagonal; 0 zeroes nothing. When ``meta["decimal_step"]``
+        says the file rounded its coordinates (OBJ written with fixed decimals), the floor is at least
+        `ROUNDING_STEPS` such steps, since absolute positions differenced into deltas carry that error.
 
     Returns
     -------
-    Rig whose ``meta`` gains ``noise`` (``relative_floor``, absolute ``floor``, ``zeroed`` per shape),
-    ``empty_shapes`` (names with no displacement left) and ``degenerate_triangles`` (count).
+    Rig whose ``meta`` gains ``noise`` (``relative_floor``, absolute ``floor``, ``rounding_step``,
+    ``zeroed`` per shape), ``empty_shapes`` (names with no displacement left) and
+    ``degenerate_triangles`` (count).
 
     Notes
     -----
     O(K N); one pass over the deltas.
     """
-    floor = noise_floor * rig.diagonal()
+    step = float(rig.meta.get("decimal_step", 0.0) or 0.0)
+    floor = max(noise_floor * rig.diagonal(), ROUNDING_STEPS * step) if noise_floor > 0 else 0.0
     deltas = rig.deltas
     zeroed: dict[str, int] = {}
     if floor > 0 and rig.n_shapes:
@@ -186,7 +196,12 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
             zeroed = {rig.names[k]: int(counts[k]) for k in np.flatnonzero(counts)}
     empty = ~deltas.reshape(rig.n_shapes, -1).any(axis=1) if rig.n_shapes else np.zeros(0, dtype=bool)
     meta = dict(rig.meta)
-    meta["noise"] = {"relative_floor": float(noise_floor), "floor": float(floor), "zeroed": zeroed}
+    meta["noise"] = {
+        "relative_floor": float(noise_floor),
+        "floor": float(floor),
+        "rounding_step": step,
+        "zeroed": zeroed,
+    }
     meta["empty_shapes"] = [rig.names[k] for k in np.flatnonzero(empty)]
     meta["degenerate_triangles"] = int(len(rig.degenerate_triangles()))
     return replace(rig, deltas=deltas, meta=meta)

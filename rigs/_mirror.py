@@ -8,6 +8,7 @@ from scipy.spatial import cKDTree
 _AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
 _SAMPLE = 2048  # vertices used to score candidate planes
 _REFINE_STEPS = 4
+_MATCH_RADII = 4.0  # a reflected vertex this many radii from its nearest vertex is a miss when fitting
 
 
 def mirror_map(
@@ -51,14 +52,17 @@ def mirror_map(
 
     Notes
     -----
-    Without ``axis`` or ``plane`` the plane is found from the neutral: the planes through the
-    centroid normal to the three coordinate axes and the three principal axes are scored by the
-    mean reflection distance of a vertex sample (the first exact one ends the search). Scores within
-    1% of the vertex spacing of the best count as equal and go to the earliest candidate (x, y, z,
-    then the principal axes), so a centred symmetric mesh yields x = 0 even when it is also
-    symmetric about another plane. A plane that is not exact is refined by fitting it to the vertex
-    pairs it matches (normal: principal direction of ``x_n - x_mirror(n)``; point: mean of the
-    midpoints), which handles off-centre and rotated heads. O(N log N) time.
+    Without ``axis`` or ``plane`` the plane is found from the neutral: planes normal to the three
+    coordinate axes and the three principal axes, each through the median of the vertices'
+    positions along its normal, are scored by the mean reflection distance of a vertex sample (the
+    first exact one ends the search). The median lies on the symmetry plane of a symmetric mesh, like
+    the centroid, but a few stray vertices (unreferenced points, a loose part far away) do not move
+    it. Scores within 1% of the
+    vertex spacing of the best count as equal and go to the earliest candidate (x, y, z, then the
+    principal axes), so a centred symmetric mesh yields x = 0 even when it is also symmetric about
+    another plane. A plane that is not exact is refined by fitting it to the vertex pairs it matches
+    (normal: principal direction of ``x_n - x_mirror(n)``; point: median of the midpoints), which
+    handles off-centre and rotated heads. O(N log N) time.
 
     Examples
     --------
@@ -78,8 +82,12 @@ def mirror_map(
         raise ValueError(f"mirror_map: tol must be a distance >= 0, got {tol}")
 
     tree = cKDTree(points)
-    sample = points[:: max(1, points.shape[0] // _SAMPLE)]
-    spacing = _median_spacing(tree, sample)
+    # The plane is fitted to the distinct positions: vertices split along UV or normal seams would
+    # otherwise weigh twice on one side.
+    distinct = np.unique(points, axis=0)
+    distinct_tree = tree if len(distinct) == len(points) else cKDTree(distinct)
+    sample = distinct[:: max(1, distinct.shape[0] // _SAMPLE)]
+    spacing = _median_spacing(distinct_tree, sample)
     if tol is None:
         tol = 0.5 * spacing
 
@@ -91,11 +99,15 @@ def mirror_map(
                 raise ValueError(f"mirror_map: axis must be one of 0, 1, 2, 'x', 'y', 'z', got {axis!r}")
             candidates = [np.eye(3)[_AXES[axis]]]
         else:
-            candidates = _candidate_normals(points)
-        origin, normal, score = _best_plane(tree, sample, points.mean(axis=0), candidates, spacing)
-        if score > 0.01 * spacing:  # not exactly symmetric about the centroid plane: fit it to the pairs
+            candidates = _candidate_normals(distinct)
+        origin, normal, score = _best_plane(distinct_tree, sample, distinct, candidates, spacing)
+        if score > 0.01 * spacing:  # not exactly symmetric about the median plane: fit it to the pairs
+            radius, fixed_normal = max(tol, spacing), axis is not None
+            origin, normal = _best_refined_plane(
+                distinct_tree, sample, distinct, candidates, tol, radius, fixed_normal=fixed_normal
+            )
             origin, normal = _refine(
-                tree, points, origin, normal, max(tol, spacing), fixed_normal=axis is not None
+                distinct_tree, distinct, origin, normal, radius, fixed_normal=fixed_normal
             )
 
     distance, nearest = tree.query(_reflect(points, origin, normal))
@@ -146,22 +158,58 @@ def _reflection_distances(
 
 
 def _best_plane(
-    tree: cKDTree, sample: np.ndarray, centroid: np.ndarray, candidates: list[np.ndarray], spacing: float
+    tree: cKDTree, sample: np.ndarray, points: np.ndarray, candidates: list[np.ndarray], spacing: float
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """The candidate plane through the centroid with the smallest mean reflection distance, and that distance.
+    """The candidate plane (through the median, `_median_origin`) with the smallest mean reflection
+    distance of the sample, and that distance.
 
     Scores within 1% of the vertex spacing of the best count as equal and go to the earliest candidate;
     an exactly symmetric candidate ends the search.
     """
     bound = 0.1 * float(np.linalg.norm(np.ptp(sample, axis=0))) or np.inf
     scores = []
-    for normal in candidates:
-        scores.append(_reflection_distances(tree, sample, centroid, normal, bound).mean())
+    origins = [_median_origin(points, normal) for normal in candidates]
+    for origin, normal in zip(origins, candidates, strict=True):
+        scores.append(_reflection_distances(tree, sample, origin, normal, bound).mean())
         if scores[-1] <= 0.01 * spacing:
             break
     scores = np.array(scores)
     best = int(np.flatnonzero(scores <= scores.min() + 0.01 * spacing)[0])
-    return centroid, candidates[best], float(scores[best])
+    return origins[best], candidates[best], float(scores[best])
+
+
+def _median_origin(points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The point of the plane with unit ``normal`` that has half the vertices on each side."""
+    return np.median(points @ normal) * normal
+
+
+def _best_refined_plane(
+    tree: cKDTree,
+    sample: np.ndarray,
+    points: np.ndarray,
+    candidates: list[np.ndarray],
+    tol: float,
+    radius: float,
+    *,
+    fixed_normal: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every candidate plane fitted to the pairs of the vertex sample, and the one that mirrors most of it.
+
+    A plane a little off the symmetry plane can score worse than another candidate on a dense mesh
+    (every reflected vertex lands near some vertex); fitting each candidate first lets the true plane
+    win. The fitted planes are ranked by how many sample vertices find a mirror within ``tol``, which
+    vertices without any mirror (an asymmetric part, stray points) do not sway; ties go to the earliest
+    candidate.
+    """
+    fitted = [
+        _refine(tree, sample, _median_origin(points, normal), normal, radius, fixed_normal=fixed_normal)
+        for normal in candidates
+    ]
+    matched = [
+        np.count_nonzero(tree.query(_reflect(sample, origin, normal), distance_upper_bound=tol)[0] <= tol)
+        for origin, normal in fitted
+    ]
+    return fitted[int(np.argmax(matched))]
 
 
 def _refine(
@@ -173,14 +221,15 @@ def _refine(
     *,
     fixed_normal: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Fit the plane to the vertex pairs it matches, a few times (an ICP for reflections)."""
+    """Fit the plane to the pairs (a vertex of ``points``, its nearest vertex of the tree) it matches, a few
+    times (an ICP for reflections); ``points`` may be a sample of the tree's vertices."""
     for _ in range(_REFINE_STEPS):
         distance, nearest = tree.query(_reflect(points, origin, normal))
-        matched = distance <= 4.0 * radius
+        matched = distance <= _MATCH_RADII * radius
         if np.count_nonzero(matched) < 3:
             break
-        source, target = points[matched], points[nearest[matched]]
-        new_origin = 0.5 * (source + target).mean(axis=0)
+        source, target = points[matched], tree.data[nearest[matched]]
+        midpoints = 0.5 * (source + target)
         new_normal = normal
         if not fixed_normal:
             chords = source - target
@@ -188,8 +237,8 @@ def _refine(
             if chords.shape[0] >= 3:
                 _, _, directions = np.linalg.svd(chords, full_matrices=False)
                 new_normal = directions[0] * np.sign(directions[0] @ normal or 1.0)
-        # Only the offset along the normal is defined by the pairs.
-        new_origin = origin + ((new_origin - origin) @ new_normal) * new_normal
+        # Only the offset along the normal is defined by the pairs: the median of the midpoints'.
+        new_origin = origin + (np.median(midpoints @ new_normal) - origin @ new_normal) * new_normal
         converged = np.allclose(new_normal, normal, atol=1e-12) and np.allclose(
             new_origin, origin, atol=1e-12
         )

@@ -68,6 +68,8 @@ def load_npz(path: str | Path) -> Rig:
     path = Path(path)
     if not path.is_file():
         raise RigError(f"{path}: no such rig file")
+    if not zipfile.is_zipfile(path) and not _is_npy(path):  # np.load would blame pickling
+        raise RigError(f"{path}: not a NumPy .npz archive (not a zip file; truncated or another format?)")
     try:
         archive = np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as error:
@@ -103,6 +105,11 @@ def load_npz(path: str | Path) -> Rig:
         regions=regions,
         meta={"source": str(path), "format": "npz"},
     )
+
+
+def _is_npy(path: Path) -> bool:
+    with open(path, "rb") as stream:
+        return stream.read(6) == b"\x93NUMPY"
 
 
 def _read(archive: np.lib.npyio.NpzFile, key: str, path: Path) -> np.ndarray:

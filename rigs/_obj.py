@@ -7,6 +7,7 @@ the same vertices and faces; the blendshape's name is its file stem. The folder 
 
 from __future__ import annotations
 
+import io
 import json
 import re
 from collections.abc import Iterator, Sequence
@@ -18,6 +19,16 @@ import numpy as np
 from rigs._rig import Rig, RigError
 
 MANIFEST = "rig.json"
+_VERTEX_LINE = re.compile(r"^v[ \t]([^\n]*)", re.MULTILINE)
+_FACE_LINE = re.compile(r"^f[ \t]([^\n]*)", re.MULTILINE)
+#: Stems (any case) taken for the neutral mesh when the folder has no ``neutral.obj``: exporters and
+#: artists also call it the basis (Blender's shape-key basis), base or rest shape.
+NEUTRAL_STEMS = ("neutral", "basis", "base", "rest")
+#: Decimal places `decimal_step` takes for rounding: coordinates with fewer are a design grid (integers,
+#: halves), not rounded; more than 9 is below any noise floor.
+_ROUNDING_DECIMALS = range(3, 10)
+#: Coordinates sampled per file by `decimal_step`.
+_STEP_SAMPLE = 3000
 _UNSAFE_NAME = re.compile(r'[\\/:*?"<>|\x00-\x1f]')
 
 
@@ -35,12 +46,16 @@ class ObjMesh:
         Face indices of each ``g`` group (a face in several groups is listed in each).
     face_lines : tuple of str
         The corners of each ``f`` line as written, for a fast identical-connectivity check.
+    face_text : str
+        The file's text from its first ``f`` line on (line ends normalised; set by a full read), so that
+        blendshape files written with the same face section are recognised without splitting it.
     """
 
     vertices: np.ndarray
     faces: tuple[np.ndarray, ...]
     groups: dict[str, np.ndarray] = field(default_factory=dict)
     face_lines: tuple[str, ...] = ()
+    face_text: str = ""
 
     def group_vertices(self, name: str) -> np.ndarray:
         """Sorted vertex indices used by the faces of group ``name``."""
@@ -70,31 +85,51 @@ def _numbered_lines(text: str) -> Iterator[tuple[int, str]]:
         yield first, " ".join(pending)
 
 
-def _vertices_only(text: str) -> ObjMesh | None:
+def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None:
     """Fast path for blendshape files: positions and face corner lists without per-line dispatch.
+
+    When the file ends with the face section of ``faces_of`` (the neutral) and has no face line before
+    it, its face lines are those of ``faces_of`` and are not split again.
 
     Returns None when the file is unusual (indented lines, no vertices, extra values, comments after
     coordinates, a malformed number), leaving the line-by-line reader to handle it and name the line.
     """
     if text[:1] in (" ", "\t") or "\n " in text or "\n\t" in text or "\\" in text:
         return None
-    lines = text.split("\n")
-    rows = [line[2:] for line in lines if line.startswith(("v ", "v\t"))]
+    rows = _VERTEX_LINE.findall(text)
     if not rows:
         return None
-    try:
-        values = np.array(" ".join(rows).split(), dtype=np.float64)
-    except ValueError:
-        return None
+    values = _single_spaced_rows(rows)
+    if values is None:
+        try:
+            values = np.array(" ".join(rows).split(), dtype=np.float64)
+        except ValueError:
+            return None
     if values.size != 3 * len(rows) or not np.isfinite(values).all():
         return None
-    face_lines = [line[2:] for line in lines if line.startswith(("f ", "f\t"))]
-    if "#" in text or "\t" in text or any(line[-1:] == " " for line in face_lines):
+    tail = faces_of.face_text if faces_of is not None else ""
+    if tail and text.endswith(tail) and not _FACE_LINE.search(text, 0, len(text) - len(tail)):
+        return ObjMesh(vertices=values.reshape(-1, 3), faces=(), face_lines=faces_of.face_lines)
+    face_lines = _FACE_LINE.findall(text)
+    joined = "\n".join(face_lines) + "\n"
+    if "#" in joined or "\t" in joined or " \n" in joined:
         face_lines = [line.split("#", 1)[0].strip() for line in face_lines]
     return ObjMesh(vertices=values.reshape(-1, 3), faces=(), face_lines=tuple(face_lines))
 
 
-def parse_obj(text: str, source: str, *, with_faces: bool = True) -> ObjMesh:
+def _single_spaced_rows(rows: list[str]) -> np.ndarray | None:
+    """``x y z`` rows with single spaces as floats, by pandas' C parser (3-4 times numpy's speed on the
+    tens of thousands of rows of each blendshape file); None for any other layout."""
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(io.StringIO("\n".join(rows)), sep=" ", header=None, dtype=np.float64)
+    except (ValueError, pd.errors.ParserError):
+        return None
+    return table.to_numpy() if table.shape == (len(rows), 3) else None
+
+
+def parse_obj(text: str, source: str, *, with_faces: bool = True, faces_of: ObjMesh | None = None) -> ObjMesh:
     """Read OBJ text: ``v`` positions and ``f`` polygons; everything else is skipped.
 
     Accepted: comments (``#`` to end of line), CRLF or CR line ends, ``\\`` line continuations,
@@ -110,6 +145,9 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True) -> ObjMesh:
         Name used in error messages (the file path).
     with_faces : bool
         When False, faces are not decoded (``faces`` is empty) but ``face_lines`` is still kept.
+    faces_of : ObjMesh, optional
+        A fully read mesh (the neutral) whose face lines are reused when this file ends with the same
+        face section (``with_faces=False`` only).
 
     Raises
     ------
@@ -119,7 +157,7 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True) -> ObjMesh:
     """
     text = text.replace("\r\n", "\n").replace("\r", "\n")
     if not with_faces:
-        fast = _vertices_only(text)
+        fast = _vertices_only(text, faces_of)
         if fast is not None:
             return fast
     vertex_rows: list[list[str]] = []
@@ -153,17 +191,24 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True) -> ObjMesh:
     if with_faces and face_lines:
         faces = _faces(face_lines, face_line_numbers, face_vertex_counts, len(vertices), source)
     groups = {name: np.asarray(indices, dtype=np.int64) for name, indices in group_faces.items()}
-    return ObjMesh(vertices=vertices, faces=faces, groups=groups, face_lines=tuple(face_lines))
+    first_face = _FACE_LINE.search(text)
+    return ObjMesh(
+        vertices=vertices,
+        faces=faces,
+        groups=groups,
+        face_lines=tuple(face_lines),
+        face_text=text[first_face.start() :] if first_face and with_faces else "",
+    )
 
 
-def read_obj(path: str | Path, *, with_faces: bool = True) -> ObjMesh:
+def read_obj(path: str | Path, *, with_faces: bool = True, faces_of: ObjMesh | None = None) -> ObjMesh:
     """Read an OBJ file (see :func:`parse_obj`); a missing or unreadable file raises `RigError`."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as error:
         raise RigError(f"{path}: cannot read OBJ file ({error.strerror or error})") from None
-    return parse_obj(text, str(path), with_faces=with_faces)
+    return parse_obj(text, str(path), with_faces=with_faces, faces_of=faces_of)
 
 
 def _vertices(rows: list[list[str]], line_numbers: list[int], source: str) -> np.ndarray:
@@ -342,6 +387,31 @@ def faces_are_triangles(faces: Sequence[np.ndarray]) -> bool:
     return all(len(face) == 3 for face in faces)
 
 
+def decimal_step(vertices: np.ndarray) -> float:
+    """The rounding step of coordinates written with a fixed number of decimals, or 0.
+
+    Exporters write OBJ coordinates with a fixed number of decimals (``%.6f`` in Blender and Maya), so a
+    displacement computed as a difference of two files is only known to about one step per coordinate.
+
+    Parameters
+    ----------
+    vertices : array
+        Coordinates as read (a sample of up to 3000 values is tested).
+
+    Returns
+    -------
+    ``10**-d`` for the fewest decimals ``d`` that write every sampled value exactly, when ``d`` is in
+    3..9; else 0 (not rounded, or a design grid of integers or halves).
+    """
+    flat = np.asarray(vertices, dtype=np.float64).ravel()
+    flat = flat[:: max(1, flat.size // _STEP_SAMPLE)]
+    for decimals in range(_ROUNDING_DECIMALS.stop):
+        scaled = flat * 10.0**decimals
+        if np.all(np.abs(scaled - np.rint(scaled)) <= 1e-3):
+            return 10.0**-decimals if decimals in _ROUNDING_DECIMALS else 0.0
+    return 0.0
+
+
 # -- rig folders -------------------------------------------------------------------------------------------
 def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) -> Rig:
     """A rig from a folder of OBJ files: the neutral plus one OBJ per blendshape (absolute positions).
@@ -353,20 +423,23 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         its file stem, in sorted order. With ``rig.json`` (see :func:`save_obj_folder`), its ``shapes`` list
         gives the order and its ``regions`` and ``units`` are kept.
     neutral : str or path, optional
-        File name (in the folder) or path of the neutral mesh; default ``neutral.obj``.
+        File name (in the folder) or path of the neutral mesh; default ``neutral.obj``, else the one file
+        whose stem is, in any case, one of `NEUTRAL_STEMS` (``Neutral.obj``, ``Basis.obj``, ...).
 
     Returns
     -------
     Rig with ``deltas[k] = shape_k - neutral`` (Carrigan et al. 2020, sec. 3), the polygons kept in
     ``faces`` when any is not a triangle, and ``meta["source"]``, ``meta["format"] = "obj-folder"``,
-    ``meta["units"]`` from ``rig.json`` or ``"unknown"`` (OBJ does not say).
+    ``meta["units"]`` from ``rig.json`` or ``"unknown"`` (OBJ does not say), and
+    ``meta["decimal_step"]``, the coarsest rounding step of the files' coordinates (`decimal_step`; 0
+    when they are not written with a fixed number of decimals), which the noise floor respects.
 
     Raises
     ------
     RigError
-        One line naming the file and the problem: missing folder or neutral, a blendshape whose vertex
-        count or faces differ from the neutral's (the first such file), two files with one stem,
-        a malformed line, a non-finite coordinate.
+        One line naming the file and the problem: missing folder or neutral, no blendshape files, a
+        blendshape whose vertex count or faces differ from the neutral's (the first such file), two
+        files with one stem, a malformed line, a non-finite coordinate.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -374,19 +447,27 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     manifest = _read_manifest(folder)
     neutral_path = _neutral_path(folder, neutral if neutral is not None else manifest.get("neutral"))
     shape_paths = _shape_paths(folder, neutral_path, manifest.get("shapes"))
+    if not shape_paths and "shapes" not in manifest:  # (a rig.json may list none, as written)
+        raise RigError(
+            f"{neutral_path}: one OBJ holds no blendshapes, and its folder has no other OBJ files "
+            "(one per blendshape)"
+        )
 
     base = read_obj(neutral_path)
     if not base.faces:
         raise RigError(f"{neutral_path}: the neutral mesh has no faces")
     deltas = np.empty((len(shape_paths), len(base.vertices), 3))
+    step = decimal_step(base.vertices)
     for k, path in enumerate(shape_paths.values()):
-        shape = read_obj(path, with_faces=False)
+        shape = read_obj(path, with_faces=False, faces_of=base)
         _check_same_mesh(base, shape, path, neutral_path)
         np.subtract(shape.vertices, base.vertices, out=deltas[k])
+        step = max(step, decimal_step(shape.vertices))
 
     triangles = triangulate(base.faces, base.vertices)
     meta = {"source": str(folder), "format": "obj-folder", "neutral": neutral_path.name}
     meta["units"] = manifest.get("units", "unknown")
+    meta["decimal_step"] = step
     return Rig(
         neutral=base.vertices,
         deltas=deltas,
@@ -396,6 +477,30 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         faces=None if faces_are_triangles(base.faces) else base.faces,
         meta=meta,
     )
+
+
+def load_obj_neutral(path: str | Path) -> Rig:
+    """The rig of the folder holding the neutral OBJ ``path``; the folder's other OBJ files are blendshapes.
+
+    Raises
+    ------
+    RigError
+        When the folder names another file as its neutral (``rig.json``, ``neutral.obj`` or one of
+        `NEUTRAL_STEMS`): ``path`` is then a blendshape, and taking it as the neutral would turn every
+        delta into a difference from that expression.
+    """
+    path = Path(path)
+    folder = path.parent
+    manifest = _read_manifest(folder)
+    try:
+        declared = _neutral_path(folder, manifest.get("neutral"))
+    except RigError:
+        declared = None
+    if declared is not None and declared.resolve() != path.resolve():
+        raise RigError(
+            f"{path}: not the neutral of its folder ({declared.name} is); load {declared} or the folder"
+        )
+    return load_obj_folder(folder, neutral=path.name)
 
 
 def _read_manifest(folder: Path) -> dict:
@@ -412,6 +517,15 @@ def _read_manifest(folder: Path) -> dict:
 
 
 def _neutral_path(folder: Path, neutral: str | Path | None) -> Path:
+    if neutral is None and not (folder / "neutral.obj").is_file():
+        named = sorted(
+            p for p in folder.iterdir() if p.suffix.lower() == ".obj" and p.stem.lower() in NEUTRAL_STEMS
+        )
+        if len(named) > 1:
+            listed = ", ".join(p.name for p in named)
+            raise RigError(f"{folder}: several OBJ files could be the neutral ({listed}); pass neutral=NAME")
+        if named:
+            return named[0]
     path = Path(neutral) if neutral is not None else Path("neutral.obj")
     if not path.is_absolute():
         path = folder / path
@@ -420,7 +534,9 @@ def _neutral_path(folder: Path, neutral: str | Path | None) -> Path:
     if not path.is_file():
         present = sorted(p.name for p in folder.iterdir() if p.suffix.lower() == ".obj")[:5]
         hint = f"; OBJ files here: {', '.join(present)}" if present else "; the folder has no OBJ files"
-        raise RigError(f"{path}: neutral mesh not found (pass neutral=NAME){hint}")
+        raise RigError(
+            f"{path}: neutral mesh not found (pass neutral=NAME, or load the neutral OBJ's path){hint}"
+        )
     return path
 
 

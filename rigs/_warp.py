@@ -20,7 +20,7 @@ Spec forms accepted by `warp`
 
 Named centres (``eye_L``, ``eye_R``, ``eyes`` = both, ``mouth``, ``nose``, or any landmark/region name) come
 from ``rig.meta["landmarks"]`` when present, else from the centroid of the rig's regions (eyelids for an
-eye, lips for the mouth, a ``nose`` region for the nose).
+eye, lips for the mouth, a ``nose`` region for the nose), else from a region with the centre's name.
 """
 
 from __future__ import annotations
@@ -381,7 +381,9 @@ def _parse_mapping(spec: Mapping[str, Any]) -> Warp:
 
 
 def locate(rig: Rig, center: str | tuple[float, float, float]) -> np.ndarray:
-    """The point a named centre refers to on ``rig``: its landmark, else the centroid of its regions.
+    """The point a named centre refers to on ``rig``: its landmark, else the centroid of its regions
+    (`LANDMARK_REGIONS`, e.g. the eyelids for ``eye_L``), else the centroid of a region with the centre's
+    own name (e.g. an ``eye_L`` eyeball group of a scanned or MakeHuman head).
 
     Raises
     ------
@@ -393,10 +395,13 @@ def locate(rig: Rig, center: str | tuple[float, float, float]) -> np.ndarray:
     landmarks = rig.meta.get("landmarks")
     if isinstance(landmarks, Mapping) and center in landmarks:
         return np.asarray(landmarks[center], dtype=float)
-    regions = LANDMARK_REGIONS.get(center, (center,))
-    if all(name in rig.regions and len(rig.regions[name]) for name in regions):
-        return region_centre(rig.neutral, rig.regions, regions)
-    looked_for = " and ".join(map(repr, regions))
+    candidates = [LANDMARK_REGIONS.get(center, (center,)), (center,)]
+    for regions in candidates:
+        if all(name in rig.regions and len(rig.regions[name]) for name in regions):
+            return region_centre(rig.neutral, rig.regions, regions)
+    looked_for = " and ".join(map(repr, candidates[0]))
+    if candidates[0] != candidates[1]:
+        looked_for += f", nor {center!r}"
     raise RigError(
         f"{rig.meta.get('source', 'rig')}: cannot locate {center!r} for the warp: "
         f"no meta['landmarks'][{center!r}] and no non-empty region {looked_for}; "

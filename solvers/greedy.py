@@ -39,12 +39,30 @@ def greedy_scores(problem: PackingProblem) -> np.ndarray:
 
 
 def _scores(problem: PackingProblem, counts: np.ndarray) -> np.ndarray:
-    per_shape = problem.weights / counts
+    """Algorithm 2's key ``(lambda_max - lambda_k) |b_k|`` on the unperturbed importance (sec. 4.5.2)."""
+    weights = problem.weights if problem.tie_break is None else problem.weights - problem.tie_break
+    per_shape = weights / counts
     lambda_max = max(1.0, float(per_shape.max(initial=0.0)))
+    return (lambda_max - per_shape) * _active_counts(problem)
+
+
+def _active_counts(problem: PackingProblem) -> np.ndarray:
     incidence = problem.incidence
     exact_rows = incidence.has_canonical_format and incidence.data.all()  # no duplicates, no stored zeros
-    active = np.diff(incidence.indptr) if exact_rows else problem.item_active_counts
-    return (lambda_max - per_shape) * active
+    return np.diff(incidence.indptr) if exact_rows else problem.item_active_counts
+
+
+def greedy_order(problem: PackingProblem, counts: np.ndarray | None = None) -> np.ndarray:
+    """Items in Algorithm 2's visiting order (sec. 4.5.2).
+
+    By increasing key (`greedy_scores`); equal keys (e.g. every weight 1 without importance, where the
+    paper's key is 0 for all) go by fewer active vertices first, which packs the most blendshapes, then by
+    the problem's deterministic tie-break, then by index.
+    """
+    counts = problem.item_shape_counts if counts is None else counts
+    tie_break = np.zeros(problem.n_items) if problem.tie_break is None else problem.tie_break
+    keys = (np.arange(problem.n_items), -tie_break, _active_counts(problem), _scores(problem, counts))
+    return np.lexsort(keys)
 
 
 def greedy_items(
@@ -52,7 +70,7 @@ def greedy_items(
 ) -> tuple[int, ...]:
     """Items chosen by Algorithm 2 (sec. 4.5.2).
 
-    Items are visited by increasing `greedy_scores` (ties by index). An item is added when its active
+    Items are visited in `greedy_order`. An item is added when its active
     vertices overlapping the expression built so far are at most ``overlap * |b_k|`` and the cap (sec. 6)
     still has room for its shapes; otherwise it is dropped. Since the expression only grows, this is the
     paper's "remove every remaining blendshape that overlaps" after each addition.
@@ -78,7 +96,7 @@ def greedy_items(
         raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
     counts = problem.item_shape_counts
     if order is None:
-        order = np.argsort(_scores(problem, counts), kind="stable")
+        order = greedy_order(problem, counts)
     if overlap == 0.0:
         return _strict_greedy(problem, order, counts)
     incidence = problem.incidence
@@ -152,7 +170,7 @@ class GreedySolver:
 
     def _run(self, problem: PackingProblem, overlap: float) -> Solution:
         clock = Stopwatch()
-        order = np.argsort(_scores(problem, problem.item_shape_counts), kind="stable")
+        order = greedy_order(problem)
         build_time = clock.lap()
         items = greedy_items(problem, overlap, order)
         return make_solution(

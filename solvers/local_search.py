@@ -20,7 +20,7 @@ import numpy as np
 from packing import PackingProblem, Solution, Termination
 from solvers._base import Availability, Capabilities, Stopwatch, check_solve_arguments, make_solution
 from solvers._model import conflict_graph
-from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_scores
+from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_order
 
 #: An improvement smaller than this (relative to the total weight) is treated as none.
 IMPROVEMENT_TOLERANCE = 1e-12
@@ -128,7 +128,7 @@ def swap_local_search(problem: PackingProblem, start: tuple[int, ...] | None = N
         [start]
         if start is not None
         else [
-            greedy_items(problem, order=np.argsort(greedy_scores(problem), kind="stable")),
+            greedy_items(problem, order=greedy_order(problem)),
             greedy_items(problem, order=np.argsort(-problem.weights, kind="stable")),
         ]
     )

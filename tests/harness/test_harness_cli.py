@@ -229,10 +229,17 @@ def test_pack_reads_a_target_neutral_obj(tmp_path) -> None:
     )
 
 
-def test_rigs_fetch_faceunits_calls_the_rigs_fetcher(tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr(rigs, "fetch_faceunits", lambda: rigs.generate("tiny"))
+def test_rigs_fetch_faceunits_loads_and_saves_the_cached_rig(tmp_path, monkeypatch) -> None:
+    # The fetcher returns the cached file's path; the command must load it as a rig, not save the path.
+    from rigs._faceunits import CACHE_VARIABLE, cached_rig_path
+
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
+    tiny = rigs.generate("tiny")
+    rigs.save(tiny, cached_rig_path())
     out = tmp_path / "faceunits.npz"
     result = invoke("rigs", "fetch", "faceunits", "--out", out)
     assert result.exit_code == 0, result.output
-    assert rigs.load(out).n_shapes == rigs.generate("tiny").n_shapes
+    assert f"N={tiny.n_vertices} K={tiny.n_shapes}" in result.output
+    assert rigs.load(out).names == tiny.names
+    assert invoke("rigs", "fetch", "faceunits").exit_code == 0
     assert invoke("rigs", "fetch", "nothing").exit_code == 2

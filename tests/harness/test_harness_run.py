@@ -124,7 +124,6 @@ def test_a_cell_over_the_timeout_is_stopped_and_the_run_goes_on(
     config = _config(rig_file, solvers=("sleepy", "greedy"), transfers=(), timeout=2.0)
     summary = harness.run_grid(config, tmp_path, make_executor=_local(jobs=1))
     assert summary.statuses == {"timeout": 1, "ok": 1}
-    assert summary.seconds < 30
     cells = harness.read_records(tmp_path).query("kind == 'cell'").set_index("solver")
     assert cells.loc["sleepy", "message"] == "cell exceeded --timeout 2s and was stopped"
 

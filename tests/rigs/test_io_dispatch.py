@@ -65,7 +65,7 @@ def test_units_override_and_report(tmp_path):
     assert rig.meta["units"] == "mm"
     assert rig.meta["empty_shapes"] == ["rest"]
     assert rig.meta["degenerate_triangles"] == 0
-    assert rig.meta["noise"] == {"relative_floor": 0.0, "floor": 0.0, "zeroed": {}}
+    assert rig.meta["noise"] == {"relative_floor": 0.0, "floor": 0.0, "rounding_step": 0.0, "zeroed": {}}
 
 
 def test_save_chooses_by_suffix_or_format(tmp_path):

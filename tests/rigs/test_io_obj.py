@@ -243,7 +243,8 @@ def test_missing_folder_and_missing_neutral(tmp_path):
     (folder / "head.obj").write_text(obj_text(GRID, QUADS))
     with pytest.raises(
         RigError,
-        match=r"neutral\.obj: neutral mesh not found \(pass neutral=NAME\); OBJ files here: head\.obj",
+        match=r"neutral\.obj: neutral mesh not found \(pass neutral=NAME, or load the neutral OBJ's path\); "
+        r"OBJ files here: head\.obj",
     ):
         rigs.load(folder)
 

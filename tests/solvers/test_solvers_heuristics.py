@@ -2,12 +2,13 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import solvers
 from packing import problem_from_incidence
-from solvers.greedy import greedy_scores
+from solvers.greedy import greedy_order, greedy_scores
 from solvers.local_search import swap_local_search
 from solvers.testing import brute_force_optimum, check_packing, random_problem
 
@@ -78,3 +79,11 @@ def test_swap_search_is_locally_optimal_for_single_swaps():
             except AssertionError:
                 continue
             assert problem.objective(candidate) <= problem.objective(items) + 1e-12
+
+
+def test_without_importance_greedy_visits_the_smallest_items_first():
+    """Every weight 1: Algorithm 2's key is 0 for all, so fewer active vertices go first (sec. 4.5.2)."""
+    sizes = [5, 1, 3, 2]
+    incidence = sp.csr_matrix(np.array([[1] * s + [0] * (10 - s) for s in sizes], dtype=bool)[:, ::-1].copy())
+    problem = problem_from_incidence(incidence, np.ones(4))
+    assert greedy_order(problem).tolist() == [1, 3, 2, 0]

@@ -15,7 +15,7 @@ def test_installed_example_plugin_is_listed_and_conforms(tmp_path):
     source = tmp_path / "src"
     shutil.copytree(EXAMPLE, source)
     target = tmp_path / "site"
-    subprocess.run(
+    installed = subprocess.run(
         [
             sys.executable,
             "-m",
@@ -27,9 +27,14 @@ def test_installed_example_plugin_is_listed_and_conforms(tmp_path):
             str(target),
             str(source),
         ],
-        check=True,
+        capture_output=True,
+        text=True,
         timeout=600,
     )
+    if installed.returncode != 0:
+        if "No matching distribution" in installed.stderr or "connection" in installed.stderr.lower():
+            pytest.skip(f"the package index is out of reach: {installed.stderr.strip().splitlines()[-1]}")
+        pytest.fail(installed.stderr)
     code = (
         "import solvers\n"
         "from solvers.testing import check_solver\n"
