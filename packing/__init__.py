@@ -5,7 +5,7 @@ from packing._analysis import Analysis, analyse, build_problem, tie_break_pertur
 from packing._binary import binary_blendshapes, empty_shapes
 from packing._bounds import ExpressionBound, conflict_graph, expression_lower_bound
 from packing._check import CheckError, check
-from packing._importance import MissingTargetWarning, importance
+from packing._importance import DegenerateDistortionWarning, MissingTargetWarning, importance
 from packing._params import DEFAULT_REGION_PAIRS, PackingParams
 from packing._problem import PackingProblem, problem_from_incidence
 from packing._sequence import Expression, PackingSolver, sequence
@@ -18,6 +18,7 @@ __all__ = [
     "CheckError",
     "Expression",
     "ExpressionBound",
+    "DegenerateDistortionWarning",
     "MissingTargetWarning",
     "PackingParams",
     "PackingProblem",

@@ -59,30 +59,43 @@ def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.
     -------
     (T,) array.
 
-    Raises
-    ------
-    ValueError
-        If an edge has zero length in one neutral but not in the other (an infinite distortion).
-        An edge collapsed in both counts as undistorted (ratio 1).
+    Notes
+    -----
+    A triangle with an edge shorter than ``1e-6`` of the larger bounding-box diagonal of the two neutrals
+    in either of them (a collapsed edge or a sliver, common in scans and welded seams) has an unbounded
+    ratio that would swamp the normalisation of eq. 7: it gets ``s_t = 0`` (left out of ``lambda_TD``) and
+    a `DegenerateDistortionWarning` reports how many there are.
     """
-    ratios = []
+    scale = max(_diagonal(template), _diagonal(target)) or 1.0
+    ratios, degenerate = [], np.zeros(len(triangles), dtype=bool)
     for corner in (0, 2):  # vu, then vw
         length_a = np.linalg.norm(template[triangles[:, corner]] - template[triangles[:, 1]], axis=1)
         length_b = np.linalg.norm(target[triangles[:, corner]] - target[triangles[:, 1]], axis=1)
-        collapsed = (length_a == 0) != (length_b == 0)
-        if collapsed.any():
-            t = int(np.flatnonzero(collapsed)[0])
-            edge = "vu" if corner == 0 else "vw"
-            raise ValueError(
-                f"triangle {t} {triangles[t].tolist()}: edge {edge} has length {length_a[t]:g} in the "
-                f"template neutral and {length_b[t]:g} in the target neutral; eq. 6 needs both zero or "
-                "both non-zero"
-            )
-        both = length_a > 0
-        ratio = np.ones(len(triangles))
-        ratio[both] = np.maximum(length_a[both] / length_b[both], length_b[both] / length_a[both])
+        short = np.minimum(length_a, length_b) <= 1e-6 * scale
+        degenerate |= short
+        ratio = np.zeros(len(triangles))
+        ratio[~short] = np.maximum(length_a[~short] / length_b[~short], length_b[~short] / length_a[~short])
         ratios.append(ratio)
-    return ratios[0] + ratios[1]
+    distortion = ratios[0] + ratios[1]
+    distortion[degenerate] = 0.0
+    if degenerate.any():
+        first = int(np.flatnonzero(degenerate)[0])
+        warnings.warn(
+            f"{int(degenerate.sum())} triangle(s) with a collapsed edge in the template or target neutral "
+            f"(first: triangle {first} {triangles[first].tolist()}) are left out of the triangle distortion "
+            "(eq. 6)",
+            DegenerateDistortionWarning,
+            stacklevel=2,
+        )
+    return distortion
+
+
+def _diagonal(points: np.ndarray) -> float:
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) if len(points) else 0.0
+
+
+class DegenerateDistortionWarning(UserWarning):
+    """Triangles with a collapsed edge were left out of the triangle distortion (eq. 6)."""
 
 
 def distortion_strength(distortion: np.ndarray, masks: np.ndarray, triangles: np.ndarray) -> np.ndarray:

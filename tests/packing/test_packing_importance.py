@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import packing
-from packing._importance import triangle_distortion
+from packing._importance import DegenerateDistortionWarning, triangle_distortion
 from rigs import Rig, RigError
 
 # Unit square in the z = 0 plane, split into triangles (0, 1, 2) and (1, 3, 2).
@@ -151,11 +151,21 @@ def test_target_with_other_topology_is_refused(square):
         packing.importance(square, other)
 
 
-def test_collapsed_target_edge_is_refused(square):
+def test_collapsed_edge_is_left_out_of_the_distortion_and_reported(square):
     collapsed = STRETCHED.copy()
     collapsed[3] = collapsed[2]
-    with pytest.raises(ValueError, match=r"triangle 1 \[1, 3, 2\]: edge vw has length 1 in the template"):
-        packing.importance(square, collapsed)
+    with pytest.warns(DegenerateDistortionWarning, match=r"1 triangle.*first: triangle 1 \[1, 3, 2\]"):
+        distortion = triangle_distortion(square.neutral, collapsed, square.triangles)
+    assert distortion[1] == 0.0
+    assert distortion[0] == pytest.approx(triangle_distortion(square.neutral, STRETCHED, square.triangles)[0])
+
+
+def test_one_sliver_does_not_swamp_the_other_triangles(square):
+    sliver = square.neutral.copy()
+    sliver[3] = sliver[2] + 1e-9 * (sliver[3] - sliver[2])
+    with pytest.warns(DegenerateDistortionWarning):
+        distortion = triangle_distortion(sliver, STRETCHED, square.triangles)
+    assert distortion[1] == 0.0 and distortion[0] >= 2.0
 
 
 @pytest.mark.parametrize(
