@@ -114,7 +114,12 @@ def _vector(values: list[float]) -> str:
 
 @rigs.command("warp")
 @click.argument("rig")
-@click.option("--warp", "warp_name", required=True, help="Warp preset name (see harness list).")
+@click.option(
+    "--warp",
+    "warp_name",
+    required=True,
+    help="Warp preset (see harness list) or spec: scale:SX,SY,SZ, local:CENTER,FACTOR[,RADIUS], joined by +",
+)
 @click.option(
     "--seed", type=click.IntRange(min=0), default=0, help="Generator seed when RIG is a preset name."
 )
@@ -123,8 +128,6 @@ def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
     """Warp every mesh of RIG (file or preset) into a target character with the same topology."""
     import rigs as rigs_package
 
-    if warp_name not in rigs_package.WARPS:
-        raise ValueError(f"unknown warp {warp_name!r}; valid: {', '.join(sorted(rigs_package.WARPS))}")
     warped = rigs_package.warp(resolve_rig(rig, seed=seed), warp_name)
     rigs_package.save(warped, out)
     terminal().print(f"wrote {out}: {_one_line(warped)} warped by {warp_name}")

@@ -88,8 +88,17 @@ def test_bad_rig_arguments_are_one_line_errors(tmp_path) -> None:
     broken.write_bytes(b"not a zip archive")
     assert_one_line_error(invoke("rigs", "info", broken), str(broken))
     assert_one_line_error(
-        invoke("rigs", "warp", "tiny", "--warp", "melt", "--out", tmp_path / "w.npz"), "unknown warp 'melt'"
+        invoke("rigs", "warp", "tiny", "--warp", "melt", "--out", tmp_path / "w.npz"),
+        "unknown warp step 'melt'; use a preset (scale-x1.3",
     )
+
+
+def test_rigs_warp_takes_parametric_specs(tmp_path) -> None:
+    out = tmp_path / "w.npz"
+    result = invoke("rigs", "warp", "tiny", "--warp", "scale:1.2,1,1", "--out", out)
+    assert result.exit_code == 0, result.output
+    template, warped = rigs.generate("tiny"), rigs.load(out)
+    np.testing.assert_allclose(warped.neutral[:, 0], 1.2 * template.neutral[:, 0])
 
 
 def test_bad_run_arguments_are_one_line_errors(tmp_path) -> None:
