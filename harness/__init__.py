@@ -8,13 +8,14 @@ through `packing`, `solvers` and `transfer` and never computes results itself.
 from harness._durations import format_duration, parse_duration
 from harness._executors import DaskExecutor, LocalExecutor
 from harness._grid import DEFAULT_J_VALUES, PRESETS, CellSpec, RunConfig
-from harness._overlap import OVERLAP_COLUMNS, overlap_table
+from harness._overlap import GROUP_COLUMNS, OVERLAP_COLUMNS, overlap_table
 from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
 from harness._rigspec import resolve_rig
 from harness._run import RunDirectoryError, RunSummary, read_overlap, read_run, run_grid
 
 __all__ = [
     "DEFAULT_J_VALUES",
+    "GROUP_COLUMNS",
     "OVERLAP_COLUMNS",
     "PRESETS",
     "RECORD_COLUMNS",

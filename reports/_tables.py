@@ -11,25 +11,20 @@ from pathlib import Path
 
 import pandas as pd
 
+import harness
 from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
 
 #: The solver whose times every other solver's are divided by (measured in the same run).
 BASELINE_SOLVER = "naive-pulp-cbc"
 
-#: Packing parameters of a cell (a "setting"); a report labels lines and rows by those that vary.
-SETTING_COLUMNS: tuple[str, ...] = (
-    "mu",
-    "alpha",
-    "beta",
-    "symmetry",
-    "importance",
-    "cap",
-    "jmax",
-    "time_limit",
-)
+#: Columns that identify a group of cells solving the same problems with different solvers: the harness's
+#: own grouping of its overlap table, so that reports pair cells exactly as the records do.
+GROUP_COLUMNS: tuple[str, ...] = harness.GROUP_COLUMNS
 
-#: Columns that identify a group of cells solving the same problems with different solvers.
-GROUP_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "repetition")
+#: Packing parameters of a cell (a "setting"); a report labels lines and rows by those that vary.
+SETTING_COLUMNS: tuple[str, ...] = tuple(
+    column for column in GROUP_COLUMNS if column not in ("rig", "rig_seed", "warp", "repetition")
+)
 
 #: Columns that identify a cell apart from its repetition.
 CASE_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "solver")
