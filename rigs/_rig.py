@@ -16,6 +16,47 @@ class RigError(ValueError):
     """
 
 
+class RigWarning(UserWarning):
+    """A rig file loaded, but something in it was left out or looks doubtful.
+
+    The message names the file, the shape if one is concerned, and what was left out or why it is doubtful.
+    """
+
+
+#: Largest magnitude of a coordinate or displacement: lengths, areas and normals of larger values overflow
+#: float64 (a face mesh in any unit is far below).
+LARGEST_COORDINATE = 1e150
+#: NumPy kinds a coordinate or displacement may have: signed and unsigned integers and floats (no bool,
+#: complex, string, object or date values, which a cast would silently turn into numbers).
+_REAL_KINDS = "iuf"
+
+
+def _as_array(values: Any, what: str, source: str) -> np.ndarray:
+    try:
+        return np.asarray(values)
+    except (TypeError, ValueError) as error:  # ragged nested lists
+        raise RigError(f"{source}: {what} is not an array ({error})") from None
+
+
+def _real_array(values: Any, what: str, source: str) -> np.ndarray:
+    """``values`` as a float64 array, refusing non-numeric and complex data instead of casting it."""
+    array = _as_array(values, what, source)
+    if array.dtype.kind not in _REAL_KINDS:
+        raise RigError(f"{source}: {what} must hold real numbers, got dtype {array.dtype}")
+    return array.astype(np.float64, copy=False)
+
+
+def _index_array(values: Any, what: str, source: str) -> np.ndarray:
+    """``values`` as an int64 array; floats are accepted only when every value is a whole number."""
+    array = _as_array(values, what, source)
+    if array.dtype.kind == "f":
+        if not np.all(np.isfinite(array)) or not np.all(np.mod(array, 1) == 0):
+            raise RigError(f"{source}: {what} must hold integer vertex indices")
+    elif array.dtype.kind not in "iu":
+        raise RigError(f"{source}: {what} must hold integer vertex indices, got dtype {array.dtype}")
+    return array.astype(np.int64)
+
+
 def _frozen(array: np.ndarray) -> np.ndarray:
     array = np.ascontiguousarray(array)
     array.flags.writeable = False
@@ -64,7 +105,7 @@ class Rig:
 
     def __post_init__(self) -> None:
         source = self.meta.get("source", "rig") if isinstance(self.meta, Mapping) else "rig"
-        neutral = np.asarray(self.neutral, dtype=np.float64)
+        neutral = _real_array(self.neutral, "neutral", source)
         if neutral.ndim != 2 or neutral.shape[1] != 3:
             raise RigError(f"{source}: neutral must have shape (N, 3), got {neutral.shape}")
         n_vertices = neutral.shape[0]
@@ -73,8 +114,14 @@ class Rig:
         if not np.isfinite(neutral).all():
             bad = int(np.argwhere(~np.isfinite(neutral))[0, 0])
             raise RigError(f"{source}: neutral has a non-finite coordinate at vertex {bad}")
+        if np.abs(neutral).max() > LARGEST_COORDINATE:
+            bad = int(np.argwhere(np.abs(neutral) > LARGEST_COORDINATE)[0, 0])
+            raise RigError(
+                f"{source}: neutral has a coordinate beyond {LARGEST_COORDINATE:g} at vertex {bad} "
+                "(its lengths would overflow)"
+            )
 
-        deltas = np.asarray(self.deltas, dtype=np.float64)
+        deltas = _real_array(self.deltas, "deltas", source)
         if deltas.ndim == 2 and deltas.shape == (0, 0):
             deltas = np.zeros((0, n_vertices, 3))
         if deltas.ndim != 3 or deltas.shape[1:] != (n_vertices, 3):
@@ -100,16 +147,20 @@ class Rig:
             raise RigError(
                 f"{source}: blendshape {names[bad]!r} has a non-finite displacement at vertex {vertex}"
             )
+        huge = (np.abs(deltas) > LARGEST_COORDINATE).any(axis=(1, 2)) if deltas.size else finite
+        if huge.any():
+            bad = int(np.flatnonzero(huge)[0])
+            vertex = int(np.argwhere(np.abs(deltas[bad]) > LARGEST_COORDINATE)[0, 0])
+            raise RigError(
+                f"{source}: blendshape {names[bad]!r} has a displacement beyond {LARGEST_COORDINATE:g} at "
+                f"vertex {vertex} (its lengths would overflow)"
+            )
 
-        triangles = np.asarray(self.triangles)
+        triangles = _index_array(self.triangles, "triangles", source)
         if triangles.size == 0:
             triangles = triangles.reshape(0, 3)
         if triangles.ndim != 2 or triangles.shape[1] != 3:
             raise RigError(f"{source}: triangles must have shape (T, 3), got {triangles.shape}")
-        if not np.issubdtype(triangles.dtype, np.integer):
-            if not np.all(np.mod(triangles, 1) == 0):
-                raise RigError(f"{source}: triangles must hold integer vertex indices")
-        triangles = triangles.astype(np.int64)
         if triangles.size and (triangles.min() < 0 or triangles.max() >= n_vertices):
             bad = int(np.flatnonzero((triangles < 0).any(axis=1) | (triangles >= n_vertices).any(axis=1))[0])
             raise RigError(
@@ -118,12 +169,12 @@ class Rig:
 
         regions: dict[str, np.ndarray] = {}
         for region_name, indices in dict(self.regions).items():
-            indices = np.asarray(indices)
+            indices = _as_array(indices, f"region {region_name!r}", source)
             if indices.dtype == bool:
                 if indices.shape != (n_vertices,):
                     raise RigError(f"{source}: region {region_name!r} mask has shape {indices.shape}")
                 indices = np.flatnonzero(indices)
-            indices = np.unique(indices.astype(np.int64).ravel())
+            indices = np.unique(_index_array(indices, f"region {region_name!r}", source).ravel())
             if indices.size and (indices[0] < 0 or indices[-1] >= n_vertices):
                 raise RigError(f"{source}: region {region_name!r} indexes outside 0..{n_vertices - 1}")
             regions[str(region_name)] = _frozen(indices)

@@ -9,13 +9,18 @@ folders and archives list them in name order, manifests in their own order):
 * a ``.zip`` archive: the same, over archive members; ``targets=`` is a glob over member paths;
 * a ``.json`` manifest ``{"base": "base.obj", "targets": [...] | "glob" | {name: file}, "units": "dm",
   "crop_rings": 2}`` with paths relative to the manifest.
+
+Every file is read through :mod:`rigs._safe`: only regular files inside the set's folder (a manifest's
+paths may not be absolute or leave it), and a target no larger than its base mesh allows: one line per
+vertex of at most `MAX_LINE` bytes plus `SLACK` for comments (`target_limit`); a ``.target.gz`` is
+inflated as a stream that stops at that cap, and archive members are capped the same way.
 """
 
 from __future__ import annotations
 
 import fnmatch
-import gzip
 import json
+import os
 import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path, PurePosixPath
@@ -23,10 +28,33 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from rigs._obj import ObjMesh, faces_are_triangles, parse_obj, read_obj, triangulate
-from rigs._rig import Rig, RigError
+from rigs._obj import MANIFEST_LIMIT, ObjMesh, faces_are_triangles, parse_obj, read_obj, triangulate
+from rigs._rig import LARGEST_COORDINATE, Rig, RigError
+from rigs._safe import (
+    check_budget,
+    gunzip,
+    named_path,
+    read_bytes,
+    read_member,
+    read_text,
+    regular_file,
+    rig_entries,
+)
 
 TARGET_SUFFIXES = (".target", ".target.gz")
+#: Longest ``vid dx dy dz`` line a target is allowed per vertex (MakeHuman writes about 25 bytes).
+MAX_LINE = 128
+#: Bytes a target may hold beyond its vertex lines: comments, blank lines.
+SLACK = 64 * 2**10
+#: A base OBJ in an archive may inflate this many times its compressed size (OBJ text deflates 3-5 times),
+#: and always to `BASE_ALLOWANCE` bytes.
+BASE_RATIO = 16
+BASE_ALLOWANCE = 16 * 2**20
+
+
+def target_limit(n_vertices: int) -> int:
+    """The most bytes a target for a base of ``n_vertices`` can need: a line per vertex, plus comments."""
+    return n_vertices * MAX_LINE + SLACK
 
 
 def target_name(path: str) -> str:
@@ -38,13 +66,20 @@ def target_name(path: str) -> str:
     return PurePosixPath(path).stem
 
 
-def _decode(data: bytes, label: str) -> str:
+def _decode(data: bytes, label: str, n_vertices: int) -> str:
+    """The text of a target file's bytes, inflating ``.gz`` ones up to :func:`target_limit`."""
     if label.endswith(".gz"):
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError) as error:
-            raise RigError(f"{label}: not a gzip file ({error})") from None
+        data = gunzip(data, target_limit(n_vertices), label, f"a target for {n_vertices} vertices")
     return data.decode("utf-8", errors="replace")
+
+
+def _read_target(path: Path, root: Path, n_vertices: int) -> str:
+    """The text of the target file ``path`` (inside ``root``), no larger than its base allows."""
+    limit = target_limit(n_vertices)
+    if path.name.endswith(".gz"):  # (compressed text is smaller, unless it is noise: then gunzip stops it)
+        limit *= 2
+    data = read_bytes(path, root=root, limit=limit, why=f"a target for {n_vertices} vertices")
+    return _decode(data, str(path), n_vertices)
 
 
 def parse_target(text: str, source: str, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -74,6 +109,12 @@ def parse_target(text: str, source: str, n_vertices: int) -> tuple[np.ndarray, n
     try:
         ids = table[:, 0].astype(np.int64)
         displacements = table[:, 1:].astype(np.float64)
+    except OverflowError:  # an index past 64 bits
+        bad = next(i for i, row in enumerate(rows) if abs(int(row[0])) >= 2**63)
+        raise RigError(
+            f"{source}:{numbers[bad]}: vertex {rows[bad][0][:40]} is outside the base mesh's "
+            f"0..{n_vertices - 1}"
+        ) from None
     except ValueError:
         bad = next(i for i, row in enumerate(rows) if not _is_target_row(row))
         raise RigError(
@@ -89,6 +130,12 @@ def parse_target(text: str, source: str, n_vertices: int) -> tuple[np.ndarray, n
     if not finite.all():
         i = int(np.flatnonzero(~finite)[0])
         raise RigError(f"{source}:{numbers[i]}: vertex {ids[i]} has a non-finite displacement")
+    huge = (np.abs(displacements) > LARGEST_COORDINATE).any(axis=1)
+    if huge.any():
+        i = int(np.flatnonzero(huge)[0])
+        raise RigError(
+            f"{source}:{numbers[i]}: vertex {ids[i]} has a displacement beyond {LARGEST_COORDINATE:g}"
+        )
     unique, first, counts = np.unique(ids, return_index=True, return_counts=True)
     if (counts > 1).any():
         vertex = unique[counts > 1][0]
@@ -180,7 +227,9 @@ def assemble(
     Raises
     ------
     RigError
-        For a malformed target (see :func:`parse_target`), two targets with one name, or a base without faces.
+        For a malformed target (see :func:`parse_target`), two targets with one name, a base without faces,
+        or more dense deltas than the files can describe (many empty targets over a large base; see
+        :func:`rigs._safe.check_budget`).
     """
     if not base.faces:
         raise RigError(f"{base_label}: the base mesh has no faces")
@@ -203,6 +252,10 @@ def assemble(
     renumber[kept] = np.arange(len(kept))
     faces = tuple(renumber[base.faces[i]] for i in kept_faces)
     neutral = base.vertices[kept]
+    described = sum(len(text) for _, _, text in targets) + 8 * n_base  # (a 'v' line takes 8 bytes or more)
+    check_budget(
+        source, f"{len(parsed)} targets of {len(kept)} vertices", len(parsed) * len(kept) * 24, described
+    )
     deltas = np.zeros((len(parsed), len(kept), 3))
     for k, (ids, displacements) in enumerate(parsed):
         local = renumber[ids]
@@ -237,25 +290,32 @@ def assemble(
 def load_target_folder(
     folder: str | Path, *, base: str | Path | None = None, crop_rings: int | None = None
 ) -> Rig:
-    """A rig from a folder holding a base OBJ and ``.target`` files (searched recursively, sorted by name)."""
+    """A rig from a folder holding a base OBJ and ``.target`` files (searched recursively, sorted by name).
+
+    Every ``*.target[.gz]`` entry must be a regular file inside the folder (a dangling or looping link, a
+    FIFO or a link leading outside is an error, not a shape left out); symbolic links to subfolders are
+    not searched (a `RigWarning` names them).
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise RigError(f"{folder}: no such folder of .target files")
-    base_path = _pick_base(folder, [p for p in folder.iterdir() if p.suffix.lower() == ".obj"], base)
-    found = [p for p in folder.rglob("*") if p.is_file() and p.name.endswith(TARGET_SUFFIXES)]
+    objs = rig_entries(folder, lambda name: Path(name).suffix.lower() == ".obj", recursive=False)
+    base_path = _pick_base(folder, objs, base)
+    found = rig_entries(folder, lambda name: name.endswith(TARGET_SUFFIXES), recursive=True)
     paths = sorted(found, key=lambda p: (target_name(p.name), p))
     if not paths:
         raise RigError(f"{folder}: no .target files")
-    targets = [(target_name(p.name), str(p), _decode(p.read_bytes(), str(p))) for p in paths]
-    return assemble(
-        read_obj(base_path), targets, source=str(folder), base_label=str(base_path), crop_rings=crop_rings
-    )
+    explicit = base is not None and Path(base).is_absolute()
+    mesh = read_obj(base_path, root=None if explicit else folder)
+    n_vertices = len(mesh.vertices)
+    targets = [(target_name(p.name), str(p), _read_target(p, folder, n_vertices)) for p in paths]
+    return assemble(mesh, targets, source=str(folder), base_label=str(base_path), crop_rings=crop_rings)
 
 
 def _pick_base(folder: Path, candidates: list[Path], base: str | Path | None) -> Path:
     if base is not None:
         path = Path(base) if Path(base).is_absolute() else folder / base
-        if not path.is_file():
+        if not os.path.lexists(path):
             raise RigError(f"{path}: base mesh not found")
         return path
     if len(candidates) != 1:
@@ -286,16 +346,23 @@ def load_target_zip(
         Glob over member paths (``*`` also crosses ``/``); members not ending in ``.target[.gz]`` are skipped.
     crop_rings, units, group_regions
         As for :func:`assemble`.
+
+    Raises
+    ------
+    RigError
+        For a file that is not a regular zip archive, a missing member, a member compressed other than by
+        store or deflate, corrupt (CRC), claiming more than deflate can produce, or larger than it may be
+        (the base: `BASE_RATIO` times its compressed size or `BASE_ALLOWANCE`; a target: `target_limit`),
+        and as for :func:`assemble`.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RigError(f"{path}: no such archive")
+    regular_file(path)
     try:
         archive = zipfile.ZipFile(path)
-    except (OSError, zipfile.BadZipFile) as error:
+        members = archive.namelist()
+    except (OSError, zipfile.BadZipFile, ValueError, NotImplementedError) as error:
         raise RigError(f"{path}: not a zip archive ({error})") from None
     with archive:
-        members = archive.namelist()
         if base is None:
             objs = [m for m in members if m.lower().endswith(".obj")]
             if len(objs) != 1:
@@ -309,13 +376,23 @@ def load_target_zip(
         chosen = sorted(matching, key=lambda m: (target_name(m), m))
         if not chosen:
             raise RigError(f"{path}: no .target members match {targets!r}")
-        base_mesh = parse_obj(archive.read(base).decode("utf-8", errors="replace"), f"{path}!{base}")
-        texts = [(target_name(m), f"{path}!{m}", _decode(archive.read(m), f"{path}!{m}")) for m in chosen]
+        base_label = f"{path}!{base}"
+        info = archive.getinfo(base)
+        base_limit = max(BASE_ALLOWANCE, BASE_RATIO * info.compress_size)
+        text = read_member(archive, base, base_label, base_limit, "an OBJ deflated this small")
+        base_mesh = parse_obj(text.decode("utf-8", errors="replace"), base_label)
+        n_vertices = len(base_mesh.vertices)
+        limit, why = target_limit(n_vertices), f"a target for {n_vertices} vertices"
+        texts = []
+        for member in chosen:
+            label = f"{path}!{member}"
+            data = read_member(archive, member, label, limit, why)
+            texts.append((target_name(member), label, _decode(data, label, n_vertices)))
     return assemble(
         base_mesh,
         texts,
         source=str(path),
-        base_label=f"{path}!{base}",
+        base_label=base_label,
         crop_rings=crop_rings,
         units=units,
         group_regions=group_regions,
@@ -323,21 +400,35 @@ def load_target_zip(
 
 
 def load_target_manifest(path: str | Path, *, crop_rings: int | None = None) -> Rig:
-    """A rig from a JSON manifest naming a base OBJ and target files (see the module docstring)."""
+    """A rig from a JSON manifest naming a base OBJ and target files (see the module docstring).
+
+    Raises
+    ------
+    RigError
+        For a manifest that is not JSON or lacks ``base`` and ``targets``, a path or glob in it that is
+        absolute or leaves the manifest's folder, a listed file missing or not a regular file inside that
+        folder, ``crop_rings`` or ``units`` of the wrong type, and as for :func:`assemble`.
+    """
     path = Path(path)
+    if not os.path.lexists(path):
+        raise RigError(f"{path}: no such manifest")
     try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise RigError(f"{path}: no such manifest") from None
-    except (OSError, ValueError) as error:
-        raise RigError(f"{path}: not a readable JSON manifest ({error})") from None
+        manifest = json.loads(read_text(path, limit=MANIFEST_LIMIT, why="a target-set manifest"))
+    except (ValueError, RecursionError) as error:
+        if isinstance(error, RigError):
+            raise
+        raise RigError(f"{path}: not a readable JSON manifest ({type(error).__name__}: {error})") from None
     if not isinstance(manifest, dict) or "base" not in manifest or "targets" not in manifest:
         raise RigError(f"{path}: a target-set manifest needs 'base' and 'targets'")
     root = path.parent
+    origin = str(path)
     listed = manifest["targets"]
     if isinstance(listed, str):
+        pattern = named_path(root, listed, origin).relative_to(root)
         files = {
-            target_name(p.name): p for p in sorted(root.glob(listed)) if p.name.endswith(TARGET_SUFFIXES)
+            target_name(p.name): p
+            for p in sorted(root.glob(str(pattern)))
+            if p.name.endswith(TARGET_SUFFIXES)
         }
         if not files:
             raise RigError(f"{path}: no .target files match {listed!r}")
@@ -347,22 +438,21 @@ def load_target_manifest(path: str | Path, *, crop_rings: int | None = None) -> 
             name = target_name(str(entry))
             if name in files:
                 raise RigError(f"{path}: duplicate blendshape name {name!r} ({entry} and {files[name].name})")
-            files[name] = root / str(entry)
+            files[name] = named_path(root, entry, origin)
     elif isinstance(listed, dict):
-        files = {str(name): root / str(entry) for name, entry in listed.items()}
+        files = {str(name): named_path(root, entry, origin) for name, entry in listed.items()}
     else:
         raise RigError(f"{path}: 'targets' must be a glob, a list of files or a name -> file mapping")
-    missing = [p for p in files.values() if not p.is_file()]
+    missing = [p for p in files.values() if not os.path.lexists(p)]
     if missing:
         raise RigError(f"{missing[0]}: target listed in {path.name} is missing")
-    texts = [(name, str(p), _decode(p.read_bytes(), str(p))) for name, p in files.items()]
-    base_path = root / str(manifest["base"])
+    base_path = named_path(root, manifest["base"], origin)
     rings = crop_rings if crop_rings is not None else manifest.get("crop_rings")
-    return assemble(
-        read_obj(base_path),
-        texts,
-        source=str(path),
-        base_label=str(base_path),
-        crop_rings=rings,
-        units=manifest.get("units"),
-    )
+    if rings is not None and (not isinstance(rings, int) or isinstance(rings, bool)):
+        raise RigError(f"{path}: 'crop_rings' must be an integer, got {rings!r:.40}")
+    units = manifest.get("units")
+    if units is not None and not isinstance(units, str):
+        raise RigError(f"{path}: 'units' must be a string, got {units!r:.40}")
+    mesh = read_obj(base_path, root=root)
+    texts = [(name, str(p), _read_target(p, root, len(mesh.vertices))) for name, p in files.items()]
+    return assemble(mesh, texts, source=str(path), base_label=str(base_path), crop_rings=rings, units=units)

@@ -25,6 +25,7 @@ from pygltflib import (
 import rigs
 from rigs import RigError
 from rigs._gltf import _dequantise, weld_seams
+from rigs._rig import RigWarning
 
 FLOAT, UINT, SHORT = 5126, 5125, 5122
 
@@ -202,7 +203,12 @@ def test_primitive_option_picks_within_the_mesh(tmp_path):
     builder.mesh("Other", NEUTRAL, target_deltas()[:2], TRIANGLES, names=["x", "y"], names_on="primitive")
     builder.gltf.meshes[0].primitives.append(builder.gltf.meshes.pop().primitives[0])
     path = builder.save(tmp_path / "prims.glb")
-    assert rigs.load(path).names == ("a", "b", "c")
+    # glTF gives every primitive of a mesh the same targets: reading both would drop shapes silently.
+    with pytest.raises(
+        RigError, match=r"prims\.glb: mesh 'Face' primitive 1: has 2 morph targets, primitive 0 has 3"
+    ):
+        rigs.load(path)
+    assert rigs.load(path, primitive=0).names == ("a", "b", "c")
     assert rigs.load(path, primitive=1).meta["mesh"] == "Face"
     assert rigs.load(path, primitive=1).names == ("x", "y")
     with pytest.raises(RigError, match=r"prims\.glb: mesh 'Face' has no primitive 2"):
@@ -214,7 +220,10 @@ def test_mesh_chosen_by_name_or_by_most_targets(tmp_path):
     builder.mesh("Teeth", NEUTRAL, target_deltas()[:1], TRIANGLES, names=["bite"])
     builder.mesh("Head", NEUTRAL, target_deltas(), TRIANGLES, names=["a", "b", "c"])
     path = builder.save(tmp_path / "two.glb")
-    assert rigs.load(path).names == ("a", "b", "c")
+    with pytest.warns(
+        RigWarning, match=r"two\.glb: only one mesh is read; left out: 'Teeth' \(1 morph target\)"
+    ):
+        assert rigs.load(path).names == ("a", "b", "c")
     assert rigs.load(path, mesh="Teeth").names == ("bite",)
     assert rigs.load(path, mesh=0).names == ("bite",)
     with pytest.raises(RigError, match=r"two\.glb: no mesh named 'Eyes' \(meshes: 'Teeth', 'Head'\)"):
@@ -275,7 +284,8 @@ def test_missing_external_buffer(tmp_path):
     ("extension", "package"),
     [("KHR_draco_mesh_compression", "DracoPy"), ("EXT_meshopt_compression", "gltfpack")],
 )
-def test_compressed_files_name_the_extension_and_the_decoder(tmp_path, extension, package):
+def test_compressed_files_name_the_extension_and_the_decoder(tmp_path, monkeypatch, extension, package):
+    monkeypatch.setattr("rigs._gltf._meshopt", lambda: None)  # no meshopt decoder installed
     builder = Builder()
     builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES)
     builder.gltf.extensionsUsed = [extension]

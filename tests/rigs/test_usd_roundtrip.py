@@ -1,0 +1,56 @@
+"""USD rigs (UsdSkel BlendShape offsets and pointIndices): a round trip keeps names and deltas."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rigs
+from rigs import RigError
+
+pytest.importorskip("pxr", reason="usd-core is not installed (pip install 'expression-packing-harness[usd]')")
+
+
+@pytest.mark.parametrize("suffix", [".usda", ".usdc", ".usd"])
+def test_round_trip_keeps_names_deltas_and_triangles(tmp_path, suffix):
+    rig = rigs.generate("tiny")
+    loaded = rigs.load(rigs.save(rig, tmp_path / f"rig{suffix}"), noise_floor=0.0)
+    assert loaded.names == rig.names and loaded.meta["format"] == "usd"
+    assert np.abs(loaded.deltas - rig.deltas).max() < 1e-6 * rig.diagonal()  # float32, as the schema stores
+    assert np.abs(loaded.neutral - rig.neutral).max() < 1e-6 * rig.diagonal()
+    assert np.array_equal(loaded.triangles, rig.triangles)
+
+
+def test_sparse_offsets_and_units_survive(tmp_path, faceunits):
+    path = rigs.save(faceunits, tmp_path / "faceunits.usdc")
+    loaded = rigs.load(path, noise_floor=0.0)
+    assert loaded.names == faceunits.names and loaded.meta["units"] == "dm"
+    assert np.abs(loaded.deltas - faceunits.deltas).max() < 1e-6
+    from pxr import Usd, UsdSkel
+
+    stage = Usd.Stage.Open(str(path))
+    shape = UsdSkel.BlendShape(stage.GetPrimAtPath("/Rig/Face/jawOpen"))
+    moved = np.flatnonzero(np.any(faceunits.deltas[faceunits.index("jawOpen")] != 0, axis=1))
+    assert list(shape.GetPointIndicesAttr().Get()) == moved.tolist()  # only the moved points are stored
+
+
+def test_a_layer_outside_the_folder_is_refused(tmp_path):
+    rig = rigs.generate("tiny")
+    outside = rigs.save(rig, tmp_path / "outside.usda")
+    folder = tmp_path / "rig"
+    folder.mkdir()
+    (folder / "face.usda").write_text(f"#usda 1.0\n(\n    subLayers = [@{outside}@]\n)\n")
+    with pytest.raises(RigError, match=r"face\.usda"):
+        rigs.load(folder / "face.usda")
+
+
+def test_bad_point_indices_are_one_line_errors(tmp_path):
+    from pxr import Usd, UsdSkel, Vt
+
+    path = rigs.save(rigs.generate("tiny"), tmp_path / "rig.usda")
+    stage = Usd.Stage.Open(str(path))
+    shape = UsdSkel.BlendShape(stage.GetPrimAtPath("/Rig/Face/jawOpen"))
+    shape.GetPointIndicesAttr().Set(Vt.IntArray([0, 10**6]))
+    stage.GetRootLayer().Save()
+    with pytest.raises(RigError, match=r"rig\.usda: mesh /Rig/Face blend shape /Rig/Face/jawOpen: "):
+        rigs.load(path)
