@@ -1,0 +1,141 @@
+"""Left/right blendshape names: which side a name is on and which names are mirror twins.
+
+Rigs name the two halves of a mirror pair (Carrigan et al. 2020, sec. 4.4.1) by a side token: a suffix
+``_L``/``_R`` (FACS-style, ARKit's ``browDown_L``), ``.L``/``.R`` (Blender), a prefix ``L_``/``R_``, a word
+``Left``/``Right`` (ARKit's ``eyeBlinkLeft``), ``left``/``right`` or ``_Lf``/``_Rt``. The geometric detector
+does not read names; these helpers let callers cross-check it against them (`compare_name_pairs`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+
+_SEPARATOR = r"_.\-\s"
+#: Side tokens as (left, right) spellings; each matches only as a whole token: a single letter or an
+#: abbreviation between separators (or the ends of the name), a word at a camel-case boundary.
+_TOKENS: tuple[tuple[str, str, str], ...] = (
+    # (left, right, pattern with {token} standing for either spelling)
+    ("L", "R", rf"(?<![^{_SEPARATOR}]){{token}}(?![^{_SEPARATOR}])"),
+    ("l", "r", rf"(?<![^{_SEPARATOR}]){{token}}(?![^{_SEPARATOR}])"),
+    ("Lf", "Rt", rf"(?<![^{_SEPARATOR}]){{token}}(?![^{_SEPARATOR}])"),
+    ("Left", "Right", r"(?<![A-Z]){token}(?![a-z])"),
+    ("left", "right", r"(?<![A-Za-z]){token}(?![a-z])"),
+    ("LEFT", "RIGHT", r"(?<![A-Za-z]){token}(?![A-Za-z])"),
+)
+_PATTERNS = tuple(
+    (
+        re.compile(pattern.format(token=re.escape(left))),
+        re.compile(pattern.format(token=re.escape(right))),
+        left,
+        right,
+    )
+    for left, right, pattern in _TOKENS
+)
+
+
+def side_of(name: str) -> str | None:
+    """The side a blendshape name is on by its side tokens: ``"L"``, ``"R"`` or None.
+
+    None when the name has no side token, or tokens of both sides (``"L_to_R"``).
+
+    Examples
+    --------
+    >>> side_of("eyeBlinkLeft"), side_of("browDown_R"), side_of("jawOpen"), side_of("bright")
+    ('L', 'R', None, None)
+    """
+    sides = {side for side, _ in _side_tokens(name)}
+    return sides.pop() if len(sides) == 1 else None
+
+
+def mirror_name_pairs(names: Iterable[str]) -> list[tuple[str, str]]:
+    """Pairs of names that differ only by their side tokens, left name first, sorted by it.
+
+    A left name's twin swaps every side token for the other side's spelling of the same convention
+    (``_L`` -> ``_R``, ``Left`` -> ``Right``, ``l_`` -> ``r_``); a name whose twin is not among
+    ``names`` is not listed.
+
+    Examples
+    --------
+    >>> mirror_name_pairs(["eyeBlinkRight", "jawOpen", "eyeBlinkLeft", "brow.L", "brow.R", "cheek_L"])
+    [('brow.L', 'brow.R'), ('eyeBlinkLeft', 'eyeBlinkRight')]
+    """
+    present = set(names)
+    pairs = []
+    for name in present:
+        if side_of(name) != "L":
+            continue
+        twin = _swapped(name)
+        if twin in present and side_of(twin) == "R":
+            pairs.append((name, twin))
+    return sorted(pairs)
+
+
+def compare_name_pairs(
+    geometric: Iterable[tuple[str, str]], names: Sequence[str]
+) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """Cross-check geometric symmetry pairs against the names' left/right twins.
+
+    Parameters
+    ----------
+    geometric : iterable of (str, str)
+        Pairs found from the geometry (e.g. `packing.find_symmetry_pairs`), in any order.
+    names : sequence of str
+        All blendshape names of the rig.
+
+    Returns
+    -------
+    contradicting : list of (str, str)
+        Geometric pairs whose two names both carry a side token but are not name twins (e.g.
+        ``("eyeBlink_L", "cheekPuff_R")``), in the order given.
+    missed : list of (str, str)
+        Name twins (`mirror_name_pairs`) that geometry did not pair, left name first, sorted.
+
+    Raises
+    ------
+    ValueError
+        If a geometric pair is not two names, or names a shape not in ``names``.
+
+    Examples
+    --------
+    >>> names = ["eyeBlink_L", "eyeBlink_R", "brow_L", "brow_R", "jawOpen"]
+    >>> compare_name_pairs([("eyeBlink_R", "eyeBlink_L"), ("brow_L", "jawOpen")], names)
+    ([], [('brow_L', 'brow_R')])
+    """
+    known = set(names)
+    pairs = [tuple(pair) for pair in geometric]
+    for pair in pairs:
+        if len(pair) != 2 or not all(isinstance(name, str) for name in pair):
+            raise ValueError(f"compare_name_pairs: a pair must be two shape names, got {pair!r}")
+        unknown = [name for name in pair if name not in known]
+        if unknown:
+            raise ValueError(f"compare_name_pairs: pair {pair!r} names unknown shape {unknown[0]!r}")
+    twins = mirror_name_pairs(names)
+    twin_sets = {frozenset(pair) for pair in twins}
+    found = {frozenset(pair) for pair in pairs}
+    contradicting = [
+        pair
+        for pair in pairs
+        if side_of(pair[0]) is not None and side_of(pair[1]) is not None and frozenset(pair) not in twin_sets
+    ]
+    missed = [pair for pair in twins if frozenset(pair) not in found]
+    return contradicting, missed
+
+
+def _side_tokens(name: str) -> list[tuple[str, re.Match[str]]]:
+    """Every side token of a name, with its side."""
+    found = []
+    for left, right, *_ in _PATTERNS:
+        found.extend(("L", match) for match in left.finditer(name))
+        found.extend(("R", match) for match in right.finditer(name))
+    return found
+
+
+def _swapped(name: str) -> str:
+    """The name with every side token replaced by the other side's spelling of the same convention."""
+    for left, right, left_token, right_token in _PATTERNS:
+        if left.search(name) or right.search(name):
+            marked = left.sub("\0", name)
+            marked = right.sub(left_token, marked)
+            name = marked.replace("\0", right_token)
+    return name
