@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import displacement_norms, empty_mask, masks_from_norms, sparse_masks
+from packing._binary import displacement_norms, empty_mask, lengths_matrix, masks_from_norms, sparse_masks
 from packing._importance import (
     ImportanceTerms,
     importance_terms,
@@ -22,7 +22,7 @@ from packing._importance import (
 )
 from packing._params import PackingParams, params_from
 from packing._problem import PackingProblem, problem_from_incidence, with_meta
-from packing._symmetry import SymmetryResult, detect_pairs
+from packing._symmetry import SymmetryResult, detect_pairs, resolve_constraints
 from rigs import Rig
 
 #: Scale of the tie-break perturbation (see `tie_break_perturbation`).
@@ -257,12 +257,14 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     require_nonempty(rig, empty)
     masks = masks_from_norms(norms, settings.mu, empty)
     active = sparse_masks(masks)
+    norms = lengths_matrix(norms, active)  # all the later steps read; frees K N floats
     lap("binary")
     if settings.importance and target is None:
         warn_missing_target(settings.alpha)
     terms = importance_terms(rig, active, norms, target if settings.importance else None)
     lap("importance")
-    symmetry = detect_pairs(rig, norms, active, empty, settings)
+    together, apart = resolve_constraints(rig, settings, empty)
+    symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart)
     lap("symmetry")
     if settings.max_per_expression == 1 and symmetry.pairs:
         a, b = symmetry.pairs[0]
@@ -288,6 +290,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         cap=settings.max_per_expression,
         meta={"rig": rig.meta.get("source", "rig"), "params": settings.as_dict()},
         tie_break=tie_break,
+        apart=_item_pairs(item_shapes, apart),
     )
     lap("presolve")
     timings["total"] = sum(timings.values())
@@ -387,6 +390,14 @@ def _shape_weights(
     if not params.importance:
         return packable.astype(np.float64)
     return terms.combine(params.alpha, params.beta, used, packable & ~used) * packable
+
+
+def _item_pairs(item_shapes: sp.csr_matrix, shape_pairs: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The items holding each pair of shapes (pairs with an empty shape, which is in no item, left out)."""
+    item_of = np.full(item_shapes.shape[1], -1, dtype=np.int64)
+    coo = item_shapes.tocoo()
+    item_of[coo.col] = coo.row
+    return [(int(item_of[a]), int(item_of[b])) for a, b in shape_pairs if item_of[a] >= 0 and item_of[b] >= 0]
 
 
 def _item_matrix(n_shapes: int, empty: np.ndarray, pairs: tuple[tuple[int, int], ...]) -> sp.csr_matrix:

@@ -14,7 +14,8 @@ def displacement_norms(deltas: np.ndarray) -> np.ndarray:
     deltas = np.asarray(deltas, dtype=np.float64)
     if deltas.ndim != 3 or deltas.shape[2] != 3:
         raise ValueError(f"deltas must have shape (K, N, 3), got {deltas.shape}")
-    return np.sqrt(np.einsum("knd,knd->kn", deltas, deltas))
+    squared = np.einsum("knd,knd->kn", deltas, deltas)
+    return np.sqrt(squared, out=squared)  # in place: one (K, N) array at a time
 
 
 def empty_mask(norms: np.ndarray, noise_floor: float = 1e-6, scale: float | None = None) -> np.ndarray:
@@ -98,15 +99,46 @@ def sparse_masks(masks: np.ndarray | sp.spmatrix) -> sp.csr_matrix:
         matrix = sp.csr_matrix(masks, dtype=bool)
         matrix.sort_indices()
         return matrix
-    rows, cols = np.nonzero(masks)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=masks.shape[0]))])
-    return sp.csr_matrix((np.ones(rows.size, dtype=bool), cols, indptr), shape=masks.shape)
+    flat = np.flatnonzero(masks)  # row-major, so the columns come grouped by row and ascending
+    n_rows, n_cols = masks.shape
+    indptr = np.searchsorted(flat, np.arange(n_rows + 1) * n_cols)
+    return sp.csr_matrix((np.ones(flat.size, dtype=bool), flat % n_cols, indptr), shape=masks.shape)
 
 
 def entries(matrix: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
     """Row and column index of every stored entry of a CSR matrix, in row-major order."""
     rows = np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))
     return rows, matrix.indices.astype(np.int64)
+
+
+def active_lengths(norms: np.ndarray | sp.spmatrix, active: sp.csr_matrix) -> np.ndarray:
+    """``|dv_k^n|`` of the active entries of ``active`` (row-major order).
+
+    ``norms`` is the dense (K, N) array of `displacement_norms`, or a sparse (K, N) matrix holding (at
+    least) the lengths of the active entries, as `lengths_matrix` makes it.
+    """
+    if not sp.issparse(norms):
+        rows, cols = entries(active)
+        return norms[rows, cols]
+    norms = sp.csr_matrix(norms)
+    if np.array_equal(norms.indptr, active.indptr) and np.array_equal(norms.indices, active.indices):
+        return norms.data
+    rows, cols = entries(active)
+    return np.asarray(norms[rows, cols]).ravel()
+
+
+def lengths_matrix(norms: np.ndarray, active: sp.csr_matrix) -> sp.csr_matrix:
+    """The lengths of the active entries as a (K, N) CSR matrix with the sparsity of ``active``: all that
+    the importance and symmetry terms read of `displacement_norms`, in nnz instead of K N floats."""
+    return sp.csr_matrix((active_lengths(norms, active), active.indices, active.indptr), shape=active.shape)
+
+
+def largest_lengths(norms: np.ndarray | sp.spmatrix) -> np.ndarray:
+    """(K,) ``max_n |dv_k^n|`` from dense lengths or `lengths_matrix` (equal for every non-empty shape,
+    whose largest displacement is active; 0 for an empty shape in the sparse form)."""
+    if sp.issparse(norms):
+        return np.asarray(sp.csr_matrix(norms).max(axis=1).todense()).ravel()
+    return norms.max(axis=1)
 
 
 def masks_from_norms(norms: np.ndarray, mu: float, empty: np.ndarray) -> np.ndarray:

@@ -11,7 +11,14 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import displacement_norms, empty_mask, entries, masks_from_norms, sparse_masks
+from packing._binary import (
+    active_lengths,
+    displacement_norms,
+    empty_mask,
+    entries,
+    masks_from_norms,
+    sparse_masks,
+)
 from packing._params import params_from
 from rigs import Rig
 
@@ -25,8 +32,9 @@ def displacement_strength(norms: np.ndarray, masks: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    norms : (K, N) array
-        Displacement lengths ``|v_k^n - v_0^n|``.
+    norms : (K, N) array or sparse matrix
+        Displacement lengths ``|v_k^n - v_0^n|`` (at least of the active entries, see
+        `packing._binary.lengths_matrix`).
     masks : (K, N) bool array or sparse matrix
         Binary blendshapes (eq. 2).
 
@@ -37,7 +45,7 @@ def displacement_strength(norms: np.ndarray, masks: np.ndarray) -> np.ndarray:
     active = sparse_masks(masks)
     rows, cols = entries(active)
     counts = np.diff(active.indptr)
-    total = np.bincount(rows, weights=norms[rows, cols], minlength=active.shape[0])
+    total = np.bincount(rows, weights=active_lengths(norms, active), minlength=active.shape[0])
     mean = np.divide(total, counts, out=np.zeros(len(counts)), where=counts > 0)
     return _normalised(mean)
 

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from os import PathLike
 from typing import Any
 
+from packing._constraints import as_pairs
+
 #: Sketched region pairs for motion symmetry (sec. 4.4.2): upper/lower lip and upper/lower eyelids.
 DEFAULT_REGION_PAIRS: tuple[tuple[str, str], ...] = (
     ("upper_lip", "lower_lip"),
@@ -40,6 +42,12 @@ class PackingParams:
     shape_tol : float > 0
         Factor of eq. 10: a pair is symmetric when its error is below ``shape_tol`` times the smaller
         of the two shapes' largest displacements (the paper uses 0.4).
+    pair_overlap : float in [0, 1]
+        The "small overlap between symmetric pairs" of sec. 4.4.1: a mirror pair whose shapes share more
+        than this share of the smaller shape's active vertices *away from the symmetry axis* (outside the
+        band of `packing._symmetry.AXIS_BAND`) is not a pair: it spreads over both facial halves, like
+        jawLeft/jawRight, and the two would cancel in one expression. Default 0.15: on generated and
+        Face Units rigs, true pairs overlap off the axis on at most 6%, spread shapes on at least 32%.
     motion_cos : float in [-1, 1]
         Threshold of eq. 12: mean directions with a cosine below it are opposite (paper: -0.985).
     motion_share : float in (0, 1]
@@ -50,7 +58,9 @@ class PackingParams:
     regions : mapping or path, optional
         Vertex regions replacing the rig's own: ``{name: vertex indices}`` or a JSON file holding one.
     mirror_tol : float, optional
-        Distance tolerance of the vertex mirror map (`rigs.mirror_map`); default from the mesh.
+        Largest distance from a reflected vertex to the mesh surface for it to have a mirror vertex
+        (`rigs.mirror_map` with the rig's triangles); default one local edge length, which keeps captured
+        neutrals with per-vertex noise of up to half an edge symmetric.
     noise_floor : float >= 0
         A blendshape whose largest displacement is at most ``noise_floor`` times the rig's
         bounding-box diagonal is empty: excluded from packing and reported.
@@ -58,6 +68,11 @@ class PackingParams:
         Cap on the blendshapes of one expression (sec. 6), counting both shapes of a pair.
     extra_examples : bool
         Second pass of sec. 6: add already-used blendshapes to later expressions where they fit.
+    together, apart : tuple of (str, str)
+        Artist constraints by shape name (`packing._constraints`): a together pair is one item, like a
+        symmetry pair (eq. 3d), and replaces any symmetry pair of its shapes; an apart pair never shares an
+        expression (one more conflict row) and is never a symmetry pair. Given as ``"A,B"`` strings or
+        pairs of names.
     """
 
     mu: float = 0.3
@@ -68,6 +83,7 @@ class PackingParams:
     shape_symmetry: bool = True
     motion_symmetry: bool = True
     shape_tol: float = 0.4
+    pair_overlap: float = 0.15
     motion_cos: float = -0.985
     motion_share: float = 0.5
     region_pairs: tuple[tuple[str, str], ...] = DEFAULT_REGION_PAIRS
@@ -76,12 +92,15 @@ class PackingParams:
     noise_floor: float = 1e-6
     max_per_expression: int | None = None
     extra_examples: bool = False
+    together: tuple[tuple[str, str], ...] = ()
+    apart: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         check_range("mu", self.mu, 0.0, 1.0, low_open=True)
         check_range("alpha", self.alpha, 0.0, 1.0)
         check_range("beta", self.beta, 0.0, math.inf)
         check_range("shape_tol", self.shape_tol, 0.0, math.inf, low_open=True)
+        check_range("pair_overlap", self.pair_overlap, 0.0, 1.0)
         check_range("motion_cos", self.motion_cos, -1.0, 1.0)
         check_range("motion_share", self.motion_share, 0.0, 1.0, low_open=True)
         check_range("noise_floor", self.noise_floor, 0.0, math.inf)
@@ -94,6 +113,8 @@ class PackingParams:
         if any(len(pair) != 2 or not all(isinstance(name, str) for name in pair) for pair in pairs):
             raise ValueError(f"region_pairs must be pairs of region names, got {self.region_pairs!r}")
         object.__setattr__(self, "region_pairs", pairs)
+        for kind in ("together", "apart"):
+            object.__setattr__(self, kind, as_pairs(getattr(self, kind), kind))
 
     @property
     def use_shape_symmetry(self) -> bool:
@@ -112,7 +133,8 @@ class PackingParams:
             values["regions"] = sorted(self.regions)
         elif self.regions is not None:
             values["regions"] = str(self.regions)
-        values["region_pairs"] = [list(pair) for pair in self.region_pairs]
+        for key in ("region_pairs", "together", "apart"):
+            values[key] = [list(pair) for pair in getattr(self, key)]
         return values
 
 

@@ -168,8 +168,9 @@ class ConflictSets:
         shrunk = alive & (sizes < self.sizes)
         if not shrunk.any():  # unchanged sets, renumbered, in the same order
             return self._frozen(members[alive[owner]], sizes[alive])
-        words = _words(_bit_rows(owner, members, len(self), int(np.count_nonzero(kept))))
-        retained = alive & ~_dominated_among(words, sizes, shrunk.nonzero()[0])
+        n_kept = int(np.count_nonzero(kept))
+        words = _words(_bit_rows(owner, members, len(self), n_kept))
+        retained = alive & ~_dominated_among(words, sizes, shrunk.nonzero()[0], owner, members, n_kept)
         order = _canonical_order(words, sizes, retained)
         start = (sizes.cumsum() - sizes)[order]  # where each set's members are (grouped by set)
         sizes = sizes[order]
@@ -246,15 +247,52 @@ def _dominated_by_larger(
     return np.bincount(subset[contained], minlength=sizes.size) > 0
 
 
-def _dominated_among(words: np.ndarray, sizes: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+#: Word comparisons below which `_dominated_among` compares every candidate with every set at once.
+_DENSE_COMPARISONS = 1 << 16
+
+
+def _dominated_among(
+    words: np.ndarray,
+    sizes: np.ndarray,
+    candidates: np.ndarray,
+    owner: np.ndarray,
+    members: np.ndarray,
+    n_items: int,
+) -> np.ndarray:
     """(S,) bool: candidate sets contained in a larger set, or equal to a set listed before them.
 
     Of a group of equal sets the first is kept (unless it lies in a larger set); sets that are not
     candidates are never dominated. A set ``y`` dominates a contained set ``x`` when it ranks higher:
-    larger, or as large (then equal) and earlier.
+    larger, or as large (then equal) and earlier. ``owner`` and ``members`` list the members of the sets,
+    grouped by set in set order, over ``n_items`` items. Few candidates are compared with every set at once;
+    otherwise each candidate (ascending) is compared only with the sets that hold its rarest item, which
+    every set containing it does.
     """
-    contained = ~(words[:, candidates, None] & ~words[:, None, :]).any(axis=0)  # (candidates, S)
-    rank = sizes * sizes.size - np.arange(sizes.size)
-    dominated = np.zeros(sizes.size, dtype=bool)
-    dominated[candidates] = (contained & (rank > rank[candidates, None])).any(axis=1)
+    n_sets = sizes.size
+    rank = sizes * n_sets - np.arange(n_sets)
+    if candidates.size * n_sets * words.shape[0] <= _DENSE_COMPARISONS:
+        contained = ~(words[:, candidates, None] & ~words[:, None, :]).any(axis=0)  # (candidates, S)
+        dominated = np.zeros(n_sets, dtype=bool)
+        dominated[candidates] = (contained & (rank > rank[candidates, None])).any(axis=1)
+        return dominated
+    holders = np.bincount(members, minlength=n_items)  # sets holding each item
+    candidate = np.zeros(n_sets, dtype=bool)
+    candidate[candidates] = True
+    inside = candidate[owner]
+    keys, groups = holders[members[inside]] * n_items + members[inside], owner[inside]
+    firsts = np.flatnonzero(np.concatenate([[True], groups[1:] != groups[:-1]]))
+    rarest = np.minimum.reduceat(keys, firsts) % n_items  # of each candidate, in ascending order
+    wanted = np.zeros(n_items, dtype=bool)
+    wanted[rarest] = True
+    holding = np.flatnonzero(wanted[members])  # the members that are some candidate's rarest item
+    by_item = np.argsort(members[holding], kind="stable")
+    items, sets = members[holding][by_item], owner[holding][by_item]
+    counts = holders[rarest]
+    subset = np.repeat(candidates, counts)
+    offset = np.arange(subset.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    superset = sets[np.repeat(np.searchsorted(items, rarest), counts) + offset]
+    higher = rank[superset] > rank[subset]
+    subset, superset = subset[higher], superset[higher]
+    dominated = np.zeros(n_sets, dtype=bool)
+    dominated[subset[~_not_inside(words, subset, superset)]] = True
     return dominated

@@ -46,6 +46,10 @@ class PackingProblem:
     tie_break : (I,) float array, optional
         The deterministic perturbation included in ``weights`` (see `packing.build_problem`); the
         unperturbed objective of a set of items is ``objective(items) - tie_break[items].sum()``.
+    apart : tuple of (int, int)
+        Item pairs that may not share an expression although they share no vertex (artist constraints,
+        `packing._constraints`). They are already among ``cliques``; a solver that reads ``incidence``
+        instead of ``cliques`` must add ``w_a + w_b <= 1`` for each.
     """
 
     shape_names: tuple[str, ...]
@@ -57,6 +61,7 @@ class PackingProblem:
     n_vertex_rows: int = 0
     meta: Mapping[str, Any] = field(default_factory=dict)
     tie_break: np.ndarray | None = None
+    apart: tuple[tuple[int, int], ...] = ()
 
     @property
     def n_items(self) -> int:
@@ -77,6 +82,14 @@ class PackingProblem:
         counts.flags.writeable = False
         return counts
 
+    @property
+    def clique_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``cliques`` in flat (CSR) form, read-only: ``starts`` (R + 1,), ``members`` (M,) and ``owner``
+        (M,), set r holding items ``members[starts[r]:starts[r + 1]]`` and ``owner`` naming the set of each
+        member. Computed once per problem (a restriction derives it with its conflict sets)."""
+        sets = self._conflict_sets
+        return sets.starts, sets.members, sets.owner
+
     def item_label(self, item: int) -> str:
         """Human-readable label: the shape name, or ``a+b`` for a pair."""
         return "+".join(self.shape_names[k] for k in self.items[item])
@@ -88,11 +101,6 @@ class PackingProblem:
     def objective(self, chosen: Iterable[int]) -> float:
         """Objective value (eq. 3a) of a set of items."""
         return float(self.weights[np.fromiter(chosen, dtype=np.int64)].sum())
-
-    @property
-    def n_clique_rows(self) -> int:
-        """Number of conflict rows after presolve (the maximal conflict sets)."""
-        return len(self.cliques)
 
     def unperturbed_objective(self, chosen: Iterable[int]) -> float:
         """Objective of a set of items without the tie-break perturbation (the importance sum)."""
@@ -142,10 +150,50 @@ class PackingProblem:
             n_vertex_rows=int(np.count_nonzero(cover)),
             meta={**_restricted_meta(self.meta, keep_index), **(meta or {})},
             tie_break=None if self.tie_break is None else self.tie_break[keep_index],
+            apart=_restricted_pairs(self.apart, kept),
         )
-        return _with_structure(
-            restricted, _conflict_sets=sets, _vertex_cover=cover, item_shape_counts=shape_counts
-        )
+        derived = {"_conflict_sets": sets, "_vertex_cover": cover, "item_shape_counts": shape_counts}
+        if "conflict_bits" in self.__dict__:
+            derived["conflict_bits"] = _selected_bits(self.conflict_bits, keep_index, self.n_items)
+        return _with_structure(restricted, **derived)
+
+    @cached_property
+    def conflict_bits(self) -> np.ndarray:
+        """(I, W) read-only uint64 array: the closed neighbourhoods of the item conflict graph as bit rows.
+
+        Bit j of row i (item j is bit ``63 - j % 64`` of word ``j // 64``, `np.packbits` order) is set when
+        items i and j share a conflict set, or i = j. Computed from the conflict sets on first use in
+        O(M W) for their M members; `restrict` derives it from this problem's when this one has it.
+        """
+        starts, members, owner = self.clique_arrays
+        rows = np.eye(self.n_items, dtype=bool)
+        if members.size:
+            sets = np.zeros((starts.size - 1, self.n_items), dtype=bool)
+            sets[owner, members] = True
+            by_item = sp.csr_matrix(  # transposed: the sets of item 0, then of item 1, ... (a counting sort)
+                (np.ones(members.size, dtype=bool), members, starts), shape=sets.shape
+            ).tocsc()
+            holders = np.flatnonzero(np.diff(by_item.indptr))
+            words = _pack_bits(sets)[by_item.indices]
+            closed = _pack_bits(rows)
+            closed[holders] |= np.bitwise_or.reduceat(words, by_item.indptr[holders], axis=0)
+        else:
+            closed = _pack_bits(rows)
+        closed.flags.writeable = False
+        return closed
+
+    def restricted_conflict_sets(self, keep: Iterable[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The conflict sets that ``restrict(keep)`` would have, in flat form, without building it.
+
+        Returns ``(starts, members)`` as `clique_arrays` gives them, over the kept items renumbered in
+        ascending order. For a backend that needs only the constraints of a sub-problem (the kernel left
+        by `solvers`' exact reductions); the vertices are not touched.
+        """
+        keep_index = _item_index(keep, self.n_items)
+        kept = np.zeros(self.n_items, dtype=bool)
+        kept[keep_index] = True
+        sets = self._conflict_sets.restrict(kept)
+        return sets.starts, sets.members
 
     def reweighted(self, weights: np.ndarray, tie_break: np.ndarray | None = None) -> PackingProblem:
         """The same items and conflict sets with new objective coefficients (no new presolve)."""
@@ -177,7 +225,7 @@ def with_meta(problem: PackingProblem, **meta: Any) -> PackingProblem:
 
 
 #: Cached values of a problem that depend on its items and incidence only, not on its weights.
-_STRUCTURE = ("_conflict_sets", "_vertex_cover", "item_shape_counts", "item_active_counts")
+_STRUCTURE = ("_conflict_sets", "_vertex_cover", "item_shape_counts", "item_active_counts", "conflict_bits")
 
 
 def _with_structure(problem: PackingProblem, **cached: Any) -> PackingProblem:
@@ -190,6 +238,26 @@ def _with_structure(problem: PackingProblem, **cached: Any) -> PackingProblem:
 def _structure_of(problem: PackingProblem) -> dict[str, Any]:
     """The structure values of ``problem`` computed so far."""
     return {name: problem.__dict__[name] for name in _STRUCTURE if name in problem.__dict__}
+
+
+def _pack_bits(rows: np.ndarray) -> np.ndarray:
+    """(n, W) uint64 words of n bool rows, column 0 the highest bit of word 0 (`np.packbits` order)."""
+    width = -(-rows.shape[1] // 64) * 64
+    padded = np.zeros((rows.shape[0], width), dtype=bool)
+    padded[:, : rows.shape[1]] = rows
+    return np.packbits(padded, axis=1).view(">u8").astype(np.uint64)
+
+
+def _unpack_bits(words: np.ndarray, n_columns: int) -> np.ndarray:
+    """The bool rows of `_pack_bits` words."""
+    return np.unpackbits(words.astype(">u8").view(np.uint8), axis=1, count=n_columns).astype(bool)
+
+
+def _selected_bits(bits: np.ndarray, keep: np.ndarray, n_items: int) -> np.ndarray:
+    """The bit rows and columns of the items ``keep`` of `PackingProblem.conflict_bits`, repacked."""
+    selected = _pack_bits(_unpack_bits(bits[keep], n_items)[:, keep])
+    selected.flags.writeable = False
+    return selected
 
 
 def _item_index(keep: Iterable[int], n_items: int) -> np.ndarray:
@@ -231,6 +299,12 @@ def _split_rows(matrix: sp.csr_matrix, kept: np.ndarray) -> tuple[sp.csr_matrix,
     )
 
 
+def _restricted_pairs(pairs: tuple[tuple[int, int], ...], kept: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """Item pairs with both items kept, renumbered like `PackingProblem.restrict` renumbers items."""
+    number = kept.cumsum() - 1
+    return tuple((int(number[a]), int(number[b])) for a, b in pairs if kept[a] and kept[b])
+
+
 def _active_vertices(indices: np.ndarray, data: np.ndarray) -> np.ndarray:
     """Column indices of the True entries among CSR entries."""
     return indices if data.all() else indices[data]
@@ -253,6 +327,7 @@ def problem_from_incidence(
     cap: int | None = None,
     meta: Mapping[str, Any] | None = None,
     tie_break: np.ndarray | None = None,
+    apart: Iterable[tuple[int, int]] = (),
 ) -> PackingProblem:
     """Build and presolve a `PackingProblem` from an item-by-vertex incidence matrix.
 
@@ -272,6 +347,9 @@ def problem_from_incidence(
         Provenance stored with the problem.
     tie_break : (I,) float array, optional
         The tie-break perturbation already included in ``weights``.
+    apart : iterable of (int, int)
+        Item pairs that may not share an expression (artist constraints). Each is presolved as one more
+        column of the incidence in which both items are active, so the conflict sets hold it.
 
     Returns
     -------
@@ -294,7 +372,18 @@ def problem_from_incidence(
         shape_names = tuple(f"s{k}" for k in range(1 + max((max(item) for item in items), default=-1)))
     if cap is not None and cap < 1:
         raise ValueError(f"cap must be a positive number of blendshapes, got {cap}")
-    cliques, n_vertex_rows = maximal_conflict_sets(incidence)
+    apart = tuple(sorted({(min(int(a), int(b)), max(int(a), int(b))) for a, b in apart}))
+    if any(a == b or a < 0 or b >= n_items for a, b in apart):
+        raise ValueError(f"apart pairs must be two distinct items in 0..{n_items - 1}, got {list(apart)}")
+    if apart:
+        columns = np.repeat(np.arange(len(apart)), 2)
+        artist = sp.csr_matrix(
+            (np.ones(columns.size, dtype=bool), (np.ravel(apart), columns)), shape=(n_items, len(apart))
+        )
+        cliques, n_rows = maximal_conflict_sets(sp.hstack([incidence, artist], format="csr"))
+        n_vertex_rows = n_rows - len(apart)
+    else:
+        cliques, n_vertex_rows = maximal_conflict_sets(incidence)
     weights.flags.writeable = False
     return PackingProblem(
         shape_names=tuple(shape_names),
@@ -306,4 +395,5 @@ def problem_from_incidence(
         n_vertex_rows=n_vertex_rows,
         meta=dict(meta or {}),
         tie_break=None if tie_break is None else np.asarray(tie_break, dtype=np.float64).ravel(),
+        apart=apart,
     )

@@ -9,7 +9,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from packing._analysis import Analysis, analyse
-from packing._problem import PackingProblem
+from packing._problem import PackingProblem, with_meta
 from packing._solution import Solution, SolutionStatus, Termination
 from rigs import Rig
 
@@ -35,9 +35,9 @@ class Expression:
     items : tuple of str
         Labels of the chosen items (``a+b`` for a pair).
     objective : float
-        Eq. 3a value the solver maximised (weights include the tie-break perturbation).
+        Eq. 3a: the importance (eq. 4) of the chosen shapes, without the tie-break perturbation.
     weight : float
-        The same without the perturbation: the importance (eq. 4) of the chosen shapes.
+        The same value (kept for the records' ``weight`` column).
     bound : float or None
         The solver's best bound on the objective (None for heuristics).
     termination : Termination
@@ -163,6 +163,7 @@ def sequence(
     while remaining > 0 and (jmax is None or len(expressions) < jmax):
         start = time.perf_counter()
         problem = analysis.problem_for() if problem is None else analysis.next_problem(problem, chosen, used)
+        problem = with_meta(problem, expression=len(expressions) + 1, stage="primary")
         presolve_time = time.perf_counter() - start
         solution = solver.solve(problem, time_limit=time_limit, seed=seed)
         chosen = _chosen_items(problem, solution)
@@ -170,13 +171,15 @@ def sequence(
         shapes = tuple(names[k] for i in full_items for k in analysis.problem.items[i])
         extra, extra_time = (), 0.0
         if analysis.params.extra_examples and used_items and chosen.size:
-            extra, extra_time = _extra_examples(analysis, solver, used_items, full_items, time_limit, seed)
+            extra, extra_time = _extra_examples(
+                analysis, solver, used_items, full_items, time_limit, seed, len(expressions) + 1
+            )
         expressions.append(
             Expression(
                 index=len(expressions) + 1,
                 shapes=shapes,
                 items=tuple(problem.item_label(i) for i in chosen),
-                objective=problem.objective(chosen),
+                objective=problem.unperturbed_objective(chosen),
                 weight=problem.unperturbed_objective(chosen),
                 bound=solution.bound,
                 termination=solution.termination,
@@ -219,8 +222,12 @@ def _extra_examples(
     chosen: np.ndarray,
     time_limit: float | None,
     seed: int,
+    index: int,
 ) -> tuple[tuple[str, ...], float]:
-    """Sec. 6 second pass: already-used items that fit beside the expression's chosen items."""
+    """Sec. 6 second pass: already-used items that fit beside the expression's chosen items (no shared
+    vertex, not apart from any of them, within the cap). The problem's meta names the expression ``index``
+    and ``stage="extra_examples"``, so a wrapper such as artist refinement can tell the two solves of one
+    expression from the solves of two expressions."""
     full = analysis.problem
     cap = full.cap
     room = None if cap is None else cap - int(full.item_shape_counts[chosen].sum())
@@ -230,12 +237,15 @@ def _extra_examples(
     candidates = np.array(sorted(set(used_items)), dtype=np.int64)
     clash = full.incidence[candidates] @ occupied.astype(np.float64)
     candidates = candidates[clash == 0]
+    taken = set(chosen.tolist())
+    barred = [b if a in taken else a for a, b in full.apart if a in taken or b in taken]
+    candidates = candidates[~np.isin(candidates, barred)]
     if room is not None:
         candidates = candidates[full.item_shape_counts[candidates] <= room]
     if candidates.size == 0:
         return (), 0.0
     problem = full.reweighted(analysis.item_weights()).restrict(candidates)
-    problem = replace(problem, cap=room)
+    problem = with_meta(replace(problem, cap=room), expression=index, stage="extra_examples")
     solution = solver.solve(problem, time_limit=time_limit, seed=seed)
     extra = _chosen_items(problem, solution)
     names = tuple(analysis.rig.names[k] for i in candidates[extra] for k in full.items[i])

@@ -35,7 +35,7 @@ class Solution:
     shapes : tuple of str
         Names of the blendshapes in the chosen items.
     objective : float
-        Sum of the chosen items' weights (eq. 3a).
+        Importance sum of the chosen items (eq. 3a), without the tie-break perturbation of the weights.
     bound : float or None
         Best proved upper bound on the objective (equals ``objective`` when optimal); None for heuristics.
     termination : Termination

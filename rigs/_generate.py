@@ -99,6 +99,20 @@ PRESETS: Mapping[str, PresetSpec] = {
             "Paper's DigiDouble test case: the shapes two scanned characters share (N=5131, K=161).",
             layout=FaceLayout(half_width=7.1, eye_half_width=1.4, nose_projection=2.3, mouth_half_width=2.35),
         ),
+        PresetSpec(
+            "film",
+            20000,
+            1000,
+            "Film-scale rig for the speed benchmarks: the Female layout with 1,000 shapes (N=20000, K=1000).",
+            layout=FaceLayout(half_width=7.0, eye_half_width=1.45, nose_projection=2.2, mouth_half_width=2.3),
+        ),
+        PresetSpec(
+            "dense",
+            100000,
+            265,
+            "Dense-mesh rig for the speed benchmarks: the Female shapes on 100k vertices (N=100000, K=265).",
+            layout=FaceLayout(half_width=7.0, eye_half_width=1.45, nose_projection=2.2, mouth_half_width=2.3),
+        ),
         PresetSpec("arkit52", 1220, 52, "The 52 ARKit blendshapes on an ARKit-sized face mesh.", "arkit52"),
         PresetSpec(
             "tiny",
@@ -117,8 +131,8 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     Parameters
     ----------
     preset : str or PresetSpec
-        A name in `PRESETS` (``male``, ``toon``, ``female``, ``digidouble``, ``arkit52``, ``tiny``) or a
-        custom `PresetSpec`.
+        A name in `PRESETS` (``male``, ``toon``, ``female``, ``digidouble``, ``film``, ``dense``,
+        ``arkit52``, ``tiny``) or a custom `PresetSpec`.
     seed : int >= 0
         Seeds the placement, size, amplitude and direction jitter of every shape. The same preset and
         seed give the same rig bit for bit.
@@ -129,7 +143,9 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
         Units are centimetres. ``regions`` holds the motion-symmetry sketches (``upper_lip``,
         ``lower_lip``, ``upper_eyelid_L/R``, ``lower_eyelid_L/R``). ``meta`` holds ``source``
         (``generated:<preset>``), ``preset``, ``seed``, ``units``, ``landmarks`` (``eye_L``, ``eye_R``,
-        ``mouth``, ``nose`` centres) and ``truth``: ``mirror_pairs`` [(left, right)], ``motion_pairs``
+        ``mouth``, ``nose`` centres) and ``truth``: ``mirror_pairs`` [(left, right)] (sec. 4.4.1 pairs),
+        ``spread_mirror_images`` [(left, right)] (mirror images of a midline site moving sideways, e.g.
+        jawLeft/jawRight: they spread over both halves and are never paired), ``motion_pairs``
         [(upper, lower)] and ``self_symmetric`` [names].
 
     Raises
@@ -189,7 +205,10 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     else:
         raise RuntimeError(f"preset {spec.name!r}: could not place shapes clear of motion pairs")
 
-    mirror_pairs = [shape.names for shape in chosen if shape.is_pair]
+    # A mirror image of a midline site moving sideways (jawLeft/jawRight) spreads over both facial halves:
+    # sec. 4.4.1 never pairs those (their sum cancels), so the truth lists them apart from the pairs.
+    spread = [shape.names for shape in chosen if shape.is_pair and _on_midline(shape, sites)]
+    mirror_pairs = [shape.names for shape in chosen if shape.is_pair and shape.names not in spread]
     self_symmetric = [shape.names[0] for shape in chosen if shape.self_symmetric]
 
     meta = {
@@ -200,11 +219,17 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
         "landmarks": {name: [float(value) for value in point] for name, point in mesh.landmarks.items()},
         "truth": {
             "mirror_pairs": mirror_pairs,
+            "spread_mirror_images": spread,
             "motion_pairs": motion_pairs,
             "self_symmetric": self_symmetric,
         },
     }
     return Rig(mesh.neutral, deltas, mesh.triangles, tuple(names), regions=mesh.regions, meta=meta)
+
+
+def _on_midline(shape: ShapeSpec, sites: Mapping[str, Site]) -> bool:
+    """Whether every component of a shape moves a midline site (jaw, mouth, chin, nose tip)."""
+    return all(sites[component.site].midline for component in shape.components)
 
 
 def _stray_motion_pairs(

@@ -16,11 +16,12 @@ import math
 import time
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass
-from typing import Any, ClassVar, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-from packing import PackingProblem, Solution, Termination
+if TYPE_CHECKING:  # imported where used, so that listing plugins does not import the method
+    from packing import PackingProblem, Solution, Termination
 
 #: Largest seed every backend accepts (CP-SAT and HiGHS take a 32-bit signed int).
 MAX_SEED = 2**31 - 1
@@ -42,9 +43,11 @@ class Capabilities:
         The same problem and seed give the same items.
     isolated_process : bool
         Runs its backend in a separate worker process (its library cannot share a process with others).
-    strict : bool
-        Chosen items never share an active vertex (eq. 3b). False for solvers that allow overlap on
-        purpose (sec. 4.5.2); their results are checked with the allowed overlap instead.
+    max_overlap : float in [0, 1)
+        Declared share of an item's active vertices that may already be active in the expression when the
+        item is added (Algorithm 2 with allowed overlap, sec. 4.5.2). 0 for every solver of eq. 3, whose
+        chosen items never share an active vertex (eq. 3b). Results are verified with this allowance and
+        no other.
     """
 
     exact: bool
@@ -52,11 +55,22 @@ class Capabilities:
     supports_cap: bool = True
     deterministic: bool = True
     isolated_process: bool = False
-    strict: bool = True
+    max_overlap: float = 0.0
 
-    def as_dict(self) -> dict[str, bool]:
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.max_overlap < 1.0:
+            raise ValueError(
+                f"Capabilities.max_overlap must be a fraction in [0, 1), got {self.max_overlap!r}"
+            )
+
+    @property
+    def strict(self) -> bool:
+        """Chosen items never share an active vertex (eq. 3b): ``max_overlap == 0``."""
+        return self.max_overlap == 0.0
+
+    def as_dict(self) -> dict[str, bool | float]:
         """Plain mapping for JSON output."""
-        return asdict(self)
+        return {**asdict(self), "strict": self.strict}
 
 
 class AvailabilityStatus(enum.StrEnum):
@@ -178,6 +192,8 @@ def distribution_version(distribution: str) -> str:
 
 def check_solve_arguments(problem: Any, time_limit: float | None, seed: int) -> None:
     """Raise one clear ValueError/TypeError for bad `Solver.solve` arguments."""
+    from packing import PackingProblem
+
     if not isinstance(problem, PackingProblem):
         raise TypeError(f"problem must be a packing.PackingProblem, got {type(problem).__name__}")
     if time_limit is not None and not (isinstance(time_limit, int | float) and math.isfinite(time_limit)):
@@ -203,11 +219,14 @@ def make_solution(
     """A `Solution` with items sorted, shape names and the objective recomputed from the problem's weights.
 
     Backends report the chosen items only; the objective is always evaluated here in double precision so
-    that every backend's value is comparable to 1e-9 (eq. 3a). A proved bound is never reported below the
-    objective it bounds.
+    that every backend's value is comparable to 1e-9. It is the importance sum of eq. 3a: the tie-break
+    perturbation that backends maximise along with it stays inside them. A bound proved on the perturbed
+    objective also bounds the importance sum; it is never reported below the objective it bounds.
     """
+    from packing import Solution, Termination
+
     chosen = tuple(sorted(int(i) for i in items))
-    objective = problem.objective(chosen)
+    objective = problem.unperturbed_objective(chosen)
     if termination is Termination.OPTIMAL:
         bound = objective
     elif bound is not None:

@@ -39,17 +39,17 @@ class CliqueModel:
     cap: int | None
 
     @classmethod
-    def from_problem(cls, problem: PackingProblem) -> CliqueModel:
-        """Arrays of a problem's presolved model; a cap that all items together respect is dropped."""
-        sizes = np.fromiter((c.size for c in problem.cliques), dtype=np.int64, count=len(problem.cliques))
-        row_starts = np.zeros(sizes.size + 1, dtype=np.int64)
-        np.cumsum(sizes, out=row_starts[1:])
-        row_items = (
-            np.concatenate(problem.cliques).astype(np.int64) if problem.cliques else np.zeros(0, np.int64)
-        )
-        counts = problem.item_shape_counts
+    def from_problem(cls, problem: PackingProblem, keep: np.ndarray | None = None) -> CliqueModel:
+        """Arrays of a problem's presolved model, or of its sub-problem over the items ``keep`` (ascending;
+        item r of the model is ``keep[r]``); a cap that all its items together respect is dropped."""
+        weights, counts = np.asarray(problem.weights, dtype=np.float64), problem.item_shape_counts
+        if keep is None:
+            row_starts, row_items, _ = problem.clique_arrays
+        else:
+            row_starts, row_items = problem.restricted_conflict_sets(keep)
+            weights, counts = weights[keep], counts[keep]
         cap = problem.cap if problem.cap is not None and problem.cap < counts.sum() else None
-        return cls(np.asarray(problem.weights, dtype=np.float64), row_starts, row_items, counts, cap)
+        return cls(weights, row_starts, row_items, counts, cap)
 
     @property
     def n_items(self) -> int:

@@ -9,7 +9,8 @@ reconsidered when computing the next expression."
 (heaviest first) to a ``decide`` callback, keeps accepted items, and after a rejection re-solves over the
 items that are neither decided nor in conflict with an accepted one (`PackingProblem.restrict`), with the
 cap reduced by the accepted shapes. `RefiningSolver` wraps this as a `Solver`, so the expression sequence
-(Algorithm 1) runs it per expression and rejections never carry over.
+(Algorithm 1) runs it per expression and rejections never carry over; the second pass of sec. 6 (extra
+examples) is refined as part of the expression it completes.
 """
 
 from __future__ import annotations
@@ -42,7 +43,10 @@ class Proposal:
     accepted : tuple of int
         Items accepted so far in this expression.
     expression : int
-        Index of the expression in the sequence (0 for the first), as counted by `RefiningSolver`.
+        Index of the expression in the sequence (0 for the first), as `RefiningSolver` tells it.
+    extra_example : bool
+        The item is proposed as an extra example (the second pass of sec. 6: a shape already used by an
+        earlier expression, added again where it fits).
     """
 
     problem: PackingProblem
@@ -52,6 +56,7 @@ class Proposal:
     weight: float
     accepted: tuple[int, ...]
     expression: int
+    extra_example: bool = False
 
 
 #: The artist's decision: True accepts the proposed item, False rejects it for this expression.
@@ -66,6 +71,7 @@ def refine(
     time_limit: float | None = None,
     seed: int = 0,
     expression: int = 0,
+    extra_example: bool = False,
 ) -> Solution:
     """One expression with artist accept/reject decisions (sec. 4.5.3).
 
@@ -80,14 +86,18 @@ def refine(
         Passed to every solve.
     expression : int
         Expression index reported in the proposals.
+    extra_example : bool
+        Reported in the proposals: ``problem`` is the extra-example pass of the expression (sec. 6).
 
     Returns
     -------
     Solution
         The accepted items. ``termination`` is the inner solver's when nothing was rejected (an optimal
-        inner solve gives the optimum), COMPLETED after rejections (the result is then optimal only
-        among packings that avoid the rejected items and keep the accepted ones), TIME_LIMIT if any
-        solve hit the limit, ERROR if one failed. ``message`` lists the rejected items.
+        inner solve gives the optimum). After rejections it is OPTIMAL when every (re)solve was optimal:
+        each re-solve is optimal over the items neither decided nor in conflict with an accepted one, so
+        the result is optimal among the packings that keep the accepted items and avoid the rejected
+        ones (the problem restricted by the artist's decisions); else COMPLETED. TIME_LIMIT if any solve
+        hit the limit, ERROR if one failed. ``message`` lists the rejected items.
     """
     check_solve_arguments(problem, time_limit, seed)
     adjacency = conflict_graph(problem)
@@ -133,6 +143,7 @@ def refine(
             weight=float(problem.weights[item]),
             accepted=tuple(accepted),
             expression=expression,
+            extra_example=extra_example,
         )
         if decide(proposal):
             accepted.append(item)
@@ -142,11 +153,17 @@ def refine(
             pending = []  # re-solve without it: the rest of the proposal may no longer be best
     if Termination.TIME_LIMIT in terminations:
         termination = Termination.TIME_LIMIT
-    elif rejected:
-        termination = Termination.COMPLETED
-    else:  # no rejection: the first solve's items were all accepted
+    elif not rejected:  # the first solve's items were all accepted
         termination = terminations[0] if terminations else Termination.OPTIMAL
-    message = "rejected: " + ", ".join(problem.item_label(i) for i in rejected) if rejected else ""
+    elif all(done is Termination.OPTIMAL for done in terminations):
+        termination = Termination.OPTIMAL  # for the problem restricted by the decisions
+    else:
+        termination = Termination.COMPLETED
+    message = ""
+    if rejected:
+        message = "rejected: " + ", ".join(problem.item_label(i) for i in rejected)
+        if termination is Termination.OPTIMAL:
+            message += " (optimal without the rejected items, with the accepted ones)"
     return make_solution(
         problem,
         accepted,
@@ -163,8 +180,12 @@ def refine(
 class RefiningSolver:
     """A `Solver` that runs `refine` with an inner solver and a decision callback, per expression.
 
-    Each `solve` call is one expression of the sequence (Algorithm 1): rejections apply to that call only.
-    The expression index passed to ``decide`` counts the calls, starting at 0.
+    Each expression of the sequence (Algorithm 1) is refined on its own: rejections apply to that
+    expression only. The expression comes from the problem: `packing.sequence` names it in
+    ``meta["expression"]`` (1-based) for both solves of an expression, the primary one and the second pass
+    of sec. 6 (``meta["stage"] == "extra_examples"``, whose proposals are marked ``extra_example``). A
+    problem without that entry is the next expression: calls are counted. The index passed to ``decide``
+    counts expressions from 0.
 
     Parameters
     ----------
@@ -177,17 +198,25 @@ class RefiningSolver:
         self.decide = decide
         self.name = f"{inner.name}+refine"
         self.capabilities: Capabilities = dataclasses.replace(inner.capabilities, exact=False)
-        self._expressions = 0
+        self._calls = 0
 
     def availability(self):
         """The inner solver's availability."""
         return self.inner.availability()
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
-        """Refine the next expression of the sequence."""
-        expression, self._expressions = self._expressions, self._expressions + 1
+        """Refine one expression of the sequence, or the extra examples of one."""
+        named = problem.meta.get("expression")
+        expression = self._calls if named is None else int(named) - 1
+        self._calls += 1
         return refine(
-            problem, self.inner, self.decide, time_limit=time_limit, seed=seed, expression=expression
+            problem,
+            self.inner,
+            self.decide,
+            time_limit=time_limit,
+            seed=seed,
+            expression=expression,
+            extra_example=problem.meta.get("stage") == "extra_examples",
         )
 
 
@@ -197,8 +226,8 @@ def rejecting(rejections: Mapping[int, Collection[str]]) -> Decide:
     Parameters
     ----------
     rejections : mapping of expression index (0-based) to shape names
-        A proposal is rejected when its label or any of its shapes is named for its expression
-        (rejecting one shape of a symmetry pair rejects the pair).
+        A proposal is rejected when its label or any of its shapes is named for its expression, as a
+        primary shape or an extra example (rejecting one shape of a symmetry pair rejects the pair).
 
     Examples
     --------

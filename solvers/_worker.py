@@ -5,19 +5,23 @@ its ``module:function`` in a long-lived ``python -m solvers._worker`` child: req
 pickled over the child's stdin and a private copy of its stdout (library output on fd 1 goes to a log
 file instead), so the caller's ``Solver.solve`` looks the same as for an in-process backend. The first
 call starts the worker (interpreter and library start-up are paid once and never counted as solve time).
+The worker ends with its parent, even when the parent is killed with ``kill -9`` (`exit_with_parent`).
 """
 
 from __future__ import annotations
 
 import atexit
+import ctypes
 import importlib
 import os
 import pickle
 import select
+import signal
 import subprocess
 import sys
 import tempfile
 import threading
+import time
 import traceback
 from pathlib import Path
 from typing import Any
@@ -83,7 +87,7 @@ class Worker:
         package_root = str(Path(__file__).resolve().parent.parent)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH", "")) if p)
         self._process = subprocess.Popen(
-            [sys.executable, "-m", "solvers._worker"],
+            [sys.executable, "-m", "solvers._worker", str(os.getpid())],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self._log,
@@ -136,13 +140,47 @@ def _close_all() -> None:
         running.close()
 
 
+#: ``prctl`` option asking the kernel for a signal when the parent exits (``<linux/prctl.h>``).
+_PR_SET_PDEATHSIG = 1
+#: Seconds between two checks of the parent by the watchdog thread.
+_WATCH_INTERVAL = 1.0
+
+
+def exit_with_parent(parent: int) -> None:
+    """End this process as soon as ``parent`` (the process that started it) ends, however it ends.
+
+    On Linux the kernel sends SIGKILL when the parent exits (``prctl(PR_SET_PDEATHSIG)``, through
+    `ctypes`); on every platform a daemon thread checks every `_WATCH_INTERVAL` seconds that the parent
+    is still this process's parent (an orphan is re-parented) and exits otherwise. A parent already gone
+    by the time this runs ends the process at once.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass  # no usable libc: the watchdog below still ends the process
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), name="parent-watchdog", daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(_WATCH_INTERVAL)
+    os._exit(1)
+
+
 def _resolve(function: str):
     module, _, name = function.partition(":")
     return getattr(importlib.import_module(module), name)
 
 
 def main() -> None:
-    """Worker loop: read ``(function, args)`` pickles from stdin, write ``(status, value)`` replies."""
+    """Worker loop: read ``(function, args)`` pickles from stdin, write ``(status, value)`` replies.
+
+    ``sys.argv[1]`` is the parent's process id: the worker ends with it (`exit_with_parent`).
+    """
+    exit_with_parent(int(sys.argv[1]))
     requests = sys.stdin.buffer
     replies = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # C libraries printing to fd 1 must not corrupt replies

@@ -1,4 +1,9 @@
-"""OR-Tools CP-SAT (plugin ``cpsat``): one ``AddAtMostOne`` per presolved conflict set, integer weights."""
+"""OR-Tools CP-SAT (plugin ``cpsat``): one ``AddAtMostOne`` per presolved conflict set, integer weights.
+
+The model is written straight into CP-SAT's model proto through ``ortools.sat.python.cp_model_helper``
+(the binding that ``cp_model.CpModel`` wraps): the same model, three times faster to build from arrays, and
+without importing ``cp_model``, which imports pandas (0.7 s) only for its pandas helpers.
+"""
 
 from __future__ import annotations
 
@@ -30,8 +35,12 @@ def integer_weights(weights: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def cpsat_parameters(solver, time_limit: float | None, seed: int, workers: int) -> None:
+    """Deterministic exact CP-SAT settings on a ``CpSolver`` (see `set_parameters`)."""
+    set_parameters(solver.parameters, time_limit, seed, workers)
+
+
+def set_parameters(parameters, time_limit: float | None, seed: int, workers: int) -> None:
     """Deterministic exact CP-SAT settings: gaps 0, fixed seed and worker count, native time limit."""
-    parameters = solver.parameters
     parameters.num_workers = workers
     parameters.random_seed = int(seed)
     parameters.relative_gap_limit = 0.0
@@ -67,31 +76,53 @@ class CpSatSolver(ExactSolverBase):
     def _solve_model(
         self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
     ) -> BackendResult:
-        from ortools.sat.python import cp_model
+        from ortools.sat.python import cp_model_helper
 
         clock = Stopwatch()
-        scaled, scale = integer_weights(model.weights)
-        cp = cp_model.CpModel()
-        chosen = [cp.new_bool_var(f"x{i}") for i in range(model.n_items)]
-        for r in range(model.n_rows):
-            cp.add_at_most_one(chosen[i] for i in model.row(r).tolist())
-        if model.cap is not None:
-            cp.add(cp_model.LinearExpr.weighted_sum(chosen, model.shape_counts.tolist()) <= model.cap)
-        cp.maximize(cp_model.LinearExpr.weighted_sum(chosen, scaled.tolist()))
-        solver = cp_model.CpSolver()
-        cpsat_parameters(solver, time_limit, seed, self.workers)
+        proto = _model_proto(cp_model_helper, model)
+        parameters = cp_model_helper.SatParameters()
+        set_parameters(parameters, time_limit, seed, self.workers)
+        solver = cp_model_helper.SolveWrapper()
+        solver.set_parameters(parameters)
         build_time = clock.lap()
-        status = solver.solve(cp)
+        response = solver.solve(proto)
         solve_time = clock.lap()
+        status = response.status
+        found = cp_model_helper.CpSolverStatus
         version = f"ortools {distribution_version('ortools')}"
-        if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE, cp_model.UNKNOWN):
-            message = f"CP-SAT stopped with status {solver.status_name(status)}"
+        if status not in (found.OPTIMAL, found.FEASIBLE, found.UNKNOWN):
+            message = f"CP-SAT stopped with status {status.name}"
             return BackendResult((), Termination.ERROR, None, build_time, solve_time, version, message)
         items: tuple[int, ...] = ()
-        if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            values = np.asarray(list(solver.response_proto.solution))[: model.n_items]
+        if status in (found.OPTIMAL, found.FEASIBLE):
+            values = np.asarray(response.solution)[: model.n_items]
             items = tuple(np.flatnonzero(values).tolist())
         # The bound is on the scaled integers; add the worst-case rounding so it stays a true bound.
-        bound = (solver.best_objective_bound + 0.5 * model.n_items) / scale
-        termination = Termination.OPTIMAL if status == cp_model.OPTIMAL else Termination.TIME_LIMIT
+        scale = integer_weights(model.weights)[1]
+        bound = (response.best_objective_bound + 0.5 * model.n_items) / scale
+        termination = Termination.OPTIMAL if status == found.OPTIMAL else Termination.TIME_LIMIT
         return BackendResult(items, termination, bound, build_time, solve_time, version)
+
+
+def _model_proto(cp_model_helper, model: CliqueModel):
+    """CP-SAT's model proto of the clique model: a Boolean per item, ``at_most_one`` per clique, the cap as
+    a linear row, and ``maximize`` of the integer weights (as ``CpModel.maximize`` writes it: minimise the
+    negated sum, scaling factor -1)."""
+    proto = cp_model_helper.CpModelProto()
+    n_items = model.n_items
+    for _ in range(n_items):
+        proto.variables.add().domain.extend((0, 1))
+    starts = model.row_starts.tolist()
+    items = model.row_items.tolist()
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        proto.constraints.add().at_most_one.literals.extend(items[a:b])
+    if model.cap is not None:
+        linear = proto.constraints.add().linear
+        linear.vars.extend(range(n_items))
+        linear.coeffs.extend(model.shape_counts.tolist())
+        linear.domain.extend((-(2**63), model.cap))  # (-inf, cap], as CpModel writes it
+    scaled, _ = integer_weights(model.weights)
+    proto.objective.vars.extend(range(n_items))
+    proto.objective.coeffs.extend((-scaled).tolist())
+    proto.objective.scaling_factor = -1.0
+    return proto

@@ -5,6 +5,7 @@ Plugins ``greedy`` (`GreedySolver`) and ``greedy-overlap`` (`GreedyOverlapSolver
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -71,8 +72,9 @@ def greedy_items(
     """Items chosen by Algorithm 2 (sec. 4.5.2).
 
     Items are visited in `greedy_order`. An item is added when its active
-    vertices overlapping the expression built so far are at most ``overlap * |b_k|`` and the cap (sec. 6)
-    still has room for its shapes; otherwise it is dropped. Since the expression only grows, this is the
+    vertices overlapping the expression built so far are at most ``overlap * |b_k|``, the cap (sec. 6)
+    still has room for its shapes and no chosen item is apart from it; otherwise it is dropped. Since the
+    expression only grows, this is the
     paper's "remove every remaining blendshape that overlaps" after each addition.
 
     Parameters
@@ -104,14 +106,20 @@ def greedy_items(
     allowed = np.floor(overlap * problem.item_active_counts + 1e-9).astype(np.int64)
     room = np.inf if problem.cap is None else problem.cap
     active = np.zeros(incidence.shape[1], dtype=bool)
+    barred = np.zeros(problem.n_items, dtype=bool)  # apart from a chosen item (artist constraints)
+    partners: dict[int, list[int]] = {}
+    for a, b in problem.apart:
+        partners.setdefault(a, []).append(b)
+        partners.setdefault(b, []).append(a)
     chosen: list[int] = []
     for item in order.tolist():
-        if counts[item] > room:
+        if counts[item] > room or barred[item]:
             continue
         vertices = indices[indptr[item] : indptr[item + 1]]
         if np.count_nonzero(active[vertices]) > allowed[item]:
             continue
         active[vertices] = True
+        barred[partners.get(item, [])] = True
         chosen.append(item)
         room -= counts[item]
     return tuple(chosen)
@@ -121,38 +129,37 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
     """`greedy_items` without overlap, on the presolved conflict sets instead of the vertices.
 
     Two items share a vertex iff they share a conflict set, so adding an item blocks every member of
-    its sets: plain list operations over the sets, no vertex is read.
+    its sets (and, under the cap, every item with more shapes than the room left): no vertex is read and
+    only the sets of the chosen items are visited.
     """
-    members = [c.tolist() for c in problem.cliques]
-    sets_of: list[list[int]] = [[] for _ in range(problem.n_items)]
-    for r, clique in enumerate(members):
-        for item in clique:
-            sets_of[item].append(r)
-    blocked = [False] * problem.n_items
-    counts = counts.tolist()
+    starts, members, owner = problem.clique_arrays
     room = np.inf if problem.cap is None else problem.cap
+    blocked = counts > room
     chosen: list[int] = []
     for item in order.tolist():
-        if blocked[item] or counts[item] > room:
+        if blocked[item]:
             continue
-        for r in sets_of[item]:
-            for other in members[r]:
-                blocked[other] = True
         chosen.append(item)
-        room -= counts[item]
+        blocked[item] = True
+        for r in owner[members == item].tolist():  # the conflict sets holding the item
+            blocked[members[starts[r] : starts[r + 1]]] = True
+        if problem.cap is not None:
+            room -= int(counts[item])
+            blocked |= counts > room
     return tuple(chosen)
 
 
 class GreedySolver:
     """Algorithm 2 (sec. 4.5.2): strict greedy set packing with symmetry pairs as single items.
 
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from packing import problem_from_incidence
-    >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
-    >>> GreedySolver().solve(problem).items
-    (0, 2)
+        Examples
+        --------
+        >>> import numpy as np
+    import scipy.sparse as sp
+        >>> from packing import problem_from_incidence
+        >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
+        >>> GreedySolver().solve(problem).items
+        (0, 2)
     """
 
     name: ClassVar[str] = "greedy"
@@ -189,9 +196,9 @@ class GreedySolver:
 class GreedyOverlapSolver(GreedySolver):
     """Algorithm 2 with an allowed overlap fraction (sec. 4.5.2, "a small percentage of overlap").
 
-    Its expressions may violate eq. 3b by design, so ``capabilities.strict`` is False: check its
-    results with the same allowed overlap (``solvers.testing.check_packing(..., overlap=...)``), and
-    record the fraction with the run (the solution's ``message`` carries ``overlap_allowed=<f>``).
+    Its expressions may violate eq. 3b by design: it declares the fraction as ``capabilities.max_overlap``
+    (per instance), results are verified with that allowance and no other, and the solution's ``message``
+    carries ``overlap_allowed=<f>`` for the records.
 
     Parameters
     ----------
@@ -201,12 +208,13 @@ class GreedyOverlapSolver(GreedySolver):
     """
 
     name: ClassVar[str] = "greedy-overlap"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=False, time_limit=False, strict=False)
+    capabilities: Capabilities = Capabilities(exact=False, time_limit=False, max_overlap=0.1)
 
     def __init__(self, overlap: float = 0.1) -> None:
         if not 0.0 <= overlap < 1.0:
             raise ValueError(f"greedy-overlap: overlap must be a fraction in [0, 1), got {overlap!r}")
         self.overlap = float(overlap)
+        self.capabilities = replace(type(self).capabilities, max_overlap=self.overlap)
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
         """Run Algorithm 2 with the allowed overlap to completion."""

@@ -39,6 +39,7 @@ class NaivePulpCbcSolver(ExactSolverBase):
 
     name: ClassVar[str] = "naive-pulp-cbc"
     capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
+    reduces: ClassVar[bool] = False  # the formulation as published: every item and vertex row
 
     def __init__(self, cbc: str = "bundled") -> None:
         if cbc not in CBC_CHOICES:
@@ -75,6 +76,8 @@ class NaivePulpCbcSolver(ExactSolverBase):
             active = by_vertex.indices[by_vertex.indptr[vertex] : by_vertex.indptr[vertex + 1]]
             if active.size:
                 lp += pulp.lpSum(carrier[item] for item in active) <= 1, f"vertex{vertex}"
+        for a, b in problem.apart:
+            lp += carrier[a] + carrier[b] <= 1, f"apart{a}_{b}"
         for shapes in problem.items:
             for partner in shapes[1:]:
                 lp += shape_vars[shapes[0]] - shape_vars[partner] == 0, f"pair{shapes[0]}_{partner}"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 
@@ -110,7 +111,8 @@ def test_masks_are_recomputed_with_the_given_mu(face, exact_solver):
 
 
 def test_a_pair_may_overlap_itself_but_nothing_else(kit):
-    right = kit.Bump("pucker_R", (0.06, 0.0), (0.12, 0.12), (0.3, 0.0, 1.0))
+    # The halves share a strip at the symmetry axis (7 of 24 active vertices): the overlap sec. 4.4.1 allows.
+    right = kit.Bump("pucker_R", (0.08, 0.0), (0.12, 0.12), (0.3, 0.0, 1.0))
     rig = kit.face_rig([right, kit.mirrored(right, "pucker_L")], regions={})
     masks = packing.binary_blendshapes(rig.deltas)
     assert (masks[0] & masks[1]).any()  # the pair overlaps at the symmetry axis
@@ -143,3 +145,39 @@ def test_unreadable_expression_is_a_type_error(face):
     rig, _ = face
     with pytest.raises(TypeError, match="cannot read the shapes of 3"):
         packing.check(rig, [3])
+
+
+def _solved(expression, **changes):
+    """An expression of a real sequence with some fields changed (a lying or lazy solver's answer)."""
+    return dataclasses.replace(expression, **changes)
+
+
+def test_a_bound_below_the_objective_is_rejected(face, exact_solver):
+    rig, _ = face
+    expressions = packing.sequence(rig, exact_solver, target_neutral=rig.neutral)
+    packing.check(rig, expressions)
+    lying = [_solved(expressions[0], bound=expressions[0].objective - 0.01), *expressions[1:]]
+    with pytest.raises(packing.CheckError) as found:
+        packing.check(rig, lying)
+    assert found.value.kind == "bound" and found.value.expression == 1
+
+
+def test_maximal_rejects_an_expression_with_room_left(face, exact_solver):
+    rig, _ = face
+    expressions = packing.sequence(rig, exact_solver, target_neutral=rig.neutral)
+    packing.check(rig, expressions, maximal=True)
+    first = expressions[0]
+    paired = {name for pair in packing.analyse(rig, rig.neutral).pairs for name in pair}
+    dropped = [name for name in first.shapes if name not in paired]
+    assert dropped, "the first expression must hold an unpaired shape for this test"
+    lazy = _solved(first, shapes=tuple(name for name in first.shapes if name != dropped[0]))
+    with pytest.raises(packing.CheckError) as found:
+        packing.check(rig, [lazy], maximal=True)
+    assert found.value.kind == "maximal" and dropped[0] in str(found.value)
+    packing.check(rig, [lazy])  # without maximal= only validity is checked
+    packing.check(rig, [lazy], maximal=True, rejected={1: [dropped[0]]})  # the artist rejected it
+    time_limited = _solved(lazy, termination=packing.Termination.TIME_LIMIT)
+    packing.check(rig, [time_limited], maximal=True)  # an incumbent need not be maximal
+    nothing = _solved(first, shapes=(), termination=packing.Termination.COMPLETED)
+    with pytest.raises(packing.CheckError, match="still fits beside nothing"):
+        packing.check(rig, [nothing], maximal=True)

@@ -112,6 +112,39 @@ def test_regions_from_a_json_file(tmp_path, face):
     assert _as_sets(pairs) == _as_sets(truth["motion_pairs"])
 
 
+def test_a_regions_file_with_some_default_pairs_uses_those(tmp_path, face):
+    rig, truth = face
+    path = tmp_path / "lips.json"
+    path.write_text(json.dumps({name: rig.regions[name].tolist() for name in ("upper_lip", "lower_lip")}))
+    bare = dataclasses.replace(rig, regions={})
+    analysis = packing.analyse(bare, bare.neutral, regions=path)
+    assert _as_sets(analysis.pairs) >= _as_sets(truth["motion_pairs"])
+    assert any("skipped region pairs upper_eyelid_L/lower_eyelid_L" in note and str(path) in note
+               for note in analysis.notes)  # fmt: skip
+    unrelated = tmp_path / "unrelated.json"
+    unrelated.write_text(json.dumps({"upperLip": [1, 2], "lowerLip": [3]}))
+    with pytest.raises(ValueError, match="regions: lowerLip, upperLip"):
+        packing.analyse(bare, bare.neutral, regions=unrelated)
+
+
+def test_regions_from_the_face_groups_of_an_obj(tmp_path, face):
+    rig, truth = face
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in rig.neutral]
+    for name in ("upper_lip", "lower_lip"):
+        inside = np.isin(rig.triangles, rig.regions[name]).all(axis=1)
+        lines.append(f"g {name}")
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in rig.triangles[inside]]
+    path = tmp_path / "selection.obj"
+    path.write_text("\n".join(lines) + "\n")
+    bare = dataclasses.replace(rig, regions={})
+    pairs = packing.find_symmetry_pairs(bare, shape=False, regions=path)
+    assert _as_sets(pairs) == _as_sets(truth["motion_pairs"])
+    other = tmp_path / "other.obj"
+    other.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\ng lips\nf 1 2 3\n")
+    with pytest.raises(ValueError, match="other.obj: the selection mesh has 3 vertices"):
+        packing.find_symmetry_pairs(bare, regions=other)
+
+
 def test_missing_default_regions_are_reported_not_fatal(face):
     rig, _ = face
     bare = dataclasses.replace(rig, regions={})
@@ -122,13 +155,13 @@ def test_missing_default_regions_are_reported_not_fatal(face):
 def test_unknown_region_names_are_named(tmp_path, face):
     rig, _ = face
     with pytest.raises(
-        ValueError, match=r"unknown region name 'upper_lips' in region_pairs; rig regions: lower_eyelid_L"
+        ValueError, match=r"no region 'upper_lips' of the region pairs; rig regions: lower_eyelid_L"
     ):
         packing.find_symmetry_pairs(rig, region_pairs=[("upper_lips", "lower_lip")])
     path = tmp_path / "sketch.json"
     path.write_text(json.dumps({"upper_lip": [1, 2]}))
     with pytest.raises(
-        ValueError, match=rf"unknown region name 'lower_lip' in region_pairs; {path} regions: upper_lip"
+        ValueError, match=rf"no region 'lower_lip' of the region pairs; {path} regions: upper_lip"
     ):
         packing.find_symmetry_pairs(rig, regions=path, region_pairs=[("upper_lip", "lower_lip")])
 

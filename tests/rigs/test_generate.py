@@ -89,7 +89,9 @@ def greedy_match(candidates: list[tuple[float, int, int]]) -> list[tuple[int, in
 
 def shape_symmetry(rig: Rig) -> tuple[np.ndarray, list[tuple[int, int]]]:
     """Self-symmetric shapes (eq. 9 with m = k below eq. 10's bound) and mirror pairs (eqs. 9-10), the
-    lowest error first, each shape in at most one pair."""
+    lowest error first, each shape in at most one pair; a match whose shapes share more than 15% of the
+    smaller one's active vertices farther from the plane x = 0 than a quarter of the pair's reach is
+    refused (sec. 4.4.1: it spreads over both halves)."""
     masks, norms = binary(rig.deltas)
     errors = mirror_errors(rig.deltas, masks, norms, mirror_vertices(rig.neutral))
     largest = norms.max(axis=1)
@@ -98,7 +100,15 @@ def shape_symmetry(rig: Rig) -> tuple[np.ndarray, list[tuple[int, int]]]:
     below = score < 0.4 * np.minimum.outer(largest, largest)
     below &= ~self_symmetric[:, None] & ~self_symmetric[None, :]
     first, second = np.nonzero(np.triu(below, k=1))
-    return self_symmetric, greedy_match([(score[a, b], a, b) for a, b in zip(first, second, strict=True)])
+    matched = greedy_match([(score[a, b], a, b) for a, b in zip(first, second, strict=True)])
+    distance = np.abs(rig.neutral[:, 0])
+    kept = []
+    for a, b in matched:
+        reach = distance[masks[a] | masks[b]].max()
+        off_axis = masks[a] & masks[b] & (distance > 0.25 * reach)
+        if off_axis.sum() <= 0.15 * min(masks[a].sum(), masks[b].sum()):
+            kept.append((a, b))
+    return self_symmetric, kept
 
 
 def motion_symmetry(rig: Rig, excluded: set[int], share: float) -> list[tuple[int, int]]:
@@ -177,7 +187,7 @@ def test_meta_records_provenance_and_is_json(preset):
     assert meta["source"] == f"generated:{preset}"
     assert (meta["preset"], meta["seed"], meta["units"]) == (preset, 7, "cm")
     assert set(meta["landmarks"]) == {"eye_L", "eye_R", "mouth", "nose"}
-    assert set(meta["truth"]) == {"mirror_pairs", "motion_pairs", "self_symmetric"}
+    assert set(meta["truth"]) == {"mirror_pairs", "spread_mirror_images", "motion_pairs", "self_symmetric"}
     assert len(json.dumps(rig.meta)) < 20_000
 
 
@@ -185,9 +195,11 @@ def test_arkit52_has_the_arkit_names_and_their_mirror_pairs():
     rig = rig_of("arkit52")
     assert set(rig.names) == ARKIT_52
     pairs = {tuple(pair) for pair in rig.meta["truth"]["mirror_pairs"]}
-    assert ("eyeBlinkLeft", "eyeBlinkRight") in pairs and ("jawLeft", "jawRight") in pairs
-    assert all(left.replace("Left", "Right") == right for left, right in pairs if left.endswith("Left"))
-    assert len(pairs) == 20 and len(rig.meta["truth"]["self_symmetric"]) == 12
+    spread = {tuple(pair) for pair in rig.meta["truth"]["spread_mirror_images"]}
+    assert ("eyeBlinkLeft", "eyeBlinkRight") in pairs and ("jawLeft", "jawRight") not in pairs
+    assert spread == {("jawLeft", "jawRight"), ("mouthLeft", "mouthRight")}
+    assert all(left.replace("Left", "Right") == right for left, right in pairs | spread)
+    assert len(pairs) == 18 and len(rig.meta["truth"]["self_symmetric"]) == 12
     assert {"jawOpen", "mouthFunnel", "browInnerUp", "cheekPuff"} <= set(rig.meta["truth"]["self_symmetric"])
 
 
@@ -338,7 +350,7 @@ def test_truth_mirror_pairs_and_self_symmetric_shapes_are_exact(preset):
     rig = rig_of(preset)
     mirror = mirror_vertices(rig.neutral)
     truth = rig.meta["truth"]
-    for left, right in truth["mirror_pairs"]:
+    for left, right in truth["mirror_pairs"] + truth["spread_mirror_images"]:
         assert np.array_equal(rig.deltas[rig.index(right)], rig.deltas[rig.index(left)][mirror] * REFLECT)
     for name in truth["self_symmetric"]:
         delta = rig.deltas[rig.index(name)]

@@ -46,7 +46,7 @@ def test_check_solver_catches_a_wrong_objective():
             solution = super().solve(problem, time_limit=time_limit, seed=seed)
             return dataclasses.replace(solution, objective=solution.objective + 1.0)
 
-    with pytest.raises(AssertionError, match="is not the items' weight"):
+    with pytest.raises(AssertionError, match="is not the items' importance sum"):
         check_solver(Liar)
 
 

@@ -1,0 +1,126 @@
+"""Exact reductions of eq. 3 before a backend sees it: dominated items out, conflict-free items in.
+
+Eq. 3 (after the presolve of `packing`) is a maximum-weight independent set on the item conflict graph:
+two items conflict when they share a conflict set. Two classic reductions keep the set of optimal packings
+exactly as it is while shrinking the model every exact backend builds (the first expressions of a
+film-sized rig have hundreds of items of which more than half are dominated):
+
+* **Domination.** With ``N[i]`` the closed neighbourhood of item i (i and the items it conflicts with), an
+  item j conflicting with i, with ``N[j]`` inside ``N[i]``, a strictly larger weight and (under a cap) no
+  more blendshapes, *dominates* i: swapping i for j in any packing keeps it feasible and makes it strictly
+  better, so no optimal packing holds i.
+* **Isolation.** Without a cap, an item of positive weight that conflicts with no other item is in every
+  optimal packing.
+
+Both are applied until neither changes anything. Domination is transitive along strictly increasing
+weights, so every dominated item of a round can go at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from packing import PackingProblem
+from solvers._model import CliqueModel
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """What is left of a problem after the reductions.
+
+    Attributes
+    ----------
+    model : CliqueModel
+        The presolved model of the remaining items (the kernel), with the conflict sets that
+        ``problem.restrict(kept)`` would have.
+    kept : (I',) int array
+        Items of the original problem that form the kernel, ascending (kernel item ``r`` is ``kept[r]``).
+    taken : (T,) int array
+        Items of the original problem that are in every optimal packing (isolated ones), ascending.
+    """
+
+    model: CliqueModel
+    kept: np.ndarray
+    taken: np.ndarray
+
+    def items(self, kernel_items: tuple[int, ...]) -> tuple[int, ...]:
+        """Items of the original problem for a packing of the kernel: those items plus the taken ones."""
+        chosen = np.concatenate([self.taken, self.kept[np.asarray(kernel_items, dtype=np.int64)]])
+        return tuple(sorted(chosen.tolist()))
+
+
+def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
+    """Remove dominated items and take isolated ones (see the module notes) until nothing changes.
+
+    Parameters
+    ----------
+    problem : PackingProblem
+        Its weights are the objective the backends maximise (tie-break included).
+    cap_binds : bool
+        Whether the cap of sec. 6 can bind; then an item dominates only items with at least as many
+        blendshapes, and isolated items are left to the backend.
+
+    Returns
+    -------
+    Reduction
+
+    Notes
+    -----
+    Neighbourhoods are the problem's `PackingProblem.conflict_bits` (64 items a word; along an expression
+    sequence each problem derives them from the previous one's); each round compares the conflicting pairs
+    whose weights and degrees allow domination, O(P W) for P such pairs.
+    """
+    n_items = problem.n_items
+    everything = np.arange(n_items)
+    if n_items == 0:
+        return Reduction(CliqueModel.from_problem(problem), everything, everything)
+    weights = np.asarray(problem.weights, dtype=np.float64)
+    counts = problem.item_shape_counts
+    closed = problem.conflict_bits
+    # (i, j) with j conflicting with i, weighing more and (under a cap) with no more shapes: j may dominate i.
+    may_dominate = np.unpackbits(closed.astype(">u8").view(np.uint8), axis=1, count=n_items).astype(bool)
+    may_dominate &= weights[None, :] > weights[:, None]
+    if cap_binds:
+        may_dominate &= counts[None, :] <= counts[:, None]
+    pairs = np.nonzero(may_dominate)
+    del may_dominate
+    alive = np.ones(n_items, dtype=bool)
+    taken = np.zeros(n_items, dtype=bool)
+    while True:
+        live = closed & _pack(alive[None, :])[0]
+        degree = np.bitwise_count(live).sum(axis=1, dtype=np.int64) - 1
+        isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
+        dominated = _dominated(live, alive, degree, pairs)
+        if not (isolated.any() or dominated.any()):
+            break
+        taken |= isolated
+        alive &= ~(isolated | dominated)
+    kept = np.flatnonzero(alive)
+    model = CliqueModel.from_problem(problem, None if kept.size == n_items else kept)
+    return Reduction(model, kept, np.flatnonzero(taken))
+
+
+def _dominated(
+    live: np.ndarray, alive: np.ndarray, degree: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """(I,) bool: live items i of the ``pairs`` (i, j) with j live and ``N[j]`` inside ``N[i]``, where
+    ``live`` are the closed neighbourhoods among the live items and ``degree`` their sizes less one."""
+    candidate, dominator = pairs
+    possible = alive[candidate] & alive[dominator] & (degree[dominator] <= degree[candidate])
+    candidate, dominator = candidate[possible], dominator[possible]
+    outside = np.zeros(candidate.size, dtype=bool)
+    for word in range(live.shape[1]):  # N[j] & ~N[i], word by word
+        outside |= (live[dominator, word] & ~live[candidate, word]) != 0
+    dominated = np.zeros(alive.size, dtype=bool)
+    dominated[candidate[~outside]] = True
+    return dominated
+
+
+def _pack(rows: np.ndarray) -> np.ndarray:
+    """(n, W) uint64 words of n bool rows; column 0 is the highest bit of word 0 (`np.packbits` order)."""
+    width = -(-rows.shape[1] // 64) * 64
+    padded = np.zeros((rows.shape[0], width), dtype=bool)
+    padded[:, : rows.shape[1]] = rows
+    return np.packbits(padded, axis=1).view(">u8").astype(np.uint64)

@@ -1,0 +1,151 @@
+"""The fast shape-symmetry search (spatial-hash bounds, probing only the candidate pairs) against an
+exhaustive evaluation of eqs. 9-10 over every pair of shapes, on random face rigs and generated presets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import packing._symmetry as symmetry
+import rigs
+from packing._binary import displacement_norms, empty_mask, lengths_matrix, masks_from_norms, sparse_masks
+
+
+def exhaustive_shape_symmetry(deltas, norms, masks, mirror, normal, eligible, tol, max_overlap, axis):
+    """Eqs. 9-10 for every (k, m) straight from the definition, then the same matching and overlap check."""
+    n_shapes = len(deltas)
+    reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
+    valid = mirror >= 0
+    image = np.where(valid, mirror, 0)
+    mirrored_masks = masks[:, image] & valid  # p(b_m)^n
+    mirrored_moves = (deltas[:, image] @ reflection) * mirrored_masks[..., None]  # p(b_m)^n P_m^n
+    own = deltas * masks[..., None]
+    error = np.full((n_shapes, n_shapes), np.inf)
+    for k in range(n_shapes):
+        numerator = np.linalg.norm(own[k][None] - mirrored_moves, axis=2).sum(axis=1)
+        overlap = (masks[k][None] & mirrored_masks).sum(axis=1)
+        error[k, overlap > 0] = numerator[overlap > 0] / overlap[overlap > 0]
+    largest = norms.max(axis=1)
+    self_symmetric = eligible & (np.diag(error) < tol * largest)
+    candidates = eligible & ~self_symmetric
+    score = np.maximum(error, error.T)
+    threshold = tol * np.minimum(largest[:, None], largest[None, :])
+    passing = np.triu(score < threshold, k=1) & candidates[:, None] & candidates[None, :]
+    first, second = np.nonzero(passing)
+    matched = symmetry._match(first, second, score[first, second])
+    if not matched:
+        return [], self_symmetric, []
+    share = symmetry._off_axis_overlap(sparse_masks(masks), np.array([pair[:2] for pair in matched]), axis)
+    kept = share <= max_overlap
+    pairs = [pair for pair, keep in zip(matched, kept, strict=True) if keep]
+    spread = [(a, b, float(f)) for (a, b, _), f, keep in zip(matched, share, kept, strict=True) if not keep]
+    return pairs, self_symmetric, spread
+
+
+def inputs(rig: rigs.Rig, mu: float = 0.3):
+    norms = displacement_norms(rig.deltas)
+    empty = empty_mask(norms, 1e-6, rig.diagonal())
+    masks = masks_from_norms(norms, mu, empty)
+    mirror = rigs.mirror_map(rig.neutral)
+    normal = symmetry.reflection_normal(rig.neutral, mirror)
+    axis = symmetry.axis_distances(rig.neutral, mirror, normal)
+    return norms, masks, mirror, normal, ~empty, axis
+
+
+def assert_same(fast, reference, scale: float):
+    """The same pairs with the same errors (up to rounding: exact mirror pairs have errors of rounding size,
+    so their order is not compared), the same self-symmetric shapes and refused spread matches."""
+    (pairs, self_symmetric, spread), (ref_pairs, ref_self, ref_spread) = fast, reference
+    errors, ref_errors = ({(a, b): e for a, b, e in found} for found in (pairs, ref_pairs))
+    assert errors.keys() == ref_errors.keys()
+    for pair, error in errors.items():
+        assert error == pytest.approx(ref_errors[pair], rel=1e-9, abs=1e-12 * scale)
+    assert np.array_equal(self_symmetric, ref_self)
+    assert {pair[:2] for pair in spread} == {pair[:2] for pair in ref_spread}
+
+
+def random_face(kit, seed: int, n_bumps: int, jitter: float):
+    """Bumps on the right half, their mirror images (some jittered, some moved), symmetric centre bumps."""
+    rng = np.random.default_rng(seed)
+    bumps = []
+    for index in range(n_bumps):
+        centre = (float(rng.uniform(0.1, 0.8)), float(rng.uniform(-0.8, 0.8)))
+        radius = (float(rng.uniform(0.08, 0.3)), float(rng.uniform(0.08, 0.3)))
+        direction = tuple(float(v) for v in rng.normal(size=3))
+        bump = kit.Bump(f"s{index}_R", centre, radius, direction, float(rng.uniform(0.3, 1.5)))
+        bumps.append(bump)
+        kind = rng.integers(3)
+        if kind == 0:  # an exact mirror pair
+            bumps.append(kit.mirrored(bump, f"s{index}_L"))
+        elif kind == 1:  # a near pair: moved a little
+            moved = kit.mirrored(bump, f"s{index}_L")
+            bumps.append(
+                kit.Bump(moved.name, (moved.centre[0] - 0.05, moved.centre[1]), radius, direction, 1.0)
+            )
+    bumps.append(kit.Bump("centre", (0.0, float(rng.uniform(-0.5, 0.5))), (0.2, 0.1), (0.0, 1.0, 0.2)))
+    return kit.face_rig(bumps, side=23, jitter=jitter, seed=seed)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    seed=st.integers(0, 10_000),
+    n_bumps=st.integers(1, 9),
+    jitter=st.sampled_from([0.0, 0.001, 0.02]),
+    tol=st.sampled_from([0.2, 0.4, 0.8]),
+    hashed=st.booleans(),
+)
+def test_fast_search_equals_the_exhaustive_one_on_random_faces(kit, seed, n_bumps, jitter, tol, hashed):
+    rig = random_face(kit, seed, n_bumps, jitter)
+    norms, masks, mirror, normal, eligible, axis = inputs(rig)
+    reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, tol, 0.15, axis)
+    fast = symmetry.shape_symmetry(
+        rig.deltas, norms, masks, mirror, normal, eligible, tol, 0.15, axis, rig.neutral if hashed else None
+    )
+    assert_same(fast, reference, float(norms.max()))
+
+
+@pytest.mark.parametrize("preset", ["tiny", "arkit52", "male"])
+def test_fast_search_equals_the_exhaustive_one_on_presets(preset):
+    rig = rigs.generate(preset)
+    norms, masks, mirror, normal, eligible, axis = inputs(rig)
+    reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 0.15, axis)
+    for lengths in (norms, lengths_matrix(norms, sparse_masks(masks))):  # dense or active-only lengths
+        fast = symmetry.shape_symmetry(
+            rig.deltas, lengths, sparse_masks(masks), mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral
+        )
+        assert_same(fast, reference, float(norms.max()))
+
+
+def test_chunked_and_coarsened_search_finds_the_same_pairs(monkeypatch):
+    """Tiny chunks and a grid coarsened to fit a tiny budget visit every branch of the search."""
+    rig = rigs.generate("female")
+    norms, masks, mirror, normal, eligible, axis = inputs(rig)
+    arguments = (rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral)
+    default = symmetry.shape_symmetry(*arguments)
+    monkeypatch.setattr(symmetry, "_PROBE_CHUNK", 1000)
+    monkeypatch.setattr(symmetry, "_COMBO_CHUNK", 500)
+    monkeypatch.setattr(symmetry, "MAX_CELL_SUMS", 5 * rig.n_shapes)
+    chunked = symmetry.shape_symmetry(*arguments)
+    assert [pair[:2] for pair in chunked[0]] == [pair[:2] for pair in default[0]]
+    assert [pair[2] for pair in chunked[0]] == [pair[2] for pair in default[0]]  # the same sums, bit for bit
+    assert np.array_equal(chunked[1], default[1]) and chunked[2] == default[2]
+
+
+def test_candidate_bounds_keep_every_pair_below_the_threshold():
+    """The per-cell bounds never rule out a pair whose exhaustive errors pass eq. 10 both ways."""
+    rig = rigs.generate("digidouble")
+    norms, masks, mirror, normal, eligible, axis = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = symmetry.entries(active)
+    field = symmetry._Field.of(rig.deltas, norms, active, rows, cols, normal)
+    largest = norms.max(axis=1)
+    threshold = 0.4 * np.minimum(largest[:, None], largest[None, :])
+    mirrored = symmetry._mirrored_entries(active, rows, cols, mirror)
+    cells = symmetry._cells(rig.neutral, active, rows, cols, eligible)
+    first, second = symmetry._candidate_pairs(field, rows, cols, mirrored, eligible, threshold, cells)
+    kept = set(zip(first.tolist(), second.tolist(), strict=True))
+    reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
+    assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
+    assert len(kept) < 0.2 * rig.n_shapes**2  # and it does rule out most pairs
