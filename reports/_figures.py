@@ -4,14 +4,27 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from matplotlib import colormaps
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from reports._png import report_style
-from reports._tables import expression_rows, ok_cells, rig_label, setting_label, varying_settings
+from reports._tables import (
+    REFERENCE_TRANSFERS,
+    RMS_PARTS,
+    expression_rows,
+    ok_cells,
+    rig_label,
+    setting_label,
+    solver_groups,
+    transfer_medians,
+    varying_settings,
+)
 
 _LINESTYLES = ("-", "--", ":", "-.")
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+_REFERENCE_STYLES = {"dt": "--", "delta": ":"}
 
 
 def _styles(records: pd.DataFrame, settings: list[str]) -> dict[tuple[str, str], dict]:
@@ -99,9 +112,14 @@ def coverage_figure(records: pd.DataFrame, rig: str) -> Figure:
 def rms_figure(records: pd.DataFrame, rig: str) -> Figure:
     """Transfer RMS error against the number of training expressions J (Carrigan et al. 2020, Figs. 9 and 10).
 
-    One panel per (warp, transfer method); one line per solver and importance setting (and any other
-    setting that varies in the run). Values are the median over repetitions of the per-vertex RMS of the
-    transferred blendshapes against the target's ground truth, in the rig's length units.
+    One row of panels per (warp, transfer method that learns from the examples), one column each for all
+    shapes, the shapes the J expressions cover and the others; one line per solver and setting (the
+    settings that vary in the run), each with its own colour, its solver's marker and its setting's dash.
+    Solvers whose curves agree at every J share one line, labelled ``a = b (identical)``, instead of
+    hiding each other. The references of `REFERENCE_TRANSFERS` (deformation transfer, copying the
+    template's deltas), which no packing changes, are horizontal lines in the all-shapes panel. Every y
+    axis starts at 0, so that a 0.5% difference looks like one. Values are the median over repetitions of
+    the per-vertex RMS against the target's ground truth, in rig units; one legend below the panels.
 
     Raises
     ------
@@ -109,34 +127,96 @@ def rms_figure(records: pd.DataFrame, rig: str) -> Figure:
         When the run has no successful transfer records for ``rig``.
     """
     settings = varying_settings(records)
-    rows = records[(records["kind"] == "transfer") & (records["status"] == "ok") & (records["rig"] == rig)]
-    rows = rows[rows["rms"].notna()]
-    if rows.empty:
+    medians = transfer_medians(records)
+    medians = medians[medians["rig"] == rig]
+    if medians.empty:
         raise ValueError(f"rms_figure: no successful transfer records for rig {rig!r}")
-    styles = _styles(records, settings)
-    panels = sorted(rows[["warp", "transfer"]].drop_duplicates().itertuples(index=False, name=None))
-    columns = min(len(panels), 2)
-    grid_rows = -(-len(panels) // columns)
+    references = medians[medians["transfer"].isin(REFERENCE_TRANSFERS)]
+    learned = medians[~medians["transfer"].isin(REFERENCE_TRANSFERS)]
+    if learned.empty:  # a run of references only: plot them like any method
+        learned, references = medians, medians.iloc[:0]
+    styles = _line_styles(learned, settings)
+    panels = sorted(learned[["warp", "transfer"]].drop_duplicates().itertuples(index=False, name=None))
+    title = rig_label(rig, records["rig"].unique())
+    j_values = sorted(int(j) for j in learned["j"].unique())
     with report_style():
-        figure = Figure(figsize=(6.4 * columns, 4.4 * grid_rows), layout="constrained")
-        axes = figure.subplots(grid_rows, columns, squeeze=False).ravel()
-        for ax, (warp, transfer) in zip(axes, panels, strict=False):
-            shown = rows[(rows["warp"] == warp) & (rows["transfer"] == transfer)]
-            for keys, line in shown.groupby(["solver", *settings], sort=True, dropna=False):
-                setting = setting_label(line.iloc[0], settings)
-                curve = line.groupby("j")["rms"].median()
-                ax.plot(
-                    curve.index.to_numpy(dtype=float),
-                    curve.to_numpy(dtype=float),
-                    label=_label(keys[0], setting),
-                    markersize=3,
-                    **styles[(keys[0], setting)],
-                )
-            ax.set_title(f"{rig_label(rig, records['rig'].unique())}, warp {warp}, transfer {transfer}")
-            ax.set_xlabel("training expressions J (count)")
-            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-            ax.set_ylabel("RMS error per vertex (rig length units)")
-            ax.legend(fontsize=7)
-        for ax in axes[len(panels) :]:
-            ax.set_visible(False)
+        figure = Figure(figsize=(5.0 * len(RMS_PARTS), 3.6 * len(panels) + 1.6), layout="constrained")
+        axes = figure.subplots(len(panels), len(RMS_PARTS), squeeze=False)
+        for row, (warp, transfer) in zip(axes, panels, strict=True):
+            shown = learned[(learned["warp"] == warp) & (learned["transfer"] == transfer)]
+            for ax, (part, part_label) in zip(row, RMS_PARTS.items(), strict=True):
+                top = _rms_lines(ax, shown, part, settings, styles)
+                if part == "rms":
+                    top = max(top, _reference_lines(ax, references[references["warp"] == warp]))
+                ax.set_ylim(0.0, 1.08 * top if top > 0 else 1.0)
+                ax.set_title(f"{title}, warp {warp}, {transfer}: {part_label}")
+                ax.set_xlabel("training expressions J (count)")
+                ax.set_xticks(j_values)
+                ax.set_ylabel("RMS error per vertex (rig length units)")
+        legend = {}
+        for ax in axes.ravel():
+            handles, labels = ax.get_legend_handles_labels()
+            legend.update(zip(labels, handles, strict=True))
+        if legend:
+            figure.legend(
+                list(legend.values()), list(legend), loc="outside lower center", ncols=2, fontsize=7
+            )
     return figure
+
+
+def _line_styles(rows: pd.DataFrame, settings: list[str]) -> dict[tuple[str, str], dict]:
+    """Per (solver, setting label): a colour of its own, the solver's marker and the setting's dash."""
+    solvers = sorted(rows["solver"].dropna().unique())
+    labels = sorted({setting_label(row, settings) for _, row in rows[settings].drop_duplicates().iterrows()})
+    present = sorted(
+        {
+            (solver, setting_label(row, settings))
+            for solver, (_, row) in zip(rows["solver"], rows[settings].iterrows(), strict=True)
+        }
+    )
+    return {
+        (solver, label): {
+            "color": colormaps["tab20"](index % 20),
+            "marker": _MARKERS[solvers.index(solver) % len(_MARKERS)],
+            "linestyle": _LINESTYLES[labels.index(label) % len(_LINESTYLES)],
+        }
+        for index, (solver, label) in enumerate(present)
+    }
+
+
+def _rms_lines(ax: Axes, shown: pd.DataFrame, part: str, settings: list[str], styles: dict) -> float:
+    """One line per setting and group of solvers with identical curves; returns the largest value."""
+    top = 0.0
+    for _, block in shown.groupby(settings, sort=True, dropna=False) if settings else [((), shown)]:
+        block = block[block[part].notna()]
+        groups = solver_groups(block, part)
+        for label in dict.fromkeys(groups.values()):
+            solvers = label.split(" = ")
+            curve = block[block["solver"] == solvers[0]].sort_values("j")
+            setting = setting_label(curve.iloc[0], settings)
+            name = f"{label} (identical)" if len(solvers) > 1 else label
+            ax.plot(
+                curve["j"].to_numpy(dtype=float),
+                curve[part].to_numpy(dtype=float),
+                label=_label(name, setting),
+                markersize=3,
+                **styles[(solvers[0], setting)],
+            )
+            top = max(top, float(curve[part].max()))
+    return top
+
+
+def _reference_lines(ax: Axes, references: pd.DataFrame) -> float:
+    """A horizontal line per reference transfer at its RMS over all shapes; returns the largest value."""
+    top = 0.0
+    for transfer, block in references.groupby("transfer", sort=True):
+        value = float(block["rms"].median())
+        ax.axhline(
+            value,
+            color="0.35",
+            linestyle=_REFERENCE_STYLES.get(transfer, "--"),
+            linewidth=1.0,
+            label=f"{transfer} (reference)",
+        )
+        top = max(top, value)
+    return top

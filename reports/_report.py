@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 import harness
+from harness import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
 from reports._figures import coverage_figure, rms_figure
@@ -16,6 +17,7 @@ from reports._png import png_bytes
 from reports._tables import (
     BASELINE_SOLVER,
     GROUP_COLUMNS,
+    REFERENCE_TRANSFERS,
     SETTING_COLUMNS,
     expression_count_table,
     expression_rows,
@@ -23,6 +25,8 @@ from reports._tables import (
     overlap_table,
     problem_table,
     rig_labels,
+    rms_table,
+    separation_table,
     setting_label,
     timing_table,
     varying_settings,
@@ -31,6 +35,12 @@ from reports._tables import (
 
 #: Folder inside the run directory that receives the report.
 REPORT_DIR = "report"
+
+_EXAMPLES = {
+    "scan": "scan-like (transfer.scan_expressions: correctives where combined shapes meet, scanner noise, "
+    "head motion removed by rigid alignment; each repetition is another capture session).",
+    "ideal": "ideal (the exact linear sums of the target's ground-truth blendshapes, as in the paper).",
+}
 
 
 def _slug(*parts: object) -> str:
@@ -49,8 +59,10 @@ def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
         f"{name} {info.get('version') or '?'}" if info.get("available") else f"{name} unavailable"
         for name, info in sorted(solvers.items())
     )
+    examples = (run.get("config") or {}).get("examples")
     return [
         f"Command: {' '.join(run.get('command', [])) or 'not recorded'}",
+        f"Training expressions: {_EXAMPLES.get(examples, 'not recorded')}",
         f"State: {run.get('state', 'unknown')}; started {run.get('started', '?')}, "
         f"finished {run.get('finished', '?')}.",
         f"Cells: {counts or 'none'}. Git commit: {git.get('commit') or 'none'}"
@@ -95,6 +107,57 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
                 )
             )
     return blocks
+
+
+def _claims_blocks(records: pd.DataFrame) -> list[str | pd.DataFrame]:
+    return [
+        "Each claim of Carrigan et al. 2020 (sec. 5.2) decided from this run's records by the rule in "
+        "harness._claims (ebfr transfer; optimal = the first exact solver of the run, cpsat preferred); "
+        "'not measured' names the cells the run lacks (harness run --variations claims adds them).",
+        claims_table(records),
+    ]
+
+
+def _reference_blocks(records: pd.DataFrame) -> list[str | pd.DataFrame]:
+    """The RMS tables: absolute (with the references' rows) and divided by each reference."""
+    blocks: list[str | pd.DataFrame] = [
+        "Per-vertex RMS over all shapes at each J (median over repetitions); solvers with identical values "
+        "share a row. The references ignore the training expressions: dt transfers every template shape "
+        "by deformation transfer, delta copies the template's displacements.",
+        rms_table(records),
+    ]
+    for reference in REFERENCE_TRANSFERS:
+        table = rms_table(records, reference)
+        if table.empty:
+            blocks.append(f"The run has no {reference} transfer: no RMS relative to it.")
+            continue
+        blocks += [
+            f"RMS divided by the {reference} RMS of the same cell and J (below 1: the training expressions "
+            "helped).",
+            table,
+        ]
+    for part in ("rms_covered", "rms_uncovered"):
+        table = rms_table(records, "dt", part)
+        if not table.empty:
+            which = "covered by" if part == "rms_covered" else "in none of"
+            blocks += [
+                f"RMS of the shapes {which} the J expressions, divided by the dt RMS over all shapes.",
+                table,
+            ]
+    return blocks
+
+
+def _separation_blocks(records: pd.DataFrame) -> list[str | pd.DataFrame]:
+    table = separation_table(records)
+    if table.empty:
+        return ["The run has no transfer records of a method that uses the training expressions."]
+    return [
+        "Spread of the RMS across packings (solver and setting; median over repetitions) against the "
+        "run-to-run noise (pooled standard deviation over repetitions; with scan-like examples every "
+        "repetition is another capture session). A spread of a few noise levels or more tells the packings "
+        "apart; one repetition gives no noise estimate.",
+        table,
+    ]
 
 
 def _overlap_block(run_dir: Path) -> pd.DataFrame | str:
@@ -158,6 +221,7 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
                 for rig in rigs_shown
             ],
         ),
+        Section("The paper's claims", _claims_blocks(records)),
         Section(
             "Transfer error (paper Figs. 9 and 10)",
             [
@@ -165,12 +229,17 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
                     _slug("rms", labels[rig]),
                     png_bytes(rms_figure(records, rig)),
                     "Per-vertex RMS error of the transferred blendshapes against ground truth on "
-                    f"{labels[rig]}, against the number of training expressions J.",
+                    f"{labels[rig]}, against the number of training expressions J: over all shapes, over "
+                    "the shapes the J expressions cover and over the others. Solvers whose curves agree "
+                    "share a line marked identical; horizontal lines are the references "
+                    f"({', '.join(REFERENCE_TRANSFERS)}); y axes start at 0.",
                 )
                 for rig in transfer_rigs
             ]
             or ["The run has no transfer records."],
         ),
+        Section("Transfer error against the references", _reference_blocks(records)),
+        Section("Does the evaluation tell packings apart?", _separation_blocks(records)),
         Section(
             "Worst transferred shapes",
             [

@@ -1,4 +1,7 @@
-"""Tables read from a run's records: timings (Table 2), overlap (Table 3), expression counts, problems.
+"""Tables read from a run's records: timings (Table 2), overlap (Table 3), expression counts, problems,
+transfer errors against the references, how far apart the packings are, and the paper's claims.
+
+The claims table is the harness's own (`harness._claims.claims_table`, also printed by ``harness show``).
 
 Every function takes the records DataFrame of `harness.read_records` (or the overlap table of
 `harness.read_overlap`) and only selects, groups and formats; nothing is recomputed.
@@ -9,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 import harness
@@ -343,3 +347,174 @@ def problem_table(records: pd.DataFrame) -> pd.DataFrame:
     table = cells.groupby(columns, sort=True).size().rename("cells").reset_index()
     table["rig"] = table["rig"].map(rig_labels(records["rig"]))
     return table[["rig", "warp", "solver", "cells", "status", "message"]]
+
+
+#: Transfers every RMS is reported against: deformation transfer and copying the template's deltas. They
+#: ignore the training expressions, so their errors are the same for every solver.
+REFERENCE_TRANSFERS: tuple[str, ...] = ("dt", "delta")
+
+#: The RMS columns of a transfer row: over all shapes, shapes some training expression holds, the others.
+RMS_PARTS: dict[str, str] = {
+    "rms": "all shapes",
+    "rms_covered": "covered shapes",
+    "rms_uncovered": "uncovered shapes",
+}
+
+
+def transfer_medians(records: pd.DataFrame) -> pd.DataFrame:
+    """Per case (`CASE_COLUMNS` minus repetition), transfer and J: the median over repetitions of each RMS
+    column (`RMS_PARTS`), the standard deviation of ``rms`` over repetitions (``noise``, NaN for one) and
+    the number of repetitions."""
+    rows = records[(records["kind"] == "transfer") & (records["status"] == "ok") & records["rms"].notna()]
+    keys = [*CASE_COLUMNS, "transfer", "j"]
+    if rows.empty:
+        return pd.DataFrame(columns=[*keys, *RMS_PARTS, "noise", "repetitions"])
+    values = rows[[*keys, *RMS_PARTS]].astype({part: float for part in RMS_PARTS})
+    grouped = values.groupby(keys, dropna=False, sort=True)
+    medians = grouped[list(RMS_PARTS)].median()
+    medians["noise"] = grouped["rms"].std(ddof=1)
+    medians["repetitions"] = grouped["rms"].size()
+    return medians.reset_index()
+
+
+def _with_references(medians: pd.DataFrame) -> pd.DataFrame:
+    """The medians of the transfers that use examples, with the references' ``rms`` of the same case and J
+    as columns ``rms_dt`` and ``rms_delta`` (NaN when the run has no such reference)."""
+    keys = [*CASE_COLUMNS, "j"]
+    learned = medians[~medians["transfer"].isin(REFERENCE_TRANSFERS)]
+    for reference in REFERENCE_TRANSFERS:
+        found = medians[medians["transfer"] == reference][[*keys, "rms"]].rename(
+            columns={"rms": f"rms_{reference}"}
+        )
+        learned = learned.merge(found, on=keys, how="left")
+    return learned
+
+
+def solver_groups(block: pd.DataFrame, value: str) -> dict[str, str]:
+    """Solver -> label of the solvers whose ``value`` curve over J is identical (``cpsat = highs``)."""
+    curves: dict[tuple, list[str]] = {}
+    for solver, rows in block.groupby("solver", sort=True):
+        key = tuple(np.round(rows.sort_values("j")[["j", value]].to_numpy(dtype=float), 12).ravel())
+        curves.setdefault(key, []).append(solver)
+    return {solver: " = ".join(group) for group in curves.values() for solver in group}
+
+
+def rms_table(records: pd.DataFrame, reference: str | None = None, part: str = "rms") -> pd.DataFrame:
+    """Transfer RMS against J, absolute or relative to a reference transfer (median over repetitions).
+
+    Parameters
+    ----------
+    records : DataFrame
+    reference : {None, "dt", "delta"}
+        None: the RMS itself, with a row per reference transfer; else each RMS divided by the reference's
+        RMS over all shapes in the same cell and J (below 1: the training expressions helped).
+    part : str
+        A column of `RMS_PARTS`.
+
+    Returns
+    -------
+    DataFrame with rig, warp, the varying settings, transfer, ``solvers`` (solvers whose values agree at
+    every J share a row, joined by ``=``) and one ``J=j`` column per J value.
+    """
+    medians = transfer_medians(records)
+    settings = varying_settings(records)
+    base = ["rig", "warp", *(["setting"] if settings else []), "transfer", "solvers"]
+    learned = _with_references(medians)
+    if reference is not None:
+        learned = learned.assign(value=learned[part] / learned[f"rms_{reference}"])
+        shown = learned
+    else:
+        references = medians[medians["transfer"].isin(REFERENCE_TRANSFERS)]
+        shown = pd.concat([learned, references], ignore_index=True).assign(value=lambda frame: frame[part])
+    shown = shown[shown["value"].notna()]
+    if shown.empty:
+        return pd.DataFrame(columns=base)
+    rows = []
+    labels = rig_labels(records["rig"])
+    for keys, block in shown.groupby(["rig", "warp", *settings, "transfer"], sort=True, dropna=False):
+        groups = solver_groups(block, "value")
+        if keys[-1] in REFERENCE_TRANSFERS:
+            groups = dict.fromkeys(groups, "every solver")
+        for label in dict.fromkeys(groups.values()):
+            first = next(solver for solver, group in groups.items() if group == label)
+            curve = block[block["solver"] == first].set_index("j")["value"]
+            row = {
+                "rig": labels[keys[0]],
+                "warp": keys[1],
+                "transfer": keys[-1],
+                "solvers": label,
+                **{f"J={int(j)}": float(value) for j, value in curve.items()},
+            }
+            if settings:
+                row["setting"] = setting_label(block.iloc[0], settings)
+            rows.append(row)
+    table = pd.DataFrame(rows)
+    j_columns = sorted((c for c in table.columns if c.startswith("J=")), key=lambda c: int(c[2:]))
+    return table[[*base, *j_columns]]
+
+
+def separation_table(records: pd.DataFrame) -> pd.DataFrame:
+    """Whether the evaluation tells packings apart: spread of the transfer RMS across packings against the
+    run-to-run noise, per rig, warp, transfer and J.
+
+    A packing is a solver with a setting; its value is the median RMS over repetitions. ``spread`` is the
+    largest minus the smallest value, ``noise`` the pooled standard deviation over repetitions (the root
+    mean of each packing's variance; with scan-like examples every repetition is another capture session),
+    and ``spread / noise`` how many noise levels apart the best and the worst packing are. Solvers with
+    identical curves count once.
+
+    Returns
+    -------
+    DataFrame with rig, warp, transfer, J, packings, best, worst, spread, noise, spread / noise, and the
+    best and worst RMS. Reference transfers (`REFERENCE_TRANSFERS`) are left out: no packing changes them.
+    """
+    medians = transfer_medians(records)
+    medians = medians[~medians["transfer"].isin(REFERENCE_TRANSFERS)]
+    columns = [
+        "rig",
+        "warp",
+        "transfer",
+        "J",
+        "packings",
+        "best",
+        "worst",
+        "best RMS",
+        "worst RMS",
+        "spread",
+        "noise",
+        "spread / noise",
+    ]
+    if medians.empty:
+        return pd.DataFrame(columns=columns)
+    settings = varying_settings(records)
+    labels = rig_labels(records["rig"])
+    rows = []
+    for (rig, warp, transfer, j), block in medians.groupby(["rig", "warp", "transfer", "j"], sort=True):
+        names = {}
+        for _, part in block.groupby(settings, sort=True, dropna=False) if settings else [((), block)]:
+            groups = solver_groups(part.assign(j=0), "rms")
+            setting = setting_label(part.iloc[0], settings)
+            for index, solver in zip(part.index, part["solver"], strict=True):
+                names[index] = f"{groups[solver]} ({setting})" if setting else groups[solver]
+        packings = block.assign(name=pd.Series(names)).drop_duplicates("name")
+        best, worst = packings.loc[packings["rms"].idxmin()], packings.loc[packings["rms"].idxmax()]
+        variance = packings["noise"].astype(float) ** 2
+        noise = float(np.sqrt(variance.mean())) if variance.notna().all() else float("nan")
+        spread = float(worst["rms"] - best["rms"])
+        rows.append(
+            {
+                "rig": labels[rig],
+                "warp": warp,
+                "transfer": transfer,
+                "J": int(j),
+                "packings": len(packings),
+                "best": best["name"],
+                "worst": worst["name"],
+                "best RMS": float(best["rms"]),
+                "worst RMS": float(worst["rms"]),
+                "spread": spread,
+                "noise": noise,
+                "spread / noise": spread / noise if noise > 0 else float("nan"),
+            }
+        )
+    return pd.DataFrame(rows, columns=columns)

@@ -9,18 +9,31 @@ same blendshapes, known ground truth. Static vertices stay static (their deltas 
 Spec forms accepted by `warp`
 -----------------------------
 - a `WARPS` preset name: ``"big-eyes"``, ``"scale-x1.3"``, ``"alien"`` ...;
-- a string of steps joined by ``+``, each a preset name, ``scale:SX,SY,SZ`` or
+- a string of steps joined by ``+``, each a preset name, ``scale:SX,SY,SZ``,
   ``local:CENTER,FACTOR[,RADIUS]`` with CENTER a name or ``[x;y;z]`` and RADIUS in rig units or, with a
-  ``d`` suffix, as a fraction of the bounding-box diagonal (``"scale:1.3,1,1+local:mouth,0.7,0.1d"``);
+  ``d`` suffix, as a fraction of the bounding-box diagonal (``"scale:1.3,1,1+local:mouth,0.7,0.1d"``), or
+  ``character:STRENGTH[,SEED]`` (see below);
 - a dict: ``{"kind": "scale", "factors": [1.3, 1, 1]}``,
   ``{"kind": "local", "center": "mouth" or [x, y, z], "factor": 0.7, "radius": 2.0}`` (or
-  ``"radius_rel"``, a fraction of the bounding-box diagonal), ``{"kind": "compose", "steps": [...]}``;
+  ``"radius_rel"``, a fraction of the bounding-box diagonal), ``{"kind": "character", "strength": 1.0,
+  "seed": 0}``, ``{"kind": "compose", "steps": [...]}``;
 - a list or tuple of any of these (applied in order);
-- a `Scale`, `LocalScale` or `Compose` object.
+- a `Scale`, `LocalScale`, `Character` or `Compose` object.
 
 Named centres (``eye_L``, ``eye_R``, ``eyes`` = both, ``mouth``, ``nose``, or any landmark/region name) come
 from ``rig.meta["landmarks"]`` when present, else from the centroid of the rig's regions (eyelids for an
 eye, lips for the mouth, a ``nose`` region for the nose), else from a region with the centre's name.
+
+Character-specific targets
+--------------------------
+A warp alone gives a target whose shapes deformation transfer predicts from the two neutrals. The step
+``character`` (`rigs._character.Character`; ``character:STRENGTH[,SEED]`` or
+``{"kind": "character", "strength": 1.0, "seed": 0}``) changes the blendshapes themselves, as an actor
+moves unlike the template: per-shape gains and turns by face region, asymmetry, a wider smile, a heavier
+jaw. It changes no point of space, so it applies after every geometric step of the spec, wherever it
+stands in it. Every preset ``NAME`` of `WARPS` has its character variant ``NAME+character`` (e.g.
+``alien+character``, the paper's cases made character-specific), and ``character`` alone keeps the
+template's geometry.
 """
 
 from __future__ import annotations
@@ -31,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from rigs._character import Character
 from rigs._face_mesh import LANDMARK_REGIONS, region_centre
 from rigs._rig import Rig, RigError
 
@@ -197,7 +211,16 @@ class LocalScale:
 class Compose:
     """Steps applied in order."""
 
-    steps: tuple[Scale | LocalScale | Compose, ...]
+    steps: tuple[Scale | LocalScale | Character | Compose, ...]
+
+    def characters(self) -> list[Character]:
+        """The character steps, in order (they apply after the geometry, see `warp`)."""
+        return [
+            character
+            for step in self.steps
+            for character in (step.characters() if isinstance(step, Compose) else [step])
+            if isinstance(character, Character)
+        ]
 
     def resolve(self, rig: Rig) -> list[Primitive]:
         """The primitives of all steps, in order, centres located on ``rig``."""
@@ -210,7 +233,7 @@ class Compose:
         return "+".join(step.label() for step in self.steps)
 
 
-Warp = Scale | LocalScale | Compose
+Warp = Scale | LocalScale | Character | Compose
 
 
 def point_map(
@@ -239,7 +262,7 @@ def point_map(
     return mapped
 
 
-WARPS: Mapping[str, Warp] = {
+_GEOMETRIC_WARPS: dict[str, Warp] = {
     "scale-x1.3": Scale((1.3, 1.0, 1.0)),
     "scale-x0.8": Scale((0.8, 1.0, 1.0)),
     "scale-y1.2": Scale((1.0, 1.2, 1.0)),
@@ -260,6 +283,13 @@ WARPS: Mapping[str, Warp] = {
     ),
 }
 
+#: Warp presets: the geometric ones, ``character`` alone, and ``NAME+character`` for every geometric one.
+WARPS: Mapping[str, Warp] = {
+    **_GEOMETRIC_WARPS,
+    "character": Character(),
+    **{f"{name}+character": Compose((step, Character())) for name, step in _GEOMETRIC_WARPS.items()},
+}
+
 
 def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
     """Warp every mesh of a rig: the target rig B of sec. 5.1 with ground-truth blendshapes.
@@ -275,8 +305,10 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
     -------
     Rig
         Same triangles, names and regions; ``neutral = f(v_0)``, ``deltas[k] = f(v_0 + dv_k) - f(v_0)``
-        (exactly 0 where ``dv_k`` is 0). ``meta`` gains ``warp`` (the spec as data), its ``landmarks`` are
-        carried along and ``source`` says it was warped.
+        (exactly 0 where ``dv_k`` is 0), then changed by the spec's character steps (`Character.apply`,
+        which keeps static vertices static and records its ground truth in ``meta["character"]``).
+        ``meta`` gains ``warp`` (the spec as data), its ``landmarks`` are carried along and ``source``
+        says it was warped.
         ``meta["warp"]`` is ``{"spec": the preset or spec string (else a label such as
         "scale:1.3,1,1+local:mouth,0.7"), "definition": the steps as a dict}``.
 
@@ -312,7 +344,12 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
         meta["landmarks"] = {
             name: [float(value) for value in point] for name, point in zip(names, moved, strict=True)
         }
-    return replace(rig, neutral=neutral, deltas=deltas, meta=meta)
+    warped = replace(rig, neutral=neutral, deltas=deltas, meta=meta)
+    characters = parsed.characters() if isinstance(parsed, Compose) else [parsed]
+    for character in characters:
+        if isinstance(character, Character):
+            warped = character.apply(warped)
+    return replace(warped, meta={**warped.meta, "source": meta["source"]})
 
 
 def parse_warp(spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Warp:
@@ -323,7 +360,7 @@ def parse_warp(spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Warp:
     ValueError
         Naming the part of the spec that is malformed.
     """
-    if isinstance(spec, Scale | LocalScale | Compose):
+    if isinstance(spec, Scale | LocalScale | Character | Compose):
         return spec
     if isinstance(spec, str):
         steps = [_parse_step(text.strip()) for text in spec.split("+")]
@@ -343,6 +380,8 @@ def _parse_step(text: str) -> Warp:
     try:
         if kind == "scale" and len(values) == 3:
             return Scale(tuple(values))
+        if kind == "character" and len(values) in (1, 2):
+            return Character(*values)
         if kind == "local" and len(values) in (2, 3):
             center: str | list[str] = values[0]
             if values[0].startswith("[") and values[0].endswith("]"):
@@ -355,16 +394,21 @@ def _parse_step(text: str) -> Warp:
         raise ValueError(f"warp step {text!r}: {error}") from None
     raise ValueError(
         f"unknown warp step {text!r}; use a preset ({', '.join(WARPS)}), 'scale:SX,SY,SZ' "
-        f"or 'local:CENTER,FACTOR[,RADIUS]' (CENTER a name or [x;y;z], RADIUS like 2.5 or 0.1d)"
+        f"'local:CENTER,FACTOR[,RADIUS]' (CENTER a name or [x;y;z], RADIUS like 2.5 or 0.1d) "
+        f"or 'character:STRENGTH[,SEED]'"
     )
 
 
 def _parse_mapping(spec: Mapping[str, Any]) -> Warp:
     kind = spec.get("kind")
     allowed = {"scale": {"kind", "factors"}, "local": {"kind", "center", "factor", "radius", "radius_rel"}}
+    allowed["character"] = {"kind", "strength", "seed"}
     allowed["compose"] = {"kind", "steps"}
     if kind not in allowed:
-        raise ValueError(f"warp dict needs 'kind' of scale, local or compose, got {kind!r}")
+        raise ValueError(
+            f"warp dict needs 'kind' of scale, local or compose, got {kind!r}; "
+            "or character for a character-specific target"
+        )
     unknown = sorted(set(spec) - allowed[kind])
     if unknown:
         raise ValueError(
@@ -375,6 +419,8 @@ def _parse_mapping(spec: Mapping[str, Any]) -> Warp:
             return Scale(spec["factors"])
         if kind == "local":
             return LocalScale(spec["center"], spec["factor"], spec.get("radius"), spec.get("radius_rel"))
+        if kind == "character":
+            return Character(spec.get("strength", 1.0), spec.get("seed", 0))
         return Compose(tuple(parse_warp(step) for step in spec["steps"]))
     except KeyError as error:
         raise ValueError(f"{kind} warp: missing key {error.args[0]!r}") from None

@@ -8,14 +8,20 @@ Methods are plugins in the ``harness.transfers`` entry-point group, each a calla
 - ``ebfr``: example-based facial rigging in gradient space with known 0/1 weights (Li et al. 2010, step A);
 - ``ebfr-full``: the same alternating with weight re-estimation (Li et al. 2010, steps A and B);
 - ``plbs``: patchwise linear blendshapes plus deformation transfer of the residual (Wagner et al. 2024).
+
+Training expressions come ideal (`training_expressions`, the linear sum of the target's ground truth, as in
+the paper) or scan-like (`scan_expressions` with a `ScanModel`: correctives, scanner noise, head motion
+removed by rigid alignment).
 """
 
 from transfer._base import Transfer
-from transfer._expressions import scan_expressions, training_expressions
+from transfer._expressions import training_expressions
 from transfer._metrics import TransferMetrics, metrics, rms
 from transfer._registry import get, names
+from transfer._scan import ScanModel, scan_expressions
 
 __all__ = [
+    "ScanModel",
     "Transfer",
     "TransferMetrics",
     "get",

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -103,7 +106,9 @@ def fit_edge_frames(
     Notes
     -----
     O(T (K J^2 + J^3)) time, in chunks of triangles so temporaries stay O(chunk K). A shape in no
-    expression has a zero column in W, hence a zero update: it keeps the prior exactly.
+    expression has a zero column in W, hence a zero update: it keeps the prior exactly. When every shape
+    is in at most one expression (a packing without extra examples), ``W D_t^-1 W^T`` is diagonal and the
+    solve is a division: O(T K J).
     """
     n_triangles, n_shapes = prior.shape[0], prior.shape[-1]
     n_expressions = weights.shape[0]
@@ -112,6 +117,14 @@ def fit_edge_frames(
         return result.reshape(prior.shape)
     predicted = (result.reshape(-1, n_shapes) @ weights.T).reshape(n_triangles, 6, n_expressions)
     residual = observed.reshape(n_triangles, 6, n_expressions) - predicted  # (T, 6, J)
+    if np.all(np.count_nonzero(weights, axis=0) <= 1):
+        squared = (weights**2).T  # (K, J): W D^-1 W^T = diag(D^-1 squared) when no shape is shared
+        for part in triangle_chunks(n_triangles, 2 * n_shapes):
+            inverse_diagonal = 1.0 / (beta * regularisation[part])  # (c, K)
+            mixed = residual[part] / (1.0 + inverse_diagonal @ squared)[:, None, :]  # (c, 6, J)
+            update = (mixed.reshape(-1, n_expressions) @ weights).reshape(-1, 6, n_shapes)
+            result[part] += update * inverse_diagonal[:, None, :]
+        return result.reshape(prior.shape)
     outer = (weights[:, None, :] * weights[None, :, :]).reshape(n_expressions**2, n_shapes).T  # (K, J*J)
     identity = np.eye(n_expressions)
     for part in triangle_chunks(n_triangles, 2 * max(n_shapes, n_expressions**2)):
@@ -123,21 +136,28 @@ def fit_edge_frames(
     return result.reshape(prior.shape)
 
 
-class GradientSpaceRigging:
-    """Step A of example-based rigging prepared for one template, target neutral and set of examples.
+#: Prepared rigging set-ups kept per process (each holds a few (T, 6, K) arrays of one rig pair).
+_SETUP_CACHE_SIZE = 2
+_setups: OrderedDict[tuple[Any, ...], RiggingSetup] = OrderedDict()
+_setups_lock = threading.Lock()
+#: Sparse-factor entries a cached set-up keeps, so later calls skip the factorisations.
+SETUP_FACTOR_BUDGET = 20_000_000
+#: Fitted expressions a set-up keeps (each a few of its shapes as (N, 3, k) arrays).
+_EXPRESSION_CACHE_SIZE = 512
 
-    Everything that does not depend on the expression weights is computed once: the aligned template,
-    the deformation-transfer prior, the regularisation weights, the training frames, the vertex
-    solver and its constraints. `blendshapes` may then be called with any weights and ``beta``
-    (`transfer.ebfr_full` calls it once per iteration).
+
+class RiggingSetup:
+    """Everything of step A that depends on neither the expression weights nor the training expressions.
 
     Parameters
     ----------
-    inputs : TransferInputs
+    template : Rig
+        The template rig A.
+    target_neutral : (N, 3) array
     kappa, theta, motion_scale, static_tolerance, align
         See `ExampleBasedRigging`.
     factor_budget : int
-        Entries of sparse factorisations kept between `blendshapes` calls (see `FrameReconstruction`).
+        Entries of sparse factorisations kept between solves (see `FrameReconstruction`).
 
     Attributes
     ----------
@@ -147,11 +167,102 @@ class GradientSpaceRigging:
         Deformation-transfer edges of the target shapes, ``M_i^{A*}``.
     regularisation : (T, K) array
         Weights ``w_i`` of ``E_reg``.
-    observed : (T, 2, 3, J) array
-        Edges of the training expressions minus the target neutral's.
     reconstruction : FrameReconstruction
     fixed : (K, N) bool array
         Vertices held in each shape.
+    """
+
+    def __init__(
+        self,
+        template: Any,
+        target_neutral: np.ndarray,
+        *,
+        kappa: float,
+        theta: float,
+        motion_scale: str,
+        static_tolerance: float,
+        align: bool,
+        factor_budget: int,
+    ) -> None:
+        triangles = template.triangles
+        self.triangles = triangles
+        self.target_neutral = target_neutral
+        neutral, self.template_deltas = aligned_template(
+            template.neutral, vertex_major(template.deltas), target_neutral, align
+        )
+        self.prior = transferred_edges(neutral, self.template_deltas, target_neutral, triangles)
+        self.regularisation = regularisation_weights(
+            self.template_deltas, triangles, kappa=kappa, theta=theta, motion_scale=motion_scale
+        )
+        self.reconstruction = FrameReconstruction(target_neutral, triangles, factor_budget)
+        self.fixed = self.reconstruction.constraints(self.template_deltas, static_tolerance)
+        self._transferred: np.ndarray | None = None
+        #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`), most recent last.
+        self.expressions: OrderedDict[tuple[str, float], np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def remember(self, key: tuple[str, float], fitted: np.ndarray) -> None:
+        """Keep the fitted shapes of one expression, the last `_EXPRESSION_CACHE_SIZE` of them."""
+        with self._lock:
+            self.expressions[key] = fitted
+            while len(self.expressions) > _EXPRESSION_CACHE_SIZE:
+                self.expressions.popitem(last=False)
+
+    @property
+    def transferred(self) -> np.ndarray:
+        """(N, 3, K) vertex-major prior reconstructed as vertices: the estimate of a shape in no
+        training expression (deformation transfer), computed on first use."""
+        if self._transferred is None:
+            self._transferred = self.reconstruction.solve(self.prior, self.fixed, self.template_deltas)
+        return self._transferred
+
+
+def rigging_setup(template: Any, target_neutral: np.ndarray, **params: Any) -> RiggingSetup:
+    """The `RiggingSetup` of a template, target neutral and parameters, memoised per process.
+
+    The key is the content of the arrays (a BLAKE2 digest of their bytes), so an equal rig built again
+    shares the set-up; the last `_SETUP_CACHE_SIZE` set-ups are kept. A harness evaluating many
+    packings of one rig pair then pays the deformation-transfer prior and the factorisations once.
+    """
+    digest = hashlib.blake2b(digest_size=16)
+    for array in (template.neutral, template.deltas, template.triangles, target_neutral):
+        contiguous = np.ascontiguousarray(array)
+        digest.update(f"{contiguous.dtype}{contiguous.shape}".encode())
+        digest.update(contiguous.data)
+    key = (digest.hexdigest(), tuple(sorted(params.items())))
+    with _setups_lock:
+        if key in _setups:
+            _setups.move_to_end(key)
+            return _setups[key]
+    setup = RiggingSetup(template, target_neutral, **params, factor_budget=SETUP_FACTOR_BUDGET)
+    with _setups_lock:
+        _setups[key] = setup
+        while len(_setups) > _SETUP_CACHE_SIZE:
+            _setups.popitem(last=False)
+    return setup
+
+
+class GradientSpaceRigging:
+    """Step A of example-based rigging prepared for one template, target neutral and set of examples.
+
+    Everything that does not depend on the expression weights or the examples comes from the memoised
+    `rigging_setup`: the aligned template, the deformation-transfer prior, the regularisation weights,
+    the vertex solver and its constraints. `blendshapes` may then be called with any weights and
+    ``beta`` (`transfer.ebfr_full` calls it once per iteration).
+
+    Parameters
+    ----------
+    inputs : TransferInputs
+    kappa, theta, motion_scale, static_tolerance, align
+        See `ExampleBasedRigging`.
+
+    Attributes
+    ----------
+    setup : RiggingSetup
+    examples : (J, N, 3) array
+        The training expressions.
+    observed : (T, 2, 3, J) array
+        Edges of the training expressions minus the target neutral's.
     """
 
     def __init__(
@@ -163,25 +274,69 @@ class GradientSpaceRigging:
         motion_scale: str = "peak",
         static_tolerance: float = 1e-6,
         align: bool = True,
-        factor_budget: int = 0,
     ) -> None:
-        template, target = inputs.template, inputs.target_neutral
-        triangles = template.triangles
-        neutral, self.template_deltas = aligned_template(
-            template.neutral, vertex_major(template.deltas), target, align
+        target = inputs.target_neutral
+        self.setup = rigging_setup(
+            inputs.template,
+            target,
+            kappa=kappa,
+            theta=theta,
+            motion_scale=motion_scale,
+            static_tolerance=static_tolerance,
+            align=align,
         )
-        self.prior = transferred_edges(neutral, self.template_deltas, target, triangles)
-        self.regularisation = regularisation_weights(
-            self.template_deltas, triangles, kappa=kappa, theta=theta, motion_scale=motion_scale
-        )
-        self.observed = edge_vectors(vertex_major(inputs.examples - target), triangles)
-        self.reconstruction = FrameReconstruction(target, triangles, factor_budget)
-        self.fixed = self.reconstruction.constraints(self.template_deltas, static_tolerance)
+        self.examples = inputs.examples
+        self.observed = edge_vectors(vertex_major(inputs.examples - target), inputs.template.triangles)
 
     def blendshapes(self, weights: np.ndarray, beta: float) -> np.ndarray:
-        """Target deltas ``(K, N, 3)`` for expression ``weights (J, K)`` and balance ``beta``."""
-        edges = fit_edge_frames(self.prior, self.regularisation, weights, self.observed, beta)
-        return shape_major(self.reconstruction.solve(edges, self.fixed, self.template_deltas))
+        """Target deltas ``(K, N, 3)`` for expression ``weights (J, K)`` and balance ``beta``.
+
+        Only the shapes with a nonzero weight in some expression are fitted and reconstructed: the fit
+        of the others keeps the prior exactly (see `fit_edge_frames`), so they are the set-up's
+        deformation transfer. When no shape is in two expressions (a packing), the fit splits into one
+        independent problem per expression, each depending only on that expression's weights and
+        example; those are memoised on the set-up, so the sequences of J = 2, 4, 7, ... expressions of
+        one packing fit each expression once.
+        """
+        setup = self.setup
+        result = setup.transferred.copy()
+        if np.all(np.count_nonzero(weights, axis=0) <= 1):
+            for j, row in enumerate(weights):
+                shapes = np.flatnonzero(row)
+                if shapes.size:
+                    result[..., shapes] = self._expression(j, row, shapes, beta)
+        else:
+            covered = np.flatnonzero(np.any(weights != 0, axis=0))
+            result[..., covered] = self._fitted(weights[:, covered], covered, self.observed, beta)
+        return shape_major(result)
+
+    def _fitted(
+        self, weights: np.ndarray, shapes: np.ndarray, observed: np.ndarray, beta: float
+    ) -> np.ndarray:
+        """(N, 3, len(shapes)) displacements of ``shapes`` fitted to expressions of ``weights`` (their
+        columns of ``shapes``) whose edges are ``observed``."""
+        setup = self.setup
+        edges = fit_edge_frames(
+            np.ascontiguousarray(setup.prior[..., shapes]),
+            setup.regularisation[:, shapes],
+            weights,
+            observed,
+            beta,
+        )
+        return setup.reconstruction.solve(
+            edges, setup.fixed[shapes], np.ascontiguousarray(setup.template_deltas[..., shapes])
+        )
+
+    def _expression(self, j: int, row: np.ndarray, shapes: np.ndarray, beta: float) -> np.ndarray:
+        """The shapes of expression ``j`` alone (no other expression holds them), memoised on the set-up."""
+        digest = hashlib.blake2b(row.tobytes(), digest_size=16)
+        digest.update(np.ascontiguousarray(self.examples[j]).data)
+        key = (digest.hexdigest(), float(beta))
+        found = self.setup.expressions.get(key)
+        if found is None:
+            found = self._fitted(row[None, shapes], shapes, self.observed[..., j : j + 1], beta)
+            self.setup.remember(key, found)
+        return found
 
 
 def check_regularisation(kappa: float, theta: float, motion_scale: str, static_tolerance: float) -> None:

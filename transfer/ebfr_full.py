@@ -11,9 +11,6 @@ from transfer._base import Transfer, check_positive
 from transfer._inputs import TransferInputs, check_inputs
 from transfer.ebfr import GradientSpaceRigging, check_regularisation
 
-#: Entries of sparse factorisations kept across iterations (about 12 bytes each).
-_FACTOR_BUDGET = 1 << 25
-
 
 def schedule(start: float, end: float, steps: int) -> np.ndarray:
     """``steps`` values decreasing geometrically from ``start`` to ``end`` (Li et al. 2010, sec. 4)."""
@@ -207,7 +204,6 @@ class ExampleBasedRiggingFull(Transfer):
             motion_scale=self.motion_scale,
             static_tolerance=self.static_tolerance,
             align=self.align,
-            factor_budget=_FACTOR_BUDGET,
         )
         betas = schedule(*self.beta_schedule, self.iterations)
         gammas = schedule(*self.gamma_schedule, self.iterations)

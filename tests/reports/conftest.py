@@ -104,10 +104,18 @@ class RunSpec:
     jitter: float = 0.1  # relative time change from one repetition to the next
     skipped: dict[str, str] = field(default_factory=dict)
     objective_scale: float = 1.0  # multiplies every objective (to fake floating-point noise)
+    noise: float = 0.0  # relative change of the learned transfers' RMS from one repetition to the next
 
 
-def _rms(covered: int, transfer: str, importance: bool) -> float:
-    return (1.0 if transfer == "dt" else 0.6) * (1.1 if not importance else 1.0) / (1.0 + covered)
+#: Relative size of each transfer's fabricated error (the references ignore the expressions).
+_SCALE = {"dt": 1.0, "delta": 1.2, "ebfr": 0.6, "plbs": 0.5}
+
+
+def _rms(covered: int, transfer: str, importance: bool, repetition: int = 0, noise: float = 0.0) -> float:
+    if transfer in ("dt", "delta"):
+        return _SCALE[transfer] / 4.0
+    wobble = 1.0 + noise * (repetition - 0.5)
+    return _SCALE[transfer] * (1.1 if not importance else 1.0) / (1.0 + covered) * wobble
 
 
 def fabricate_run(out: Path, spec: RunSpec) -> Path:
@@ -174,6 +182,7 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
             for transfer, j in itertools.product(spec.transfers, range(1, len(sequence) + 1)):
                 covered_j = sum(len(shapes) for shapes in sequence[:j])
                 worst = ([name for shapes in sequence[j:] for name in shapes] or [SHAPES[0]])[:2]
+                value = _rms(covered_j, transfer, importance, repetition, spec.noise)
                 rows.append(
                     {
                         **base,
@@ -181,13 +190,11 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
                         "status": "ok",
                         "transfer": transfer,
                         "j": j,
-                        "rms": _rms(covered_j, transfer, importance),
-                        "rms_covered": 0.5 * _rms(covered_j, transfer, importance),
-                        "rms_uncovered": 2 * _rms(covered_j, transfer, importance),
+                        "rms": value,
+                        "rms_covered": 0.5 * value,
+                        "rms_uncovered": 2 * value,
                         "worst_shapes": worst,
-                        "worst_rms": [
-                            (3.0 - i) * _rms(covered_j, transfer, importance) for i in range(len(worst))
-                        ],
+                        "worst_rms": [(3.0 - i) * value for i in range(len(worst))],
                         "transfer_time": 0.1,
                     }
                 )

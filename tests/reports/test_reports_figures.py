@@ -34,17 +34,44 @@ def test_coverage_figure_plots_covered_shapes_per_solver(make_run, face_rig_file
     assert ax.get_ylabel() == "shapes covered (count)"
 
 
-def test_rms_figure_has_one_panel_per_transfer_and_a_line_per_solver_and_importance(make_run, face_rig_file):
-    records = harness.read_records(make_run("run", importance=(True, False)))
+def test_rms_figure_has_a_row_per_learned_transfer_and_a_column_per_part(make_run, face_rig_file):
+    records = harness.read_records(
+        make_run("run", importance=(True, False), transfers=("ebfr", "dt", "delta"))
+    )
     figure = rms_figure(records, str(face_rig_file))
-    assert [ax.get_title().rsplit(" ", 1)[-1] for ax in figure.axes] == ["dt", "ebfr"]
-    ebfr = _lines(figure.axes[1])
-    assert len(ebfr) == 8  # 4 solvers x importance on/off
-    j, rms = ebfr["greedy (importance off)"]
+    assert [ax.get_title().split(", ", 2)[-1] for ax in figure.axes] == [
+        "ebfr: all shapes",
+        "ebfr: covered shapes",
+        "ebfr: uncovered shapes",
+    ]
+    everything, covered, _ = (_lines(ax) for ax in figure.axes)
+    # cpsat, highs and naive-pulp-cbc share the optimal sequence: one line each setting, not three.
+    assert sorted(everything) == [
+        "cpsat = highs = naive-pulp-cbc (identical) (importance off)",
+        "cpsat = highs = naive-pulp-cbc (identical) (importance on)",
+        "delta (reference)",
+        "dt (reference)",
+        "greedy (importance off)",
+        "greedy (importance on)",
+    ]
+    j, rms = everything["greedy (importance off)"]
     assert j == [1, 2, 3]
     assert rms == pytest.approx([0.66 / 3, 0.66 / 8, 0.66 / 10])
+    assert everything["dt (reference)"][1] == [0.25, 0.25]
+    assert covered["greedy (importance off)"][1] == pytest.approx([0.33 / 3, 0.33 / 8, 0.33 / 10])
+    assert "dt (reference)" not in covered
+    for ax in figure.axes:
+        assert ax.get_ylim()[0] == 0.0  # a 0.5% difference looks like one
+    assert figure.axes[0].get_ylim()[1] == pytest.approx(1.08 * 0.3)  # the delta reference is the top
     assert figure.axes[0].get_xlabel() == "training expressions J (count)"
     assert "RMS" in figure.axes[0].get_ylabel() and "units" in figure.axes[0].get_ylabel()
+
+
+def test_rms_figure_of_references_only_plots_them_as_methods(make_run, face_rig_file):
+    records = harness.read_records(make_run("run", transfers=("dt",)))
+    figure = rms_figure(records, str(face_rig_file))
+    assert figure.axes[0].get_title().endswith("dt: all shapes")
+    assert list(_lines(figure.axes[0])) == ["cpsat = greedy = highs = naive-pulp-cbc (identical)"]
 
 
 def test_figures_refuse_a_rig_without_records(make_run):

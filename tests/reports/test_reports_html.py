@@ -90,7 +90,10 @@ def test_report_writes_markdown_html_and_figures(reported_run):
         "Timings (paper Table 2)",
         "Overlap of chosen shapes (paper Table 3)",
         "Coverage",
+        "The paper's claims",
         "Transfer error (paper Figs. 9 and 10)",
+        "Transfer error against the references",
+        "Does the evaluation tell packings apart?",
         "Worst transferred shapes",
         "Expression counts",
         "Contact sheets",
@@ -99,6 +102,12 @@ def test_report_writes_markdown_html_and_figures(reported_run):
         assert f"## {heading}" in markdown
     assert "| rig | warp | setting | solver | N | K |" in markdown
     assert "| face | alien | scip | 4 | skipped | pyscipopt is not installed |" in markdown
+    assert "| claim | paper | measured | verdict |" in markdown
+    claim = next(line for line in markdown.splitlines() if line.startswith("| optimal expressions transfer"))
+    assert "cpsat below greedy at 1 of 3 (rig, warp, J) points" in claim and claim.endswith("| not held |")
+    assert "RMS divided by the dt RMS of the same cell and J" in markdown
+    assert "The run has no delta transfer: no RMS relative to it." in markdown
+    assert "Training expressions: not recorded" in markdown  # the fabricated run.json has no config
     figures = sorted(path.name for path in (directory / "figures").iterdir())
     assert figures == [
         "contact-face-alien-importance-off.png",

@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 from scipy.optimize import lsq_linear
 from scipy.spatial.transform import Rotation
 
-import rigs
 import transfer
 from transfer.ebfr import fit_edge_frames
 from transfer.ebfr_full import box_quadratic
@@ -185,49 +184,6 @@ def test_ebfr_full_moves_perturbed_weights_towards_the_truth(tiny_pair, packing)
     assert ((refitted >= 0) & (refitted <= 1)).all()
 
 
-def test_scan_expressions_equal_copied_ones_for_an_affine_warp(tiny_pair, deform, packing):
-    template, _ = tiny_pair
-    matrix = np.array([[1.2, 0.1, 0.0], [0.0, 0.9, 0.05], [0.0, 0.0, 1.1]])
-
-    def affine(positions):
-        return positions @ matrix.T + [1.0, 2.0, 3.0]
-
-    target = deform(template, affine)
-    weights = packing(template)
-    np.testing.assert_allclose(
-        transfer.scan_expressions(template, weights, affine),
-        transfer.training_expressions(target, weights),
-        atol=1e-12 * template.diagonal(),
-    )
-
-
-def test_scan_expressions_differ_for_a_nonlinear_warp(sheet, deform):
-    template = sheet(20, 22, 6)
-
-    def swell(positions):
-        return positions + 2.0 * positions**2
-
-    target = deform(template, swell)
-    weights = np.ones((1, template.n_shapes))  # overlapping shapes: the warp does not distribute over them
-    scan = transfer.scan_expressions(template, weights, swell)
-    copied = transfer.training_expressions(target, weights)
-    offset = transfer.rms(copied, target.neutral[None])
-    assert transfer.rms(scan, copied) > 1e-3 * offset
-    np.testing.assert_allclose(scan[0], swell(template.neutral + template.deltas.sum(axis=0)))
-
-
-def test_scan_expressions_check_the_deformation(tiny_pair):
-    template, _ = tiny_pair
-    with pytest.raises(
-        ValueError, match=r"deformation must map \(N, 3\) positions to \(N, 3\), got \(599, 3\)"
-    ):
-        transfer.scan_expressions(template, np.eye(template.n_shapes)[:1], lambda positions: positions[1:])
-    with pytest.raises(ValueError, match=r"deformation result has a non-finite value"):
-        transfer.scan_expressions(
-            template, np.eye(template.n_shapes)[:1], lambda positions: np.full_like(positions, np.inf)
-        )
-
-
 def test_training_expressions_copy_the_weights(sheet):
     target = sheet(6, 7, 3)
     weights = np.array([[1.0, 0.0, 1.0], [0.0, 0.5, 0.0]])
@@ -251,22 +207,3 @@ def test_box_quadratic_matches_bounded_least_squares(n_shapes, n_columns, seed):
         rhs = np.r_[targets[:, column], np.zeros(n_shapes)]
         expected = lsq_linear(stacked, rhs, bounds=(0.0, 1.0), method="bvls").x
         np.testing.assert_allclose(result[:, column], expected, atol=1e-6)
-
-
-def test_scan_expressions_take_a_rigs_warp_spec(tiny_pair):
-    template, _ = tiny_pair
-    target = rigs.warp(template, "alien")
-    single = np.eye(template.n_shapes)  # one shape per expression: the scan is that shape of the target
-    np.testing.assert_allclose(
-        transfer.scan_expressions(template, single, "alien"),
-        transfer.training_expressions(target, single),
-        atol=1e-12 * template.diagonal(),
-    )
-    together = np.ones((1, template.n_shapes))
-    assert (
-        transfer.rms(
-            transfer.scan_expressions(template, together, "alien"),
-            transfer.training_expressions(target, together),
-        )
-        > 1e-6 * template.diagonal()
-    )
