@@ -2,8 +2,14 @@
 
 Everything numerical is delegated: `rigs` builds and warps the rig, `packing.sequence` runs Algorithm 1 with
 the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
-rebuild the target's blendshapes from the first J expressions. This module only times the calls and turns
-their results into rows of the records table (see `harness._records`).
+rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
+(`harness._grid.EXAMPLES`: scan-like captures of the target, seeded by the cell's seed, or its ideal
+linear sums). This module only times the calls and turns their results into rows of the records table
+(see `harness._records`).
+
+The check trusts nothing the solver says about itself beyond its declared capabilities: the symmetry pairs
+are the harness's own analysis, the overlap allowance is ``solver.capabilities.max_overlap``, a bound below
+the objective is rejected, and an expression of a solver that ran to its end must be maximal.
 """
 
 from __future__ import annotations
@@ -16,17 +22,18 @@ import time
 import warnings
 from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from harness import _plugins as plugins
-from harness._grid import NO_WARP, CellSpec
-from harness._rigspec import resolve_rig
+from harness._grid import NO_WARP, CellSpec, rig_digest
+from harness._rigspec import is_rig_file, resolve_rig
 
 _CACHE_SIZE = 4
 _cache_lock = threading.Lock()
-_rig_cache: OrderedDict[tuple[str, int, str], Any] = OrderedDict()
+_rig_cache: OrderedDict[tuple[str, str, int, str], Any] = OrderedDict()
 _warmed_up: set[str] = set()
 _MEMO_SIZE = 512
 _transfer_memo: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
@@ -37,11 +44,45 @@ MINIMUM_MODE_SOLVERS = ("cpsat", "highs")
 _WORST_SHAPES = 5
 
 
+@dataclass(frozen=True)
+class Lost:
+    """The outcome of a cell the infrastructure lost, instead of its record rows.
+
+    Its worker process died, the executor's own start-up limit passed, the Dask scheduler or worker went
+    away, or the rig file changed under the run: no result of the cell. `harness._run` writes no part
+    file for it, so ``--resume`` runs it again.
+    """
+
+    reason: str
+
+
+class RigChangedError(RuntimeError):
+    """The rig file's content is no longer the one the run's cell ids were made from."""
+
+
+def _verified(spec: CellSpec) -> Any:
+    """The template rig of a cell, after checking that its content still has the cell's digest."""
+    if spec.rig_digest and is_rig_file(spec.rig):
+        found = rig_digest(spec.rig, spec.rig_seed)
+        if found != spec.rig_digest:
+            raise RigChangedError(
+                f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
+                f"the run's cells were made for {spec.rig_digest[:19]}...)"
+            )
+    return resolve_rig(spec.rig, seed=spec.rig_seed)
+
+
 def rig_pair(spec: CellSpec) -> tuple[Any, Any]:
-    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process."""
+    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
+
+    Raises
+    ------
+    RigChangedError
+        When a rig file no longer has the content digest of ``spec.rig_digest``.
+    """
     import rigs
 
-    def cached(key: tuple[str, int, str], build: Callable[[], Any]) -> Any:
+    def cached(key: tuple[str, str, int, str], build: Callable[[], Any]) -> Any:
         with _cache_lock:
             if key in _rig_cache:
                 _rig_cache.move_to_end(key)
@@ -53,23 +94,29 @@ def rig_pair(spec: CellSpec) -> tuple[Any, Any]:
                 _rig_cache.popitem(last=False)
         return value
 
-    template = cached((spec.rig, spec.rig_seed, NO_WARP), lambda: resolve_rig(spec.rig, seed=spec.rig_seed))
+    key = (spec.rig, spec.rig_digest, spec.rig_seed)
+    template = cached((*key, NO_WARP), lambda: _verified(spec))
     if spec.warp == NO_WARP:
         return template, template
-    target = cached((spec.rig, spec.rig_seed, spec.warp), lambda: rigs.warp(template, spec.warp))
+    target = cached((*key, spec.warp), lambda: rigs.warp(template, spec.warp))
     return template, target
 
 
 def packing_params(spec: CellSpec) -> dict[str, Any]:
-    """Keyword arguments of `packing.sequence` / `packing.check` for a cell."""
-    return {
+    """Keyword arguments of `packing.analyse` / `packing.check` for a cell (`packing.PackingParams`)."""
+    params: dict[str, Any] = {
         "mu": spec.mu,
         "alpha": spec.alpha,
         "beta": spec.beta,
         "symmetry": spec.symmetry,
         "importance": spec.importance,
         "max_per_expression": spec.cap,
+        "together": spec.together,
+        "apart": spec.apart,
     }
+    if spec.regions:
+        params["regions"] = {name: np.asarray(indices, dtype=np.int64) for name, indices in spec.regions}
+    return params
 
 
 def warm_up(solver_name: str) -> None:
@@ -90,11 +137,12 @@ def warm_up(solver_name: str) -> None:
         pass
 
 
-def run_cell(spec: CellSpec) -> list[dict[str, Any]]:
+def run_cell(spec: CellSpec) -> list[dict[str, Any]] | Lost:
     """Run one cell and return its record rows (the ``cell`` row first).
 
     Never raises for a failing rig, solver, check or transfer: the failure becomes the ``status`` and
-    ``message`` of the rows, as the records schema describes.
+    ``message`` of the rows, as the records schema describes. A rig file whose content changed since the
+    run started gives `Lost` (no result for this run's cell).
     """
     base = spec.record_fields()
     cell_row: dict[str, Any] = {
@@ -106,6 +154,8 @@ def run_cell(spec: CellSpec) -> list[dict[str, Any]]:
     }
     try:
         template, target = rig_pair(spec)
+    except RigChangedError as error:
+        return Lost(str(error))
     except Exception as error:  # noqa: BLE001 - recorded, the run goes on
         return [_finish(cell_row, status="error", message=f"rig {spec.rig!r}: {_describe(error)}")]
     base.update(n_vertices=template.n_vertices, n_shapes=template.n_shapes)
@@ -181,14 +231,20 @@ def _minimum(spec: CellSpec, analysis: Any) -> dict[str, Any]:
 
 
 def _check(spec: CellSpec, solver: Any, template: Any, analysis: Any, expressions: list[Any]) -> None:
-    """Re-verify the sequence from the raw deltas (`packing.check`); a solver that overlaps shapes on
-    purpose (``capabilities.strict`` False) is checked with the overlap it was allowed."""
+    """Re-verify the sequence from the raw deltas (`packing.check`): with the symmetry pairs of the
+    harness's own analysis, the overlap the solver declares (``capabilities.max_overlap``, 0 for eq. 3b)
+    and no other, bounds at least the objectives, and maximal expressions where the solver ran to its
+    end."""
     import packing
 
-    allowed = (
-        {} if getattr(solver.capabilities, "strict", True) else {"overlap": getattr(solver, "overlap", 0.0)}
+    packing.check(
+        template,
+        expressions,
+        pairs=analysis.pairs,
+        overlap=solver.capabilities.max_overlap,
+        maximal=True,
+        **packing_params(spec),
     )
-    packing.check(template, expressions, pairs=analysis.pairs, **packing_params(spec), **allowed)
 
 
 def _failed_expression(expressions: list[Any]) -> Any | None:
@@ -237,6 +293,7 @@ def _transfer_rows(
 
     rows = []
     j_values = sorted({min(j, len(expressions)) for j in spec.j_values if expressions})
+    examples: list[np.ndarray] = []
     for name in spec.transfers:
         for j in j_values:
             row: dict[str, Any] = {
@@ -250,7 +307,11 @@ def _transfer_rows(
             clock = time.perf_counter()
             try:
                 weights = _training_weights(template, expressions[:j])
-                row.update(_transfer_metrics(transfer, name, spec, template, target, weights))
+                if not examples:  # every J trains on the first J of the same expressions
+                    examples.append(_examples(spec, target, _training_weights(template, expressions)))
+                row.update(
+                    _transfer_metrics(transfer, name, spec, template, target, weights, examples[0][:j])
+                )
             except Exception as error:  # noqa: BLE001 - recorded, the other J values still run
                 row.update(
                     status="error", message=_describe(error), transfer_time=time.perf_counter() - clock
@@ -259,28 +320,46 @@ def _transfer_rows(
     return rows
 
 
+def _examples(spec: CellSpec, target: Any, weights: np.ndarray) -> np.ndarray:
+    """The training expressions of a cell's whole sequence (`harness._grid.EXAMPLES`): scan-like ones are
+    seeded by the cell's seed, so repetitions are independent capture sessions."""
+    import transfer
+
+    if spec.examples == "ideal":
+        return transfer.training_expressions(target, weights)
+    return transfer.scan_expressions(target, weights, seed=spec.seed)
+
+
 def _transfer_metrics(
-    transfer: Any, name: str, spec: CellSpec, template: Any, target: Any, weights: np.ndarray
+    transfer: Any,
+    name: str,
+    spec: CellSpec,
+    template: Any,
+    target: Any,
+    weights: np.ndarray,
+    examples: np.ndarray,
 ) -> dict[str, Any]:
-    """Errors of one transfer, memoised per process: on (rig, warp, method, weights), so that solvers that
-    agree on a sequence share one computation, and for a method that ignores the training expressions
-    (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
+    """Errors of one transfer, memoised per process: on (rig, warp, method, examples mode and seed,
+    weights), so that solvers that agree on a sequence share one computation, and for a method that ignores
+    the training expressions (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
     clock = time.perf_counter()
     method = transfer.get(name)
-    rig_key = (spec.rig, spec.rig_seed, spec.warp, name)
-    key = (*rig_key, weights.shape, weights.tobytes())
+    rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name)
+    session = (spec.examples, spec.seed if spec.examples == "scan" else None)
+    key = (*rig_key, *session, weights.shape, weights.tobytes())
     with _cache_lock:
         known = _transfer_memo.get(key)
         estimate = None if getattr(method, "uses_examples", True) else _estimate_memo.get(rig_key)
     if known is not None:
         return {**known, "transfer_reused": True, "transfer_time": time.perf_counter() - clock}
     if estimate is None:
-        examples = transfer.training_expressions(target, weights)
         estimate = method(template, target.neutral, weights, examples)
         reused = False
         if not getattr(method, "uses_examples", True):
             with _cache_lock:
-                _estimate_memo.clear()  # one estimate at a time: they are (K, N, 3) arrays
+                # Estimates are (K, N, 3) arrays: keep those of one rig (one per reference method).
+                for other in [other for other in _estimate_memo if other[:-1] != rig_key[:-1]]:
+                    del _estimate_memo[other]
                 _estimate_memo[rig_key] = estimate
     else:
         reused = True
@@ -333,5 +412,5 @@ def _worker_name() -> str:
 
 
 def failure_rows(spec: CellSpec, status: str, message: str) -> list[dict[str, Any]]:
-    """The single ``cell`` row recorded for a cell that never returned (timeout, dead worker, skip)."""
+    """The single ``cell`` row recorded for a cell without results (a timeout, an unavailable solver)."""
     return [_finish({**spec.record_fields(), "kind": "cell", "status": status, "message": message})]

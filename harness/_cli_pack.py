@@ -8,9 +8,11 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
+from harness._cli_constraints import constraint_options, constraint_params
 from harness._cli_types import DURATION, terminal
 from harness._pack import EXPRESSIONS_FILE, parse_rejections
 from harness._pack import pack as pack_rig
+from harness._session import SHEET_FILE
 
 
 @click.command("pack")
@@ -18,15 +20,33 @@ from harness._pack import pack as pack_rig
 @click.option(
     "--target",
     type=click.Path(exists=True, dir_okay=False),
-    help="OBJ of the target character's neutral (same mesh); drives the distortion importance, eq. 6.",
+    help="The target character's neutral (an OBJ of the same mesh, or a rig file): drives the distortion "
+    "importance (eq. 6), and the expressions are also written on it (OUT/on_target/).",
 )
 @click.option("--solver", default="cpsat", help="Solver plugin (see harness list).")
-@click.option("--jmax", type=click.IntRange(min=1), default=20, help="Most expressions.")
+@click.option("--jmax", type=click.IntRange(min=1), default=20, help="Most expressions (not with --minimum).")
+@click.option(
+    "--minimum",
+    is_flag=True,
+    help="The fewest expressions that cover every shape, proven by a lower bound, in importance order "
+    "(CP-SAT; --time-limit bounds the proof and each step, default 60s).",
+)
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     required=True,
-    help="Output directory for expressions.json and expression_XX.obj.",
+    help="Session folder: expressions.json, neutral.obj, expression_XX.obj, pictures/, session.html "
+    "(never the rig's own folder).",
+)
+@click.option(
+    "--pictures/--no-pictures", default=True, help="Render each expression (front and three-quarter)."
+)
+@click.option("--glb", is_flag=True, help="Also write expressions.glb: the expressions as morph targets.")
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Replace an earlier packing in --out, or write into a folder harness did not write (its files are "
+    "kept; only files harness wrote are ever replaced or removed).",
 )
 @click.option(
     "--mu",
@@ -50,16 +70,28 @@ from harness._pack import pack as pack_rig
 )
 @click.option("--time-limit", type=DURATION, help="Per-solve time limit (30s, 2m). [default: none]")
 @click.option(
+    "--timeout",
+    type=DURATION,
+    help="Wall-clock limit for the whole packing (10m): each solve gets at most the time left; when it runs "
+    "out, the expressions found so far are written with a warning (exit 0), or, with none found, an error. "
+    "[default: none]",
+)
+@click.option(
     "--seed", type=click.IntRange(min=0), default=0, help="Solver seed (and generator seed for a preset rig)."
 )
 @click.option("--refine", is_flag=True, help="Accept or reject each proposed shape at a prompt (sec. 4.5.3).")
 @click.option("--reject", help="Rejections without prompts: EXPR:NAME,... (1-based expression numbers).")
+@constraint_options
 def pack(
     rig: str,
     target: str | None,
     solver: str,
     jmax: int,
+    minimum: bool,
     out: Path,
+    pictures: bool,
+    glb: bool,
+    force: bool,
     mu: float,
     alpha: float,
     beta: float,
@@ -68,20 +100,33 @@ def pack(
     cap: int | None,
     extra_examples: bool,
     time_limit: float | None,
+    timeout: float | None,
     seed: int,
     refine: bool,
     reject: str | None,
+    together: tuple[tuple[str, str], ...],
+    apart: tuple[tuple[str, str], ...],
+    constraints: Path | None,
+    regions: Path | None,
 ) -> None:
-    """Choose the reference expressions of RIG (any rig file or folder, or a preset name) and write
-    OUT/expressions.json and one OBJ per expression (template neutral + its shapes)."""
+    """Choose the reference expressions of RIG (any rig file or folder, a preset name, or a fetched rig's
+    name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per expression
+    (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and materials), the
+    pictures and the scan sheet session.html."""
     from harness import _plugins as plugins
 
     if refine and reject:
         raise click.UsageError("use either --refine (interactive) or --reject (listed), not both")
+    if minimum and (refine or reject or extra_examples or timeout is not None):
+        raise click.UsageError(
+            "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
+            "--extra-examples or --timeout (use --time-limit for the proof)"
+        )
     plugins.expand_names([solver], plugins.solver_names(), "solver", "--solver")
 
-    def decide(expression: int, shape: str) -> bool:
-        return click.confirm(f"expression {expression}: keep {shape}?", default=True)
+    def decide(expression: int, shape: str, extra_example: bool) -> bool:
+        role = " as an extra example" if extra_example else ""
+        return click.confirm(f"expression {expression}: keep {shape}{role}?", default=True)
 
     params = {
         "mu": mu,
@@ -91,6 +136,7 @@ def pack(
         "importance": importance,
         "max_per_expression": cap,
         "extra_examples": extra_examples,
+        **constraint_params(together, apart, constraints, regions),
     }
     result = pack_rig(
         rig,
@@ -101,10 +147,17 @@ def pack(
         params=params,
         seed=seed,
         time_limit=time_limit,
+        timeout=timeout,
+        force=force,
         rejections=parse_rejections(reject),
         decide=decide if refine else None,
+        inputs=[constraints] if constraints is not None else [],
+        minimum=minimum,
+        pictures=pictures,
+        glb=glb,
     )
-    table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {solver}"))
+    by = "--minimum (cpsat)" if minimum else solver
+    table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {by}"))
     for column, justify in (
         ("#", "right"),
         ("shapes", "right"),
@@ -127,4 +180,9 @@ def pack(
     for note in result.notes:
         terminal().print(f"[dim]note: {escape(note)}[/]")
     terminal().print(table)
-    terminal().print(escape(f"wrote {out / EXPRESSIONS_FILE} and {len(result.files) - 1} OBJ files to {out}"))
+    for warning in result.warnings:
+        terminal().print(f"[yellow]warning:[/] {escape(warning)}")
+    meshes = sum(1 for path in result.files if path.suffix == ".obj")
+    pngs = sum(1 for path in result.files if path.suffix == ".png")
+    written = f"{out / EXPRESSIONS_FILE}, {meshes} OBJ files, {pngs} pictures and {out / SHEET_FILE}"
+    terminal().print(escape(f"wrote {written} to {out}"))

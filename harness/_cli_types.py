@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
-from rich.console import Console
 
 from harness._durations import parse_duration
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 NONE_WORDS = ("none", "off", "no")
 
@@ -94,5 +96,9 @@ SWITCH = Switch()
 
 
 def terminal(*, stderr: bool = False) -> Console:
-    """The console commands print to (made per use, so its width follows ``COLUMNS``); stderr for errors."""
+    """The console commands print to (made per use, so its width follows ``COLUMNS``); stderr for errors.
+
+    rich is imported here, not with the module, so that commands that print nothing start faster."""
+    from rich.console import Console
+
     return Console(highlight=False, stderr=stderr, soft_wrap=stderr)

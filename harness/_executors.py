@@ -1,20 +1,26 @@
 """Executors: where cells run. Local worker processes (the default) or a Dask distributed cluster.
 
-Both hand every cell to `harness._cell.run_cell` in a process of their own and yield ``(spec, rows)`` as
+Both hand every cell to `harness._cell.run_cell` in a process of their own and yield ``(spec, outcome)`` as
 cells finish, in completion order; the caller writes the rows. A cell that exceeds ``timeout`` seconds is
-stopped by killing its process and yields one ``timeout`` row; a process that dies yields one ``error`` row.
+stopped by killing its process and yields one ``timeout`` row: that is a result of the cell. What is no
+result of the cell yields `harness._cell.Lost` with the reason, and ``--resume`` runs the cell again: a
+worker process that dies (killed, out of memory), a worker whose start-up and warm-up exceed their
+allowance, a Dask task that fails (scheduler or worker lost, the package missing on a worker).
 
 Local workers are fresh interpreters (`harness._worker`, started with `subprocess`, never forked: solver
 libraries keep threads and global state, and Dask's daemonic worker processes may not use
 `multiprocessing` children) talking over a socket pair, reused from cell to cell. Each does one untimed
 warm-up solve per solver before its first cell with that solver (see `harness._cell.warm_up`). Start-up and
 warm-up may take ``timeout`` plus `STARTUP_ALLOWANCE` seconds; the cell then gets the full ``timeout``.
+Workers end with the process that started them, even when it is killed with ``kill -9``.
 """
 
 from __future__ import annotations
 
+import logging
 import multiprocessing.connection
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -25,19 +31,21 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from harness._cell import failure_rows, run_cell, warm_up
+from harness._cell import Lost, failure_rows, run_cell, warm_up
 from harness._grid import CellSpec
 
 Rows = list[dict[str, Any]]
+#: What an executor yields for a cell: its record rows, or `Lost`.
+Outcome = Rows | Lost
 
 #: Seconds a worker may take, on top of ``timeout``, to start and warm a solver up before a cell starts.
 STARTUP_ALLOWANCE = 120.0
 
 
 class Executor(Protocol):
-    """Runs cells and yields each one's record rows as it finishes."""
+    """Runs cells and yields each one's outcome (record rows, or `Lost`) as it finishes."""
 
-    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Rows]]: ...
+    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]: ...
 
     def close(self) -> None: ...
 
@@ -49,6 +57,15 @@ def _group(spec: CellSpec) -> tuple[str, int, str]:
 
 def _timeout_message(timeout: float) -> str:
     return f"cell exceeded --timeout {timeout:g}s and was stopped"
+
+
+def _exit_text(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
 
 
 @dataclass
@@ -86,7 +103,7 @@ class LocalExecutor:
         mine, theirs = socket.socketpair()
         with mine, theirs:
             process = subprocess.Popen(
-                [sys.executable, "-m", "harness._worker", str(theirs.fileno())],
+                [sys.executable, "-m", "harness._worker", str(theirs.fileno()), str(os.getpid())],
                 pass_fds=[theirs.fileno()],
                 env={**os.environ, "PYTHONPATH": os.pathsep.join(path for path in sys.path if path)},
                 stdin=subprocess.DEVNULL,
@@ -104,8 +121,8 @@ class LocalExecutor:
         worker.connection.close()
         self._workers.remove(worker)
 
-    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Rows]]:
-        """Run the cells; yield ``(spec, rows)`` in completion order."""
+    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
+        """Run the cells; yield ``(spec, outcome)`` in completion order."""
         queue = list(cells)
         while queue or any(worker.spec is not None for worker in self._workers):
             self._assign(queue)
@@ -147,7 +164,7 @@ class LocalExecutor:
                     return index
         return 0
 
-    def _poll(self, worker: _Worker, ready: set[Any]) -> tuple[CellSpec, Rows] | None:
+    def _poll(self, worker: _Worker, ready: set[Any]) -> tuple[CellSpec, Outcome] | None:
         spec = worker.spec
         assert spec is not None
         while worker.connection in ready or worker.connection.poll():
@@ -163,18 +180,15 @@ class LocalExecutor:
                 worker.spec, worker.deadline = None, None
                 return spec, message[2]
         if worker.process.poll() is not None:
-            code = worker.process.returncode
+            code, pid = worker.process.returncode, worker.process.pid
             self._stop_worker(worker)
-            return spec, failure_rows(
-                spec, "error", f"worker process died (exit code {code}) while running the cell"
-            )
+            return spec, Lost(f"worker process {pid} died ({_exit_text(code)}) while running the cell")
         if worker.deadline is not None and time.monotonic() >= worker.deadline:
             self._stop_worker(worker)
-            message = _timeout_message(self.timeout or 0.0)
             if not worker.started:
                 allowed = (self.timeout or 0.0) + STARTUP_ALLOWANCE
-                message = f"worker start-up and the solver's warm-up took over {allowed:g}s and were stopped"
-            return spec, failure_rows(spec, "timeout", message)
+                return spec, Lost(f"worker start-up and the solver's warm-up took over {allowed:g}s")
+            return spec, failure_rows(spec, "timeout", _timeout_message(self.timeout or 0.0))
         return None
 
     def close(self) -> None:
@@ -192,7 +206,7 @@ class LocalExecutor:
 _task_workers = threading.local()
 
 
-def run_isolated(spec_data: dict[str, Any], timeout: float | None) -> Rows:
+def run_isolated(spec_data: dict[str, Any], timeout: float | None) -> Outcome:
     """Run one cell (given as a dict) to completion; the task function Dask workers execute.
 
     Without a timeout the cell runs in the calling thread. With one, it runs in a local worker process
@@ -207,14 +221,16 @@ def run_isolated(spec_data: dict[str, Any], timeout: float | None) -> Rows:
     if executor is None:
         executor = _task_workers.executor = LocalExecutor(jobs=1, timeout=timeout)
     executor.timeout = timeout
-    return [rows for _, rows in executor.map([spec])][0]
+    return [outcome for _, outcome in executor.map([spec])][0]
 
 
 class DaskExecutor:
     """Cells as tasks on a Dask distributed cluster (``tcp://HOST:PORT``), one task per cell.
 
     Records are identical to the local executor's (the same `run_cell` produces them); with a timeout,
-    each task runs its cell in a local worker process that can be stopped (see `run_isolated`).
+    each task runs its cell in a local worker process that can be stopped (see `run_isolated`). A task that
+    fails is `Lost`: `run_cell` turns every failure of the cell itself into rows, so an exception here
+    comes from the cluster (a lost scheduler cancels every task at once).
     """
 
     def __init__(self, scheduler: str, timeout: float | None = None) -> None:
@@ -232,8 +248,8 @@ class DaskExecutor:
         self.timeout = timeout
         self._futures: list[Any] = []
 
-    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Rows]]:
-        """Submit every cell; yield ``(spec, rows)`` in completion order."""
+    def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
+        """Submit every cell; yield ``(spec, outcome)`` in completion order."""
         from distributed import as_completed
 
         run = uuid.uuid4().hex[:8]
@@ -247,13 +263,33 @@ class DaskExecutor:
         for future in as_completed(self._futures):
             spec = by_key[future.key]
             try:
-                yield spec, future.result()
-            except Exception as error:  # noqa: BLE001 - a lost task is recorded, the run goes on
-                yield spec, failure_rows(spec, "error", f"Dask task failed: {type(error).__name__}: {error}")
+                outcome = future.result()
+            except Exception as error:  # noqa: BLE001 - no result of the cell: --resume runs it again
+                outcome = Lost(_dask_failure(error))
+            yield spec, outcome
         self._futures.clear()
 
     def close(self) -> None:
-        """Cancel unfinished tasks and disconnect from the scheduler."""
-        if self._futures:
-            self._client.cancel(self._futures)
-        self._client.close()
+        """Cancel unfinished tasks and disconnect from the scheduler (quietly, if it is gone: the lost
+        cells already say so, a traceback from the client's reconnection attempts would add nothing)."""
+        client_log = logging.getLogger("distributed.client")
+        level = client_log.level
+        client_log.setLevel(logging.CRITICAL)
+        try:
+            if self._futures:
+                self._client.cancel(self._futures)
+        finally:
+            try:
+                self._client.close(timeout=10)
+            finally:
+                client_log.setLevel(level)
+
+
+def _dask_failure(error: Exception) -> str:
+    """One line on a failed Dask task: the cancellation reason (e.g. ``scheduler-connection-lost``), or
+    the exception's type and first line."""
+    reason = getattr(error, "reason", None)
+    if isinstance(reason, str) and reason:
+        return f"Dask task cancelled ({reason})"
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    return f"Dask task failed ({type(error).__name__}{': ' + lines[0] if lines else ''})"

@@ -1,11 +1,21 @@
-"""The experiment grid: rigs x warps x solvers x packing parameters x repetitions, and its presets."""
+"""The experiment grid: rigs x warps x solvers x packing parameters x repetitions, and its presets.
+
+A cell is identified by the content of its rig, not by the path naming it (`rig_digest`): a rig file
+replaced between an interruption and ``--resume`` gives other cell ids, never a mix of two rigs under one
+label.
+"""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import json
+import os
+import stat
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
 from typing import Any
 
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
@@ -14,12 +24,180 @@ DEFAULT_J_VALUES: tuple[int, ...] = (2, 4, 7, 10, 15, 20, 25)
 
 NO_WARP = "none"
 
+#: Training expressions of the transfers: ``scan`` (`transfer.scan_expressions`: correctives, scanner noise,
+#: head motion removed by rigid alignment; seeded by the cell's seed) or ``ideal`` (the linear sums of the
+#: target's ground truth, `transfer.training_expressions`, as the paper's evaluation).
+EXAMPLES: tuple[str, ...] = ("scan", "ideal")
+
+#: Cell fields that are the same for every cell of a run and so are no records column.
+RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions", "examples")
+
+#: Setting fields a variation may change (`RunConfig.variations`).
+VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap")
+
+#: The one-at-a-time variations the paper's claims compare (Carrigan et al. 2020, sec. 5.2, Figs. 9-10):
+#: no importance, displacement-only and distortion-only importance (alpha 1 and 0), no symmetry.
+CLAIM_VARIATIONS: tuple[tuple[tuple[str, Any], ...], ...] = (
+    (("importance", False),),
+    (("alpha", 0.0),),
+    (("alpha", 1.0),),
+    (("symmetry", False),),
+)
+
+#: Solvers that run the variations: the paper's greedy and an optimal solver.
+CLAIM_SOLVERS: tuple[str, ...] = ("greedy", "cpsat")
+#: Transfers of the variations: the claims' method and the two references.
+CLAIM_TRANSFERS: tuple[str, ...] = ("ebfr", "dt", "delta")
+
+Pairs = tuple[tuple[str, str], ...]
+Regions = tuple[tuple[str, tuple[int, ...]], ...]
+_BLOCK = 1 << 20
+
+
+def rig_digest(argument: str, seed: int) -> str:
+    """Content digest of a ``--rigs`` argument: what the cell ids hash instead of the path.
+
+    A rig file hashes its bytes (a ``.gltf`` file also the buffers and images it names by relative URI
+    inside its folder); a rig folder hashes the relative names and bytes of its regular files, recursively
+    (links into the folder by their target's bytes, other links by their text); a generator preset hashes
+    its name, the seed and the preset's parameters (`rigs.PRESETS`).
+
+    Returns
+    -------
+    str
+        ``sha256:`` and 64 hex digits.
+    """
+    digest = hashlib.sha256()
+    path = Path(argument)
+    if os.path.lexists(path):
+        if path.is_dir():
+            _hash_folder(digest, path)
+        else:
+            _hash_file(digest, path, path.parent)
+    else:
+        import rigs
+
+        preset = rigs.PRESETS.get(argument)
+        digest.update(json.dumps(["preset", argument, seed, repr(preset)]).encode())
+    return f"sha256:{digest.hexdigest()}"
+
+
+def _hash_file(digest: Any, path: Path, root: Path) -> None:
+    """Add one file's bytes; only regular files are read (never a FIFO or a device)."""
+    try:
+        mode = path.stat().st_mode
+    except OSError as error:
+        digest.update(f"unreadable {error.strerror}".encode())
+        return
+    if not stat.S_ISREG(mode):
+        digest.update(f"not a regular file ({stat.filemode(mode)})".encode())
+        return
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(_BLOCK), b""):
+            digest.update(block)
+    if path.suffix.lower() == ".gltf":
+        for name in _gltf_uris(path):
+            target = (path.parent / name).resolve()
+            if target.is_relative_to(root.resolve()) and target.is_file():
+                digest.update(f"\0{name}\0".encode())
+                _hash_file(digest, target, root)
+
+
+def _gltf_uris(path: Path) -> list[str]:
+    """Relative URIs of a glTF file's buffers and images (empty for a file that is not JSON)."""
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return []
+    if not isinstance(document, dict):
+        return []
+    uris = []
+    for key in ("buffers", "images"):
+        entries = document.get(key)
+        for entry in entries if isinstance(entries, list) else []:
+            uri = entry.get("uri") if isinstance(entry, dict) else None
+            if isinstance(uri, str) and ":" not in uri and not uri.startswith("/"):
+                uris.append(uri)
+    return uris
+
+
+def _hash_folder(digest: Any, folder: Path) -> None:
+    root = folder.resolve()
+    for directory, subfolders, files in os.walk(folder):
+        subfolders.sort()
+        for name in sorted(files):
+            path = Path(directory) / name
+            relative = path.relative_to(folder).as_posix()
+            digest.update(f"\0{relative}\0".encode())
+            if path.is_symlink() and not path.resolve().is_relative_to(root):
+                digest.update(f"link {os.readlink(path)}".encode())
+            else:
+                _hash_file(digest, path, folder)
+
+
+def _frozen(value: Any) -> Any:
+    """Lists (as read back from JSON) as tuples, recursively."""
+    return tuple(_frozen(item) for item in value) if isinstance(value, list | tuple) else value
+
+
+def _plain(value: Any) -> Any:
+    """Tuples as lists, recursively (JSON-ready)."""
+    return [_plain(item) for item in value] if isinstance(value, list | tuple) else value
+
+
+def regions_tuple(regions: Mapping[str, Any] | Regions) -> Regions:
+    """Vertex regions as a sorted tuple of ``(name, vertex indices)`` (hashable, canonical)."""
+    items = regions.items() if isinstance(regions, Mapping) else regions
+    return tuple(sorted((str(name), tuple(sorted({int(i) for i in indices}))) for name, indices in items))
+
+
+def read_regions(path: str | os.PathLike[str]) -> Regions:
+    """Vertex regions from a JSON file ``{"region name": [vertex index, ...], ...}`` (`regions_tuple`).
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and what is wrong (missing, not JSON, not an object of name -> list of
+        non-negative integers).
+    """
+    path = Path(path)
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"{path}: regions file not found") from None
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise ValueError(f"{path}: cannot read regions JSON ({error})") from None
+    if not isinstance(document, dict) or not document:
+        raise ValueError(f"{path}: regions JSON must be a non-empty object of region name -> vertex indices")
+    for name, indices in document.items():
+        if not isinstance(indices, list) or not all(
+            isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in indices
+        ):
+            raise ValueError(
+                f"{path}: region {name!r} must be a list of non-negative vertex indices, got {indices!r:.60}"
+            )
+    return regions_tuple(document)
+
+
+def _to_dict(value: Any) -> dict[str, Any]:
+    data = {key: _plain(item) for key, item in asdict(value).items()}
+    data["regions"] = {name: list(indices) for name, indices in value.regions}
+    return data
+
+
+def _from_dict(cls: type, data: Mapping[str, Any]) -> Any:
+    values = {key: _frozen(item) for key, item in data.items()}
+    if "regions" in data:
+        values["regions"] = regions_tuple(data["regions"])
+    return cls(**values)
+
 
 @dataclass(frozen=True)
 class CellSpec:
     """One grid point: everything that determines the records of one cell.
 
-    The cell id hashes every field, so a changed parameter never reuses an old result on ``--resume``.
+    The cell id hashes every field, the content digest of the rig included (`rig_digest`), so a changed
+    parameter or rig never reuses an old result on ``--resume``.
     """
 
     rig: str
@@ -38,29 +216,30 @@ class CellSpec:
     seed: int
     transfers: tuple[str, ...] = ()
     j_values: tuple[int, ...] = DEFAULT_J_VALUES
+    rig_digest: str = ""
+    together: Pairs = ()
+    apart: Pairs = ()
+    regions: Regions = ()
+    examples: str = "scan"
 
-    @property
+    @functools.cached_property
     def id(self) -> str:
         """16 hex digits of the SHA-256 of the canonical JSON of the spec."""
         canonical = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(canonical.encode()).hexdigest()[:16]
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-ready dict (tuples become lists)."""
-        return {
-            key: list(value) if isinstance(value, tuple) else value for key, value in asdict(self).items()
-        }
+        """Plain JSON-ready dict (tuples become lists, regions an object of name -> vertex indices)."""
+        return _to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> CellSpec:
+    def from_dict(cls, data: Mapping[str, Any]) -> CellSpec:
         """Inverse of `to_dict`."""
-        return cls(**{key: tuple(value) if isinstance(value, list) else value for key, value in data.items()})
+        return _from_dict(cls, data)
 
     def record_fields(self) -> dict[str, Any]:
-        """The columns that identify this cell on every record row."""
-        identity = {
-            f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("transfers", "j_values")
-        }
+        """The columns that identify this cell on every record row (not the `RUN_LEVEL_FIELDS`)."""
+        identity = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in RUN_LEVEL_FIELDS}
         return {"cell": self.id, **identity}
 
     def label(self) -> str:
@@ -73,6 +252,7 @@ class CellSpec:
         if self.cap is not None:
             parts.append(f"cap={self.cap}")
         parts.append(f"mu={self.mu:g}")
+        parts.append(f"alpha={self.alpha:g}")
         parts.append(f"rep={self.repetition}")
         return " ".join(parts)
 
@@ -81,7 +261,15 @@ class CellSpec:
 class RunConfig:
     """The exact configuration of a run (stored in ``run.json``; ``--resume`` rebuilds the grid from it).
 
-    Every tuple field is a grid axis; the grid is their Cartesian product with ``repetitions``.
+    Every tuple field up to ``cap`` is a grid axis; the grid is their Cartesian product with
+    ``repetitions``. ``together`` and ``apart`` (artist constraints by shape name) and ``regions`` (vertex
+    regions replacing the rigs' own, name -> indices) apply to every cell, and so does ``examples``
+    (`EXAMPLES`: the training expressions of every transfer).
+
+    ``variations`` add cells off the grid: each is a set of ``(field, value)`` changes (`VARIATION_FIELDS`)
+    applied to the first value of every axis, run on every rig, warp and repetition with those of
+    ``variation_solvers`` the run has, evaluated with those of ``variation_transfers`` it has (the paper
+    changes one setting at a time, sec. 5.2). A variation that lands on a grid point adds nothing.
     """
 
     rigs: tuple[str, ...]
@@ -101,52 +289,99 @@ class RunConfig:
     seed: int = 0
     repetitions: int = 1
     preset: str = ""
+    together: Pairs = ()
+    apart: Pairs = ()
+    regions: Regions = ()
+    examples: str = "scan"
+    variations: tuple[tuple[tuple[str, Any], ...], ...] = ()
+    variation_solvers: tuple[str, ...] = CLAIM_SOLVERS
+    variation_transfers: tuple[str, ...] = CLAIM_TRANSFERS
 
-    def cells(self) -> list[CellSpec]:
-        """Every grid point, solvers innermost (neighbouring cells share a rig)."""
-        cells = []
-        for rig, warp, mu, alpha, beta, symmetry, importance, cap, repetition, solver in itertools.product(
-            self.rigs,
-            self.warps,
-            self.mu,
-            self.alpha,
-            self.beta,
-            self.symmetry,
-            self.importance,
-            self.cap,
-            range(self.repetitions),
-            self.solvers,
-        ):
-            cells.append(
-                CellSpec(
-                    rig=rig,
-                    rig_seed=self.seed,
-                    warp=warp,
-                    solver=solver,
-                    mu=float(mu),
-                    alpha=float(alpha),
-                    beta=float(beta),
-                    symmetry=bool(symmetry),
-                    importance=bool(importance),
-                    cap=cap,
-                    jmax=self.jmax,
-                    time_limit=self.time_limit,
-                    repetition=repetition,
-                    seed=self.seed + repetition,
-                    transfers=self.transfers,
-                    j_values=self.j_values,
+    def __post_init__(self) -> None:
+        if self.examples not in EXAMPLES:
+            raise ValueError(f"--examples must be one of {', '.join(EXAMPLES)}, got {self.examples!r}")
+        for variation in self.variations:
+            if not variation or any(len(change) != 2 for change in variation):
+                raise ValueError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
+            unknown = sorted({field for field, _ in variation} - set(VARIATION_FIELDS))
+            if unknown:
+                raise ValueError(
+                    f"variation {_plain(variation)!r} changes {', '.join(unknown)}; a variation may change "
+                    f"{', '.join(VARIATION_FIELDS)}"
                 )
+
+    def cells(self, digests: Mapping[str, str] | None = None) -> list[CellSpec]:
+        """Every grid point, solvers innermost (neighbouring cells share a rig), then the variations.
+
+        Parameters
+        ----------
+        digests : mapping, optional
+            `rig_digest` of each rig argument (the run computes them once); without them the cells carry
+            no rig digest.
+        """
+        digests = digests or {}
+        settings = list(
+            itertools.product(self.mu, self.alpha, self.beta, self.symmetry, self.importance, self.cap)
+        )
+        cells = {
+            self._cell(rig, warp, setting, repetition, solver, digests): None
+            for rig, warp, setting, repetition, solver in itertools.product(
+                self.rigs, self.warps, settings, range(self.repetitions), self.solvers
             )
-        return cells
+        }
+        if settings and self.variations:
+            solvers = [solver for solver in self.variation_solvers if solver in self.solvers]
+            base = dict(zip(VARIATION_FIELDS, settings[0], strict=True))
+            varied = [tuple({**base, **dict(variation)}.values()) for variation in self.variations]
+            transfers = tuple(name for name in self.transfers if name in self.variation_transfers)
+            for rig, warp, setting, repetition, solver in itertools.product(
+                self.rigs, self.warps, varied, range(self.repetitions), solvers
+            ):
+                cell = self._cell(rig, warp, setting, repetition, solver, digests)
+                if cell not in cells:  # a grid point already runs it, with every transfer
+                    cells[replace(cell, transfers=transfers)] = None
+        return list(cells)
+
+    def _cell(
+        self,
+        rig: str,
+        warp: str,
+        setting: tuple[Any, ...],
+        repetition: int,
+        solver: str,
+        digests: Mapping[str, str],
+    ) -> CellSpec:
+        mu, alpha, beta, symmetry, importance, cap = setting
+        return CellSpec(
+            rig=rig,
+            rig_seed=self.seed,
+            warp=warp,
+            solver=solver,
+            mu=float(mu),
+            alpha=float(alpha),
+            beta=float(beta),
+            symmetry=bool(symmetry),
+            importance=bool(importance),
+            cap=cap,
+            jmax=self.jmax,
+            time_limit=self.time_limit,
+            repetition=repetition,
+            seed=self.seed + repetition,
+            transfers=self.transfers,
+            j_values=self.j_values,
+            rig_digest=digests.get(rig, ""),
+            together=self.together,
+            apart=self.apart,
+            regions=self.regions,
+            examples=self.examples,
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-ready dict."""
-        return {
-            key: list(value) if isinstance(value, tuple) else value for key, value in asdict(self).items()
-        }
+        """Plain JSON-ready dict (regions an object of name -> vertex indices)."""
+        return _to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> RunConfig:
+    def from_dict(cls, data: Mapping[str, Any]) -> RunConfig:
         """Inverse of `to_dict` (as read back from ``run.json``)."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - known)
@@ -154,42 +389,48 @@ class RunConfig:
             raise ValueError(
                 f"run.json config has unknown keys {unknown}; this harness knows {sorted(known)}"
             )
-        return cls(**{key: tuple(value) if isinstance(value, list) else value for key, value in data.items()})
+        # Runs written before ``examples`` existed trained every transfer on ideal expressions.
+        return _from_dict(cls, {"examples": "ideal", **data})
 
     def with_overrides(self, **overrides: Any) -> RunConfig:
         """A copy with the given fields replaced (None values are ignored)."""
         return replace(self, **{key: value for key, value in overrides.items() if value is not None})
 
 
-#: Named grids. ``quick`` is CI's smoke run (<= 60 s on 2 cores), ``paper`` the paper's four test cases
-#: (sec. 5.1: each rig against one warped version of itself), ``full`` every preset, warp and setting.
+#: Named grids. ``quick`` is CI's smoke run (<= 60 s on 2 cores). ``paper`` is the paper's four test cases
+#: (sec. 5.1: each rig against one warped version of itself), made character-specific (``alien+character``,
+#: `rigs.warp`) so that training expressions matter, with the one-at-a-time variations its claims compare
+#: (`CLAIM_VARIATIONS`) and the two references every RMS is reported against (``dt`` and ``delta``).
+#: ``full`` is every preset, warp and setting. Every preset trains on scan-like expressions.
 PRESETS: dict[str, dict[str, Any]] = {
     "quick": {
         "rigs": ("tiny", "arkit52"),
         "warps": ("big-eyes",),
         "solvers": ("all",),
-        "transfers": ("ebfr", "dt"),
+        "transfers": ("ebfr", "dt", "delta"),
         "j_values": DEFAULT_J_VALUES,
         "time_limit": 10.0,
         "timeout": 60.0,
     },
     "paper": {
         "rigs": ("female", "male", "toon", "digidouble"),
-        "warps": ("alien",),
+        "warps": ("alien+character",),
         "solvers": ("all",),
-        "transfers": ("ebfr",),
+        "transfers": ("ebfr", "plbs", "dt", "delta"),
         "jmax": 25,
         "j_values": DEFAULT_J_VALUES,
         "time_limit": 60.0,
         "timeout": 600.0,
+        "variations": CLAIM_VARIATIONS,
     },
     "full": {
         "rigs": ("female", "male", "toon", "digidouble", "arkit52"),
-        "warps": ("scale-x1.3", "big-eyes", "small-mouth", "alien"),
+        "warps": ("scale-x1.3", "big-eyes", "small-mouth", "alien", "alien+character"),
         "solvers": ("all",),
-        "transfers": ("ebfr", "dt", "plbs"),
+        "transfers": ("ebfr", "plbs", "dt", "delta"),
         "importance": (True, False),
         "symmetry": (True, False),
+        "alpha": (0.5, 0.0, 1.0),
         "j_values": DEFAULT_J_VALUES,
         "time_limit": 120.0,
         "timeout": 1800.0,

@@ -1,33 +1,88 @@
-"""``harness pack``: one rig's reference expressions for a scanning session, as JSON and OBJ meshes.
+"""``harness pack``: one rig's reference expressions for a scanning session: the session folder.
 
-``DIR/expressions.json`` holds exactly::
+``DIR/expressions.json`` holds::
 
     {"rig": str, "solver": str,
-     "params": {"mu": float, "alpha": float, "beta": float, "symmetry": bool},
+     "params": {"mu": float, "alpha": float, "beta": float, "symmetry": bool, "importance": bool,
+                "max_per_expression": int | null, "extra_examples": bool,
+                "together": [[name, name], ...], "apart": [[name, name], ...], "regions": str | null},
+     "sequence": {"mode": "sequence" | "minimum", "jmax": int | null, "seed": int,
+                  "time_limit": float | null, "timeout": float | null, "overlap": float,
+                  "minimum": {"count": int, "lower_bound": int, "proven": bool, "time_limit": float}},
+     "target": str | null,
      "pairs": [[name, name], ...],
      "expressions": [{"shapes": [name, ...], "extra_examples": [name, ...], "objective": float,
-                      "status": str}, ...]}
+                      "status": str, "files": {"mesh": str, "on_target": str, "front": str,
+                                               "three_quarter": str}}, ...],
+     "excluded": [{"shape": name, "reason": str}, ...],
+     "warnings": [str, ...]}
 
-with the expressions in sequence order (Algorithm 1), and ``DIR/expression_XX.obj`` (XX = 01, 02, ...) is
-the template neutral plus the sum of that expression's shapes (primary and extra examples), on the rig's
-original faces.
+``params`` are the packing parameters used (`packing.PackingParams` names: ``max_per_expression`` is the
+cap of sec. 6, ``together``/``apart`` the artist constraints, ``regions`` the regions file given, if any);
+``sequence`` the settings of the sequence: ``mode`` ``sequence`` is Algorithm 1 (``jmax`` expressions at
+most, ``time_limit`` per solve and ``timeout`` for the whole packing in seconds), ``minimum`` the fewest
+expressions that cover every shape (`harness._session_minimum`, with ``minimum`` saying what was proved);
+``overlap`` is the share of an item's active vertices the solver may overlap (its declared
+``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced. Together they are what
+the independent checker needs::
+
+    packing.check(rig, doc["expressions"], pairs=doc["pairs"], overlap=doc["sequence"]["overlap"],
+                  **doc["params"])
+
+The expressions are in sequence order (priority: scan the first first); ``objective`` is the importance
+sum (eq. 3a). ``excluded`` names every shape in no expression and why (empty, rejected, or the sequence
+stopped before it). ``warnings`` are the pairs of shapes in one expression whose displacements largely
+cancel (`packing.find_cancellations`), a ``timeout`` that cut the sequence short, and a minimum that was
+not proved.
+
+Beside it (`harness._session`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
+neutral plus the sum of that expression's shapes, primary and extra examples) keeping the source OBJ's
+texture coordinates, normals, groups, materials and faces; ``on_target/expression_XX.obj`` with
+``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png`` and
+``..._three_quarter.png``; and the scan sheet ``session.html``.
+
+The folder is claimed with `harness._outdir.claim` (kind ``pack``), whose manifest lists every file
+written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty folder without
+the harness manifest needs ``force`` and its files are kept, and the rig's own file or folder is never the
+output. Only files an earlier packing wrote are replaced or removed.
 """
 
 from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
+from time import monotonic
 from typing import Any
 
 import numpy as np
 
 from harness import _plugins as plugins
-from harness._rigspec import resolve_rig
+from harness._durations import format_duration
+from harness._outdir import ChangedFileWarning, OutputFolder, claim
+from harness._rigspec import input_paths, resolve_rig
+from harness._session import session_files
+from harness._session_mesh import read_target
+from harness._session_minimum import minimum_sequence
 
 EXPRESSIONS_FILE = "expressions.json"
+
+#: The packing parameters ``expressions.json`` records (`packing.PackingParams` names).
+DOCUMENT_PARAMS = (
+    "mu",
+    "alpha",
+    "beta",
+    "symmetry",
+    "importance",
+    "max_per_expression",
+    "extra_examples",
+    "together",
+    "apart",
+    "regions",
+)
 
 
 @dataclass(frozen=True)
@@ -39,15 +94,19 @@ class PackResult:
     document : dict
         The content of ``expressions.json``.
     files : list of Path
-        ``expressions.json``, then the expression meshes.
+        ``expressions.json``, then the session's other files (meshes, pictures, scan sheet).
     notes : list of str
         What the user should know: what the analysis skipped or could not do (empty shapes, vertices
         without a mirror, no target), the symmetry pairs, and shapes left out of every expression.
+    warnings : list of str
+        The document's ``warnings`` (cancelling pairs, a ``timeout`` that cut the sequence short), then
+        earlier files of the folder left in place because they were changed since the harness wrote them.
     """
 
     document: dict[str, Any]
     files: list[Path]
     notes: list[str]
+    warnings: list[str]
 
 
 def parse_rejections(text: str | None) -> dict[int, set[str]]:
@@ -71,47 +130,6 @@ def parse_rejections(text: str | None) -> dict[int, set[str]]:
     return rejections
 
 
-def target_neutral(path: str | None, rig: Any) -> np.ndarray | None:
-    """The target character's neutral: the vertices of an OBJ (or the neutral of any rig file) with the
-    template's vertex count and order.
-
-    Raises
-    ------
-    rigs.RigError
-        When the file has no vertices or another vertex count; the message names the file.
-    """
-    if path is None:
-        return None
-    import rigs
-
-    if Path(path).suffix.lower() == ".obj":
-        vertices = read_obj_vertices(Path(path))
-    else:
-        vertices = rigs.load(path).neutral
-    if vertices.shape != rig.neutral.shape:
-        raise rigs.RigError(
-            f"{path}: target neutral has {len(vertices)} vertices, the rig has {rig.n_vertices}; "
-            "it must be the same mesh (same topology and vertex order)"
-        )
-    return vertices
-
-
-def read_obj_vertices(path: Path) -> np.ndarray:
-    """(N, 3) positions of the ``v`` lines of an OBJ (faces, normals, texture coordinates, vertex colours and
-    comments ignored; any line ends and indentation)."""
-    import rigs
-
-    try:
-        rows = (line.split("#", 1)[0].split() for line in path.read_text(errors="replace").splitlines())
-        vertices = np.array([row[1:4] for row in rows if row and row[0] == "v"], dtype=np.float64)
-        vertices = vertices.reshape(-1, 3)
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise rigs.RigError(f"{path}: cannot read OBJ vertices ({error})") from None
-    if not len(vertices) or not np.isfinite(vertices).all():
-        raise rigs.RigError(f"{path}: no finite 'v x y z' vertex lines")
-    return vertices
-
-
 def pack(
     rig_argument: str,
     *,
@@ -122,76 +140,222 @@ def pack(
     params: Mapping[str, Any],
     seed: int = 0,
     time_limit: float | None = None,
+    timeout: float | None = None,
+    force: bool = False,
     rejections: Mapping[int, set[str]] | None = None,
-    decide: Callable[[int, str], bool] | None = None,
+    decide: Callable[[int, str, bool], bool] | None = None,
+    inputs: Iterable[Path] = (),
+    minimum: bool = False,
+    pictures: bool = True,
+    glb: bool = False,
 ) -> PackResult:
-    """Pack one rig and write ``expressions.json`` and one OBJ per expression into ``out``.
+    """Pack one rig and write the session folder ``out`` (see the module docstring).
 
     Parameters
     ----------
     rig_argument : str
-        Rig file or folder (any format `rigs.load` reads) or a generator preset name.
+        Rig file or folder (any format `rigs.load` reads), a generator preset name, or a fetched rig's
+        name (``faceunits``).
     solver_name : str
-        Solver plugin.
+        Solver plugin (not used with ``minimum``, which solves with CP-SAT).
     out : Path
-        Output directory (created).
+        Output folder (created; see the module docstring for what it may already hold).
     jmax : int, optional
-        Most expressions.
+        Most expressions (not used with ``minimum``, which covers every shape).
     target : str, optional
-        OBJ of the target character's neutral (for the distortion importance, eq. 6).
+        The target character's neutral (an OBJ, or any rig file) with the template's vertices: drives the
+        distortion importance (eq. 6), and the expressions are also written on it.
     params : mapping
-        Packing parameters (``mu``, ``alpha``, ``beta``, ``symmetry``, ...).
+        Packing parameters (``mu``, ``alpha``, ``beta``, ``symmetry``, ``together``, ``regions``, ...).
     seed, time_limit
-        Passed to every solve.
+        Passed to every solve (with ``minimum``: to the proof and each ordered step; default
+        `harness._session_minimum.DEFAULT_TIME_LIMIT`).
+    timeout : float, optional
+        Wall-clock seconds for the whole packing (loading and analysis included). Every solve gets at most
+        the time left (a solver without a native time limit finishes the solve in progress); once it is
+        spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
+        expression was found by then, a ValueError says so and nothing is written.
+    force : bool
+        Replace an earlier packing in ``out``, or write beside the files of a folder the harness did not
+        write (they are kept).
     rejections : mapping, optional
-        1-based expression number -> shapes the artist rejects there (sec. 4.5.3).
+        1-based expression number -> shapes the artist rejects there (sec. 4.5.3), primary or extra.
     decide : callable, optional
-        Interactive refinement: ``decide(expression, shape) -> accept?`` for every proposed shape.
+        Interactive refinement: ``decide(expression, shape, extra_example) -> accept?`` for every proposed
+        shape.
+    inputs : iterable of Path
+        Further input files (e.g. a constraints file) the output folder must stay apart from; the rig, the
+        target and a regions file are always.
+    minimum : bool
+        The fewest expressions that cover every shape, in importance order, instead of Algorithm 1.
+    pictures : bool
+        Render the pictures of every expression.
+    glb : bool
+        Also write ``expressions.glb``.
+
+    Raises
+    ------
+    harness._outdir.OutputFolderError
+        For an output folder that may not be used (before any packing is done).
+    ValueError
+        For ``minimum`` with refinement, extra examples or a timeout.
     """
     import packing
 
+    if minimum and (rejections or decide is not None or params.get("extra_examples") or timeout is not None):
+        raise ValueError(
+            "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
+            "--extra-examples or --timeout (use --time-limit for the proof)"
+        )
+    started = monotonic()
     rig = resolve_rig(rig_argument, seed=seed)
-    neutral = target_neutral(target, rig)
-    solver = _refining(plugins.solver(solver_name), rig, rejections or {}, decide)
+    target_mesh = read_target(target, rig)
+    solver = plugins.solver("cpsat" if minimum else solver_name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-        analysis = packing.analyse(rig, neutral, **params)
-    expressions = packing.sequence(
-        rig, solver, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
+        analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
+    regions = params.get("regions")
+    protect = [*input_paths(rig_argument), *inputs]
+    protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
+    folder = claim(out, kind="pack", force=force, protect=protect)
+    deadline = None if timeout is None else Deadline(solver, started + timeout)
+    rejected: dict[int, set[str]] = {}  # filled as the artist decides
+    found: list[str] = []
+    if minimum:
+        result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
+        expressions = result.expressions
+        overlap = 0.0
+        if not result.proven:
+            found.append(result.message())
+    else:
+        solving = _refining(deadline or solver, rig, rejections or {}, decide, rejected)
+        expressions = packing.sequence(
+            rig, solving, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
+        )
+        overlap = solver.capabilities.max_overlap
+    packing.check(
+        rig,
+        expressions,
+        pairs=analysis.pairs,
+        overlap=overlap,
+        maximal=not minimum,
+        rejected=rejected,
+        **params,
     )
-    packing.check(rig, expressions, pairs=analysis.pairs, **params)
+    timed_out = deadline is not None and deadline.expired
     refined = bool(rejections) or decide is not None
-    notes = [*analysis.notes, _symmetry_note(analysis), *_coverage_notes(analysis, expressions, refined)]
+    missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
+    notes = [*analysis.notes, _symmetry_note(analysis)]
+    if minimum:
+        notes.append(result.message())
+    if missing:
+        notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
     expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
+    if timed_out and not expressions:
+        raise ValueError(
+            f"--timeout {format_duration(timeout)} ran out before the first expression was found "
+            f"(loading and analysing {rig_argument} took {format_duration(deadline.started - started)}); "
+            "give a longer --timeout"
+        )
+    groups = [[*expression.shapes, *expression.extra_examples] for expression in expressions]
+    found += [cancellation.message for cancellation in packing.find_cancellations(rig, groups)]
+    if timed_out:
+        found.append(
+            f"stopped by --timeout {format_duration(timeout)} after {len(expressions)} expressions; "
+            "the expressions found so far are written"
+        )
+    chosen = analysis.params.as_dict()
+    sequence: dict[str, Any] = {
+        "mode": "minimum" if minimum else "sequence",
+        "jmax": None if minimum else jmax,
+        "seed": seed,
+        "time_limit": result.time_limit if minimum else time_limit,
+        "timeout": timeout,
+        "overlap": overlap,
+    }
+    if minimum:
+        sequence["minimum"] = result.summary()
     document = {
         "rig": rig_argument,
-        "solver": solver_name,
-        "params": {
-            key: params.get(key, default)
-            for key, default in (("mu", 0.3), ("alpha", 0.5), ("beta", 0.0), ("symmetry", True))
-        },
+        "solver": "cpsat" if minimum else solver_name,
+        "params": {key: chosen[key] for key in DOCUMENT_PARAMS},
+        "sequence": sequence,
+        "target": None if target is None else str(target),
         "pairs": [list(pair) for pair in analysis.pairs],
         "expressions": [
             {
                 "shapes": [str(name) for name in expression.shapes],
-                "extra_examples": [str(name) for name in getattr(expression, "extra_examples", ())],
+                "extra_examples": [str(name) for name in expression.extra_examples],
                 "objective": float(expression.objective),
                 "status": str(expression.status),
             }
             for expression in expressions
         ],
+        "excluded": _excluded(analysis, missing, reason, rejected),
+        "warnings": found,
     }
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in out.glob("expression_*.obj"):  # from an earlier, longer packing into the same folder
-        stale.unlink()
-    files = [_write_json(out / EXPRESSIONS_FILE, document)]
-    files += _write_expression_meshes(rig, document["expressions"], out)
-    return PackResult(document, files, notes)
+    session = session_files(
+        rig, document, target=target_mesh, pictures=pictures, glb=glb, notes=[*notes, *found]
+    )
+    files, changed = _write(folder, document, session)
+    return PackResult(document, files, notes, [*found, *changed])
 
 
-def _coverage_notes(analysis: Any, expressions: Sequence[Any], refined: bool) -> list[str]:
-    """Which packable shapes no expression holds, and why the sequence stopped before them: an expression
-    came out empty (every proposal rejected, or the solver found nothing), else ``jmax`` was reached."""
+class Deadline:
+    """A solver wrapper that gives every solve at most the time left before a wall-clock deadline.
+
+    Once the deadline has passed, `solve` returns no items with ``Termination.TIME_LIMIT`` without calling
+    the solver, so the expression sequence (Algorithm 1) stops there; ``expired`` tells that it did (or
+    that a solve was cut by the time left).
+
+    Parameters
+    ----------
+    inner : Solver
+    end : float
+        The deadline on the ``time.monotonic`` clock.
+    """
+
+    def __init__(self, inner: Any, end: float) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.capabilities = inner.capabilities
+        self.end = end
+        self.started = monotonic()
+        self.expired = False
+
+    def availability(self) -> Any:
+        """The inner solver's availability."""
+        return self.inner.availability()
+
+    def solve(self, problem: Any, *, time_limit: float | None = None, seed: int = 0) -> Any:
+        """The inner solve with ``time_limit`` reduced to the time left, or nothing once it is spent."""
+        from packing import Solution, Termination
+
+        left = self.end - monotonic()
+        if left <= 0:
+            self.expired = True
+            return Solution(
+                items=(),
+                shapes=(),
+                objective=0.0,
+                bound=None,
+                termination=Termination.TIME_LIMIT,
+                backend=self.name,
+                message="the --timeout of the whole packing ran out",
+            )
+        limited = time_limit is None or left < time_limit
+        solution = self.inner.solve(problem, time_limit=left if limited else time_limit, seed=seed)
+        if limited and solution.termination is Termination.TIME_LIMIT:
+            self.expired = True
+        return solution
+
+
+def _coverage(
+    analysis: Any, expressions: Sequence[Any], refined: bool, timeout: float | None
+) -> tuple[list[str], str]:
+    """The packable shapes no expression holds, and why the sequence stopped before them: ``timeout``
+    (seconds) ran out, an expression came out empty (every proposal rejected, or the solver found nothing),
+    else ``jmax`` was reached."""
     used = {name for expression in expressions for name in expression.shapes}
     missing = [
         name
@@ -199,9 +363,11 @@ def _coverage_notes(analysis: Any, expressions: Sequence[Any], refined: bool) ->
         if ok and name not in used
     ]
     if not missing:
-        return []
+        return [], ""
     empty = next((expression for expression in expressions if not expression.shapes), None)
-    if empty is None:
+    if timeout is not None:
+        reason = f"--timeout {format_duration(timeout)} ran out"
+    elif empty is None:
         reason = f"--jmax {len(expressions)} reached"
     elif refined:
         reason = (
@@ -211,7 +377,21 @@ def _coverage_notes(analysis: Any, expressions: Sequence[Any], refined: bool) ->
         reason = (
             f"the solver found no expression {empty.index}: {empty.status}, {empty.message or 'no message'}"
         )
-    return [f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}"]
+    return missing, reason
+
+
+def _excluded(
+    analysis: Any, missing: Sequence[str], reason: str, rejected: Mapping[int, set[str]]
+) -> list[dict[str, str]]:
+    """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in rig order."""
+    why = {name: "empty: no displacement above the noise floor (sec. 4.1)" for name in analysis.empty_names}
+    for name in missing:
+        refused = sorted(number for number, names in rejected.items() if name in names)
+        rejections = (
+            f"; rejected by the artist for expression {', '.join(map(str, refused))}" if refused else ""
+        )
+        why[name] = f"in no expression: {reason}{rejections}"
+    return [{"shape": name, "reason": why[name]} for name in analysis.rig.names if name in why]
 
 
 def _symmetry_note(analysis: Any) -> str:
@@ -225,9 +405,14 @@ def _symmetry_note(analysis: Any) -> str:
 
 
 def _refining(
-    solver: Any, rig: Any, rejections: Mapping[int, set[str]], decide: Callable[[int, str], bool] | None
+    solver: Any,
+    rig: Any,
+    rejections: Mapping[int, set[str]],
+    decide: Callable[[int, str, bool], bool] | None,
+    rejected: dict[int, set[str]],
 ) -> Any:
-    """Wrap the solver in `solvers.RefiningSolver` (sec. 4.5.3) when there is anything to decide."""
+    """Wrap the solver in `solvers.RefiningSolver` (sec. 4.5.3) when there is anything to decide; every
+    rejection lands in ``rejected`` (1-based expression -> shapes) for the checker."""
     if not rejections and decide is None:
         return solver
     unknown = sorted(name for names in rejections.values() for name in names if name not in rig.names)
@@ -238,43 +423,39 @@ def _refining(
     listed = solvers.rejecting({expression - 1: names for expression, names in rejections.items()})
 
     def accept(proposal: Any) -> bool:
-        if not listed(proposal):
-            return False
-        return decide(proposal.expression + 1, proposal.label) if decide is not None else True
+        keep = listed(proposal) and (
+            decide is None or decide(proposal.expression + 1, proposal.label, proposal.extra_example)
+        )
+        if not keep:
+            rejected.setdefault(proposal.expression + 1, set()).update(proposal.shapes)
+        return keep
 
     return solvers.RefiningSolver(solver, accept)
 
 
-def _write_json(path: Path, document: dict[str, Any]) -> Path:
-    temp = path.with_name(f".{path.name}.partial")
-    temp.write_text(json.dumps(document, indent=2) + "\n")
-    temp.replace(path)
-    return path
-
-
-def _write_expression_meshes(rig: Any, expressions: Sequence[Mapping[str, Any]], out: Path) -> list[Path]:
-    import transfer
-
-    if not expressions:
-        return []
-    weights = np.zeros((len(expressions), rig.n_shapes))
-    for row, expression in zip(weights, expressions, strict=True):
-        row[rig.indices([*expression["shapes"], *expression["extra_examples"]])] = 1.0
-    meshes = transfer.training_expressions(rig, weights)
-    faces = _obj_face_text(rig.faces if rig.faces is not None else rig.triangles)  # shared by every file
-    width = max(2, len(str(len(expressions))))
-    paths = []
-    for index, (vertices, expression) in enumerate(zip(meshes, expressions, strict=True), start=1):
-        path = out / f"expression_{index:0{width}d}.obj"
-        comment = f"expression {index}: {' '.join(expression['shapes'])}"
-        path.write_text(_obj_header(comment) + _obj_vertex_text(vertices) + faces)
-        paths.append(path)
-    return paths
+def _write(
+    folder: OutputFolder, document: dict[str, Any], session: Mapping[str, str | bytes]
+) -> tuple[list[Path], list[str]]:
+    """Write the session's files, then ``expressions.json``, into the claimed folder, and remove what an
+    earlier packing left (files of more expressions). Returns the files (JSON first) and a warning for each
+    earlier file left in place because it was changed since."""
+    names = [EXPRESSIONS_FILE, *session]
+    folder.check_free(names)  # before writing anything
+    paths = [folder.write_file(name, content) for name, content in session.items()]
+    paths.insert(0, folder.write_file(EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ChangedFileWarning)
+        folder.remove_stale(keep=names)
+    return paths, [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
 
 
 def write_obj(path: Path, vertices: np.ndarray, faces: Sequence[np.ndarray], *, comment: str = "") -> None:
     """Write one mesh as a Wavefront OBJ: ``v`` lines (round-trip floats), then 1-based ``f`` lines."""
-    path.write_text(_obj_header(comment) + _obj_vertex_text(vertices) + _obj_face_text(faces))
+    from rigs._obj import coordinate_lines
+
+    header = "".join(f"# {line}\n" for line in comment.splitlines())
+    lines = coordinate_lines(np.asarray(vertices, dtype=np.float64))
+    path.write_text(header + "".join(line + "\n" for line in lines) + _obj_face_text(faces))
 
 
 def _obj_face_text(faces: Sequence[np.ndarray] | np.ndarray) -> str:
@@ -283,12 +464,3 @@ def _obj_face_text(faces: Sequence[np.ndarray] | np.ndarray) -> str:
         corners = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
         return ("f %d %d %d\n" * len(corners)) % tuple(corners.ravel().tolist())
     return "".join("f " + " ".join(map(str, (np.asarray(face) + 1).tolist())) + "\n" for face in faces)
-
-
-def _obj_vertex_text(vertices: np.ndarray) -> str:
-    vertices = np.asarray(vertices, dtype=np.float64)
-    return ("v %r %r %r\n" * len(vertices)) % tuple(vertices.ravel().tolist())
-
-
-def _obj_header(comment: str) -> str:
-    return "".join(f"# {line}\n" for line in comment.splitlines())

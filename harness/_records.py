@@ -3,9 +3,15 @@
 Layout of a run directory ``OUT/``:
 
 - ``OUT/run.json``: exact configuration, versions, git commit, machine, start and end (see `harness._run`).
-- ``OUT/records/<cell>.parquet``: one part file per finished cell. Temporary files start with ``.`` and never
-  end in ``.parquet``, so a crash or a full disk never leaves a half-written part that readers would see.
+- ``OUT/records/<cell>.parquet``: one part file per finished cell, named by the 16-hex-digit cell id. It is
+  written whole to a temporary file (a name starting with ``.``) and renamed, so a crash or a full disk
+  never leaves a half-written part that readers would see. Each part carries its cell id and row count in
+  its Parquet metadata and page checksums; ``--resume`` reads every part back (`check_parts`) and moves a
+  truncated or corrupt one to ``OUT/broken-parts/`` to run its cell again. Files in ``records/`` not named
+  like a part are no records and are never read, moved or removed.
 - ``OUT/overlap.parquet``: the paper's Table 3, computed from the records at the end of every run.
+- ``OUT/.harness-manifest.json``: the files the harness wrote here (`harness._outdir`); ``OUT/.lock``: held
+  by the run writing the folder.
 
 Records table (long format, one schema for every row, null where a column does not apply).
 
@@ -18,6 +24,8 @@ cell           string         cell id, 16 hex digits of the SHA-256 of the canon
 kind           string         ``cell`` (one per finished cell), ``expression`` or ``transfer``
 rig            string         rig preset name or rig file path, as given
 rig_seed       int64          generator seed (0 for rig files)
+rig_digest     string         ``sha256:`` content digest of the rig (`harness._grid.rig_digest`): file bytes,
+                               a folder's files, or a preset's name, seed and parameters
 warp           string         warp preset name; ``none`` means the target is the template itself
 solver         string         solver plugin name
 mu             float64        binary blendshape threshold (eq. 2)
@@ -38,8 +46,11 @@ message        string         error, skip, timeout or check message; empty other
 ``kind == "cell"``, exactly one per finished cell (``--resume`` skips cells that have one). ``status`` is
 ``ok``, ``skipped`` (solver unavailable, message = the reason), ``error`` (rig, solver or packing raised, or
 a solver reported an error; message), ``timeout`` (killed after ``--timeout``) or ``invalid`` (`packing.check`
-rejected the sequence; message = the violation). Cells that are not ``ok`` have no expression or transfer
-rows:
+rejected the sequence, checked by the harness with its own symmetry pairs and the solver's declared
+``capabilities.max_overlap``: overlapping shapes, a bound below the objective, an expression of a solver
+that ran to its end with room left for an unused shape; message = the violation). A cell lost to the
+infrastructure (its worker process died, the Dask scheduler went away) has no part file at all, so
+``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows:
 
 ================ ============== ==============================================================================
 analysis_time    float64        seconds of rig analysis (binary shapes, importance, symmetry, presolve)
@@ -107,7 +118,9 @@ whichever executor ran them.
 from __future__ import annotations
 
 import errno
+import hashlib
 import os
+import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -115,6 +128,8 @@ from typing import Any
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, atomic_write, claim
 
 _STRINGS = pa.list_(pa.string())
 
@@ -124,6 +139,7 @@ RECORD_COLUMNS: dict[str, pa.DataType] = {
     "kind": pa.string(),
     "rig": pa.string(),
     "rig_seed": pa.int64(),
+    "rig_digest": pa.string(),
     "warp": pa.string(),
     "solver": pa.string(),
     "mu": pa.float64(),
@@ -203,14 +219,25 @@ TIMING_COLUMNS: tuple[str, ...] = (
 #: Row order of `read_records`.
 SORT_COLUMNS: tuple[str, ...] = ("cell", "kind", "expression", "transfer", "j")
 
+RUN_FILE = "run.json"
 RECORDS_DIR = "records"
 OVERLAP_FILE = "overlap.parquet"
-_TEMP_PREFIX = "."
-_TEMP_SUFFIX = ".partial"
+#: Session kind of a run's files in the folder manifest (`harness._outdir`).
+RUN_KIND = "run"
+#: Where `check_parts` moves part files that do not read back whole.
+BROKEN_DIR = "broken-parts"
+_PART_NAME = re.compile(r"[0-9a-f]{16}\.parquet")
+#: Temporary files of `harness._outdir.atomic_write`: ``.<name>.<random>.tmp``.
+_TEMP_NAME = re.compile(r"\.(?P<name>.+)\.[^.]+\.tmp")
+_CELL_KEY, _ROWS_KEY = b"harness.cell", b"harness.rows"
 
 
 class RecordsWriteError(OSError):
-    """A part file could not be written; nothing half-written was left behind."""
+    """A records file could not be written; nothing half-written was left behind."""
+
+
+class RecordsReadError(ValueError):
+    """A part file does not read back as the records of its cell."""
 
 
 def records_table(rows: Iterable[Mapping[str, Any]]) -> pa.Table:
@@ -229,37 +256,37 @@ def records_table(rows: Iterable[Mapping[str, Any]]) -> pa.Table:
     return pa.Table.from_pydict(columns, schema=RECORD_SCHEMA)
 
 
-def write_table_atomically(table: pa.Table, path: Path) -> None:
-    """Write a Parquet file so that ``path`` holds either nothing or the complete file.
+def parquet_bytes(table: pa.Table) -> bytes:
+    """A table as the bytes of a Parquet file with page checksums."""
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, write_page_checksum=True)
+    return sink.getvalue().to_pybytes()
 
-    The table goes to a temporary file in the same directory (a name starting with ``.``), is flushed
-    and fsynced, then renamed over ``path`` with `os.replace` (atomic on POSIX), and the directory is
-    fsynced. On any failure the temporary file is removed and `RecordsWriteError` is raised.
+
+def part_bytes(cell: str, rows: Iterable[Mapping[str, Any]]) -> bytes:
+    """The part file of one finished cell: its rows, with the cell id and row count in the metadata."""
+    table = records_table(rows)
+    table = table.replace_schema_metadata({_CELL_KEY: cell.encode(), _ROWS_KEY: str(table.num_rows).encode()})
+    return parquet_bytes(table)
+
+
+def write_atomically(path: Path, data: bytes) -> Path:
+    """`harness._outdir.atomic_write`, creating the folder; any failure is one `RecordsWriteError`.
+
+    ``path`` then holds either its old content or all of ``data``, and no temporary file is left.
     """
     path = Path(path)
-    temp = path.with_name(f"{_TEMP_PREFIX}{path.name}.{os.getpid()}{_TEMP_SUFFIX}")
     try:
-        with open(temp, "wb") as handle:
-            pq.write_table(table, handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temp, path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return atomic_write(path, data)
     except OSError as error:
-        temp.unlink(missing_ok=True)
-        reason = "disk full" if error.errno == errno.ENOSPC else (error.strerror or str(error))
-        raise RecordsWriteError(error.errno, f"could not write {path}: {reason}") from error
-    except BaseException:
-        temp.unlink(missing_ok=True)
-        raise
-    _fsync_directory(path.parent)
+        raise write_error(path, error) from None
 
 
-def _fsync_directory(directory: Path) -> None:
-    descriptor = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(descriptor)
-    finally:
-        os.close(descriptor)
+def write_error(path: Path, error: OSError) -> RecordsWriteError:
+    """One-line `RecordsWriteError` naming ``path`` and the reason (``disk full`` for ENOSPC)."""
+    reason = "disk full" if error.errno == errno.ENOSPC else (error.strerror or str(error))
+    return RecordsWriteError(error.errno, f"could not write {path}: {reason}")
 
 
 def part_path(out: Path, cell: str) -> Path:
@@ -269,29 +296,183 @@ def part_path(out: Path, cell: str) -> Path:
 
 def write_part(out: Path, cell: str, rows: Iterable[Mapping[str, Any]]) -> Path:
     """Write the rows of one finished cell as its part file, atomically."""
-    path = part_path(out, cell)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_table_atomically(records_table(rows), path)
-    return path
+    return write_atomically(part_path(out, cell), part_bytes(cell, rows))
 
 
-def finished_cells(out: Path) -> set[str]:
-    """Ids of the cells whose part file exists (complete by construction)."""
-    directory = Path(out) / RECORDS_DIR
-    if not directory.is_dir():
-        return set()
-    return {path.stem for path in directory.glob("*.parquet") if not path.name.startswith(_TEMP_PREFIX)}
-
-
-def remove_partial_files(out: Path) -> list[Path]:
-    """Delete temporary files a killed writer left in ``OUT/records``; returns what was removed."""
+def part_files(out: Path) -> list[Path]:
+    """The part files in ``OUT/records`` (names of the form ``<16 hex digits>.parquet``), sorted."""
     directory = Path(out) / RECORDS_DIR
     if not directory.is_dir():
         return []
-    stale = [path for path in directory.iterdir() if path.name.startswith(_TEMP_PREFIX)]
-    for path in stale:
-        path.unlink(missing_ok=True)
+    return sorted(path for path in directory.iterdir() if _PART_NAME.fullmatch(path.name))
+
+
+def part_problem(path: Path) -> str:
+    """What makes a part file not the complete records of its cell ("" when it is).
+
+    The file must read back whole with its page checksums, in the records schema, and its metadata
+    must name the cell of its file name and the number of rows it holds; every row must belong to that
+    cell, the ``cell`` row first and only once.
+    """
+    cell = path.name.removesuffix(".parquet")
+    try:
+        if path.is_symlink() or not path.is_file():
+            return "not a regular file"
+        handle = pq.ParquetFile(path, page_checksum_verification=True)
+        schema = handle.schema_arrow
+        table = handle.read()
+    except (OSError, ValueError, pa.ArrowException) as error:
+        return f"unreadable ({_first_line(error)})"
+    if not schema.equals(RECORD_SCHEMA, check_metadata=False):
+        return "its columns are not those of the records table"
+    metadata = schema.metadata or {}
+    if metadata.get(_CELL_KEY) != cell.encode():
+        return "its metadata names another cell or none"
+    if metadata.get(_ROWS_KEY) != str(table.num_rows).encode():
+        return f"holds {table.num_rows} rows, but was written with {metadata.get(_ROWS_KEY, b'?').decode()}"
+    kinds = table.column("kind").to_pylist()
+    if set(table.column("cell").to_pylist()) != {cell} or kinds[:1] != ["cell"] or kinds.count("cell") != 1:
+        return "its rows are not one cell's (one cell row first, then that cell's rows)"
+    return ""
+
+
+def check_parts(out: Path) -> tuple[set[str], dict[Path, str]]:
+    """Read every part file back (`part_problem`).
+
+    Returns
+    -------
+    set of str
+        Ids of the cells whose part file is complete.
+    dict of Path to str
+        The broken part files and what is wrong with each.
+    """
+    done, broken = set(), {}
+    for path in part_files(out):
+        problem = part_problem(path)
+        if problem:
+            broken[path] = problem
+        else:
+            done.add(path.name.removesuffix(".parquet"))
+    return done, broken
+
+
+def set_aside(out: Path, path: Path) -> Path:
+    """Move a broken part file to ``OUT/broken-parts/`` (never over another file); returns where to."""
+    folder = Path(out) / BROKEN_DIR
+    folder.mkdir(exist_ok=True)
+    target = folder / path.name
+    number = 1
+    while os.path.lexists(target):
+        target = folder / f"{path.name}.{number}"
+        number += 1
+    os.rename(path, target)
+    return target
+
+
+def remove_partial_files(out: Path, names: Iterable[str] = ()) -> list[Path]:
+    """Delete the temporary files a killed writer left: in ``OUT/records`` those of part files, in ``OUT``
+    those of the files ``names``. Returns what was removed."""
+    out, wanted = Path(out), set(names)
+    folders = (
+        (out / RECORDS_DIR, lambda name: _PART_NAME.fullmatch(name) is not None),
+        (out, lambda name: name in wanted),
+    )
+    stale = []
+    for folder, ours in folders:
+        if not folder.is_dir():
+            continue
+        for path in sorted(folder.iterdir()):
+            match = _TEMP_NAME.fullmatch(path.name)
+            if match and ours(match["name"]) and path.is_file() and not path.is_symlink():
+                path.unlink(missing_ok=True)
+                stale.append(path)
     return stale
+
+
+def save_manifest(folder: OutputFolder) -> None:
+    """Save the manifest; a failure (e.g. a full disk) is a `RecordsWriteError` naming the file and why."""
+    try:
+        folder.save()
+    except OutputFolderError as error:
+        raise _folder_write_error(error) from None
+
+
+def _folder_write_error(error: OutputFolderError) -> RecordsWriteError:
+    """A manifest write that failed, with the errno of the `OSError` behind it (ENOSPC for a full disk)."""
+    code = getattr(error.__context__, "errno", None) or errno.EIO
+    return RecordsWriteError(code, str(error).partition("; ")[0])
+
+
+def write_listed(folder: OutputFolder, name: str, data: bytes) -> Path:
+    """Write ``OUT/name`` atomically, listed in the manifest *before* it is written: however the process
+    ends, the folder never holds a file the run wrote that the manifest does not list."""
+    folder.files[name] = {"kind": RUN_KIND, "sha256": hashlib.sha256(data).hexdigest()}
+    save_manifest(folder)
+    return write_atomically(folder.path / name, data)
+
+
+def open_new(out: Path, force: bool) -> OutputFolder:
+    """Claim ``out`` for a new run (`harness._outdir.claim`) and check that replacing the previous run
+    touches only files the harness wrote.
+
+    Raises
+    ------
+    OutputFolderError
+        When the folder holds files the harness did not write where the run writes (``run.json``, the
+        overlap table, anything in ``records/``), or is not empty and not forced.
+    """
+    folder = claim(out, kind=RUN_KIND, force=force)
+    remove_partial_files(out, names=(RUN_FILE, OVERLAP_FILE, MANIFEST_NAME))
+    folder.check_free([RUN_FILE, OVERLAP_FILE])
+    records = out / RECORDS_DIR
+    foreign = (
+        sorted(path.name for path in records.iterdir() if not folder.owns(path.relative_to(out).as_posix()))
+        if records.is_dir()
+        else []
+    )
+    if foreign:
+        listed = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+        raise OutputFolderError(
+            f"{records} holds files harness did not write ({listed}); move them away or choose another --out"
+        )
+    save_manifest(folder)
+    return folder
+
+
+def remove_previous(folder: OutputFolder) -> None:
+    """Remove the files of the run this one replaces (only the listed, unchanged ones: `open_new`)."""
+    try:
+        folder.remove_stale(keep=())
+    except OutputFolderError as error:
+        raise _folder_write_error(error) from None
+
+
+def open_for_resume(out: Path) -> OutputFolder:
+    """The manifest of a run folder being resumed, without its temporary files a killed writer left."""
+    folder = claim(out, kind=RUN_KIND, force=True)
+    remove_partial_files(out, names=(RUN_FILE, OVERLAP_FILE, MANIFEST_NAME))
+    return folder
+
+
+def repair_parts(out: Path, folder: OutputFolder, grid: set[str]) -> tuple[set[str], dict[Path, str]]:
+    """Read every part file back; set aside the broken ones and those of cells not in the grid; list the
+    good ones (and ``run.json``) in the manifest. Returns the finished cell ids and what was set aside."""
+    done, broken = check_parts(out)
+    for cell in sorted(done - grid):
+        broken[part_path(out, cell)] = "not a cell of this run's grid"
+    done &= grid
+    moved = {}
+    for path, reason in sorted(broken.items()):
+        try:
+            moved[set_aside(out, path)] = reason
+        except OSError as error:
+            raise write_error(path, error) from None
+        folder.files.pop(path.relative_to(out).as_posix(), None)
+    for cell in sorted(done):
+        folder.record(f"{RECORDS_DIR}/{cell}.parquet")
+    folder.record(RUN_FILE)
+    save_manifest(folder)
+    return done, moved
 
 
 def read_records(out: str | os.PathLike) -> pd.DataFrame:
@@ -312,17 +493,31 @@ def read_records(out: str | os.PathLike) -> pd.DataFrame:
     ------
     FileNotFoundError
         When ``out`` has no records.
+    RecordsReadError
+        When a part file cannot be read (naming it; ``harness run --resume`` redoes its cell).
     """
-    directory = Path(out) / RECORDS_DIR
-    parts = sorted(path for path in directory.glob("*.parquet") if not path.name.startswith(_TEMP_PREFIX))
+    parts = part_files(Path(out))
     if not parts:
-        raise FileNotFoundError(f"{out}: no records (expected part files in {directory})")
-    table = pa.concat_tables([pq.read_table(path, schema=RECORD_SCHEMA) for path in parts])
-    frame = table.to_pandas(types_mapper=_nullable_types)
+        raise FileNotFoundError(f"{out}: no records (expected part files in {Path(out) / RECORDS_DIR})")
+    tables = []
+    for path in parts:
+        try:
+            tables.append(pq.read_table(path, schema=RECORD_SCHEMA))
+        except (OSError, ValueError, pa.ArrowException) as error:
+            raise RecordsReadError(
+                f"{path}: not a readable part file ({_first_line(error)}); "
+                f"harness run --resume {out} sets it aside and runs its cell again"
+            ) from None
+    frame = pa.concat_tables(tables).to_pandas(types_mapper=_nullable_types)
     for name, arrow_type in RECORD_COLUMNS.items():
         if pa.types.is_list(arrow_type):
             frame[name] = frame[name].map(_as_list)
     return frame.sort_values(list(SORT_COLUMNS), kind="stable", na_position="first").reset_index(drop=True)
+
+
+def _first_line(error: BaseException) -> str:
+    lines = [line for line in str(error).splitlines() if line.strip()]
+    return lines[0].strip() if lines else type(error).__name__
 
 
 def _nullable_types(arrow_type: pa.DataType) -> Any:

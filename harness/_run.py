@@ -2,32 +2,44 @@
 
 ``OUT/run.json`` holds (keys in order):
 
-- ``format`` (1), ``state`` (``running``, ``complete``, ``interrupted`` or ``failed``), ``command`` (argv),
+- ``format`` (2), ``state`` (``running``, ``complete``, ``incomplete`` (cells were lost, see below),
+  ``interrupted`` or ``failed``), ``command`` (argv),
 - ``config``: the exact `RunConfig` (``--solvers all`` already expanded to names),
-- ``n_cells``: size of the grid,
+- ``n_cells``: size of the grid, ``rig_digests``: the content digest of every rig
+  (`harness._grid.rig_digest`; the cell ids hash them),
 - ``versions``: Python and distributions (`harness._environment.DISTRIBUTIONS`), plus ``solvers`` and
   ``transfers``: per plugin ``available``, ``reason``, ``version``,
 - ``git`` (``commit``, ``dirty``), ``machine`` (``hostname``, ``platform``, ``processor``, ``cpu_count``),
-- ``execution``: how the cells ran last (``executor`` and ``jobs`` or ``scheduler``),
+- ``execution``: how the cells ran last (``executor`` and ``jobs`` or ``scheduler``; ``pid`` and ``host`` of
+  the harness process),
 - ``started``, ``finished`` (ISO 8601, UTC; ``finished`` is null until the run ends), ``resumed`` (list of
-  the times ``--resume`` continued it), ``error`` (the message of a ``failed`` run).
+  the times ``--resume`` continued it), ``error`` (the message of a ``failed`` run), ``lost`` (cell id ->
+  ``{"cell": label, "reason": ...}`` for the cells the infrastructure lost in the last session).
 
 Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own
-part file (`harness._records.write_part`), so an interruption loses only the cells in flight and
-``--resume`` runs exactly the cells without a part file.
+part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
+infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
+``--resume`` runs exactly the cells without a complete part file. ``--resume`` first reads every part back
+and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose content changed,
+and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs never write
+one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force`` removes
+only those, never a file the harness did not write.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime
+import fcntl
 import itertools
 import json
 import os
-import shutil
+import socket
 import sys
 import time
+import warnings
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -36,28 +48,34 @@ import pyarrow as pa
 
 from harness import _environment as environment
 from harness import _plugins as plugins
-from harness._cell import failure_rows
+from harness._cell import Lost, failure_rows
 from harness._executors import Executor
-from harness._grid import NO_WARP, CellSpec, RunConfig
+from harness._grid import NO_WARP, CellSpec, RunConfig, rig_digest
+from harness._outdir import OutputFolder
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
 from harness._records import (
     OVERLAP_FILE,
     RECORD_COLUMNS,
     RECORDS_DIR,
-    finished_cells,
+    RUN_FILE,
+    open_for_resume,
+    open_new,
+    parquet_bytes,
+    part_bytes,
+    part_files,
     read_records,
-    remove_partial_files,
-    write_part,
-    write_table_atomically,
+    remove_previous,
+    repair_parts,
+    write_error,
+    write_listed,
 )
-from harness._rigspec import check_rig_files
+from harness._rigspec import check_rig_files, is_rig_file
 
-RUN_FILE = "run.json"
-RUN_FORMAT = 1
+RUN_FORMAT = 2
 
 
 class RunDirectoryError(ValueError):
-    """The output directory cannot take this run (holds another run, or has nothing to resume)."""
+    """The output directory cannot take this run (holds another run, is in use, or has nothing to resume)."""
 
 
 class Reporter(Protocol):
@@ -65,7 +83,11 @@ class Reporter(Protocol):
 
     def begin(self, total: int, done: int, pending: list[CellSpec], skipped: dict[str, str]) -> None: ...
 
+    def notice(self, message: str) -> None: ...
+
     def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None: ...
+
+    def cell_lost(self, spec: CellSpec, reason: str) -> None: ...
 
     def end(self) -> None: ...
 
@@ -76,7 +98,13 @@ class SilentReporter:
     def begin(self, total: int, done: int, pending: list[CellSpec], skipped: dict[str, str]) -> None:
         pass
 
+    def notice(self, message: str) -> None:
+        pass
+
     def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None:
+        pass
+
+    def cell_lost(self, spec: CellSpec, reason: str) -> None:
         pass
 
     def end(self) -> None:
@@ -85,13 +113,25 @@ class SilentReporter:
 
 @dataclass
 class RunSummary:
-    """What a finished (or resumed) run did."""
+    """What a finished (or resumed) run did.
+
+    ``lost`` maps the id of each cell the infrastructure lost to the reason (the run is then incomplete:
+    ``--resume`` runs them again); ``set_aside`` maps each broken part file moved away by ``--resume`` to
+    where it went and why.
+    """
 
     out: Path
     total: int
     already_done: int
     statuses: Counter[str] = field(default_factory=Counter)
     seconds: float = 0.0
+    lost: dict[str, str] = field(default_factory=dict)
+    set_aside: dict[Path, str] = field(default_factory=dict)
+
+    @property
+    def complete(self) -> bool:
+        """Whether every cell of the grid now has its records."""
+        return not self.lost
 
 
 def now() -> str:
@@ -106,23 +146,16 @@ def read_run(out: str | Path) -> dict[str, Any]:
     ------
     FileNotFoundError
         When ``out`` holds no run.
+    RunDirectoryError
+        When ``run.json`` is not readable JSON.
     """
     path = Path(out) / RUN_FILE
     if not path.is_file():
         raise FileNotFoundError(f"{out}: no {RUN_FILE} here, so no harness run to read")
-    return json.loads(path.read_text())
-
-
-def write_run(out: Path, info: dict[str, Any]) -> None:
-    """Write ``run.json`` atomically (temporary file, fsync, rename)."""
-    path = Path(out) / RUN_FILE
-    temp = path.with_name(f".{RUN_FILE}.partial")
-    with open(temp, "w") as handle:
-        json.dump(info, handle, indent=2, default=str)
-        handle.write("\n")
-        handle.flush()
-        os.fsync(handle.fileno())
-    temp.replace(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise RunDirectoryError(f"{path}: not a readable run file ({error})") from None
 
 
 def validate_config(config: RunConfig) -> RunConfig:
@@ -156,12 +189,29 @@ def validate_config(config: RunConfig) -> RunConfig:
 
 
 def _check_packing_params(config: RunConfig) -> None:
-    """Let `packing.PackingParams` judge every value of the packing axes (it names the bad one)."""
+    """Let `packing.PackingParams` judge every value of the packing axes (it names the bad one), and let
+    `packing.analyse` judge the artist constraints and regions on every rig, before any cell runs."""
     import packing
 
     for values in itertools.product(config.mu, config.alpha, config.beta, config.cap):
         mu, alpha, beta, cap = values
         packing.PackingParams(mu=mu, alpha=alpha, beta=beta, max_per_expression=cap)
+    if not (config.together or config.apart or config.regions):
+        return
+    from harness._cell import packing_params
+    from harness._rigspec import resolve_rig
+
+    options = [name for name in ("together", "apart", "regions") if getattr(config, name)]
+    given = " ".join(f"--{name}" for name in options)
+    spec = config.cells()[0]
+    for argument in config.rigs:
+        rig = resolve_rig(argument, seed=config.seed)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                packing.analyse(rig, None, **packing_params(spec))
+        except ValueError as error:
+            raise ValueError(f"{given} on rig {argument}: {error}") from None
 
 
 def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | None:
@@ -174,13 +224,15 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
         nothing to resume.
     """
     out = Path(out)
+    if resume and force:
+        raise RunDirectoryError("give either --resume or --force, not both")
     if resume:
         if not (out / RUN_FILE).is_file():
             raise RunDirectoryError(
                 f"{out} holds no run to resume (no {RUN_FILE}); start one without --resume"
             )
         return read_run(out)
-    if ((out / RUN_FILE).exists() or (out / RECORDS_DIR).exists()) and not force:
+    if ((out / RUN_FILE).exists() or part_files(out)) and not force:
         raise RunDirectoryError(
             f"{out} already holds a run; use --resume to finish it, --force to overwrite it, "
             "or choose another --out"
@@ -188,20 +240,109 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
     return None
 
 
-def prepare_directory(out: Path, *, resume: bool) -> None:
-    """Make ``out`` ready for cells: drop temporary files a killed writer left when resuming, else remove
-    the files of any previous run (only the harness's own: ``run.json``, ``records/``, overlap table)."""
-    if resume:
-        remove_partial_files(out)
-        return
-    shutil.rmtree(out / RECORDS_DIR, ignore_errors=True)
-    for name in (RUN_FILE, OVERLAP_FILE):
-        (out / name).unlink(missing_ok=True)
-    out.mkdir(parents=True, exist_ok=True)
+def _show(value: Any) -> str:
+    if isinstance(value, dict):
+        return f"{len(value)} regions ({', '.join(sorted(value))})" if value else "none"
+    if isinstance(value, list):
+        if value and isinstance(value[0], list):
+            return " ".join(",".join(map(str, item)) for item in value)
+        return ",".join(_show(item) for item in value) or "none"
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    return "none" if value is None or value == "" else str(value)
+
+
+def same_options(stored: RunConfig, given: RunConfig, out: Path) -> None:
+    """Refuse to resume with options other than those in ``run.json``.
+
+    Raises
+    ------
+    RunDirectoryError
+        Listing each differing option with the given and the stored value.
+    """
+    old, new = stored.to_dict(), given.to_dict()
+    changed = [
+        f"--{key.replace('_', '-')} {_show(new[key])} (the run has {_show(old[key])})"
+        for key in old
+        if old[key] != new[key]
+    ]
+    if changed:
+        raise RunDirectoryError(
+            f"--resume {out}: options differ from its {RUN_FILE}: {'; '.join(changed)}; drop them to finish "
+            "the run as it was started, or start a new run with another --out"
+        )
+
+
+def same_rigs(previous: dict[str, Any], digests: dict[str, str], out: Path) -> None:
+    """Refuse to resume when a rig's content is no longer the one the run started with.
+
+    Raises
+    ------
+    RunDirectoryError
+        Naming the rig and both digests.
+    """
+    stored = previous.get("rig_digests") or {}
+    for rig, digest in digests.items():
+        if rig in stored and stored[rig] != digest:
+            raise RunDirectoryError(
+                f"--resume {out}: rig {rig} changed since the run started (content {digest[:19]}..., "
+                f"the run has {stored[rig][:19]}...); restore it to finish the run, or start a new run "
+                "with --force or another --out"
+            )
+
+
+def _check_apart_from_rigs(out: Path, arguments: tuple[str, ...]) -> None:
+    """The run folder may not be a rig's file or folder or lie inside a rig folder (its content would
+    change as the run writes)."""
+    resolved = out.resolve()
+    for argument in arguments:
+        if not is_rig_file(argument):
+            continue
+        rig = Path(argument).resolve()
+        if resolved == rig or resolved.is_relative_to(rig):
+            raise RunDirectoryError(
+                f"--out {out} is or lies inside the rig {argument}; choose an output folder apart from it"
+            )
+
+
+@contextlib.contextmanager
+def locked(out: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the run folder ``out`` (``flock`` on the folder itself, released when
+    the process ends, however it ends), so that two runs never write one folder.
+
+    Raises
+    ------
+    RunDirectoryError
+        When another process holds it (naming the holder ``run.json`` records).
+    """
+    descriptor = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = _holder(out)
+            raise RunDirectoryError(
+                f"{out} is in use by another harness run{holder}; wait for it to end, or choose another --out"
+            ) from None
+        except OSError as error:
+            raise RunDirectoryError(f"{out}: cannot lock the folder ({error.strerror or error})") from None
+        yield
+    finally:
+        os.close(descriptor)
+
+
+def _holder(out: Path) -> str:
+    try:
+        execution = read_run(out).get("execution") or {}
+    except (OSError, ValueError):
+        return ""
+    if "pid" not in execution:
+        return ""
+    return f" (pid {execution['pid']} on {execution.get('host', '?')})"
 
 
 def run_grid(
-    config: RunConfig,
+    config: RunConfig | None,
     out: str | Path,
     *,
     make_executor: Callable[[float | None], Executor],
@@ -215,14 +356,15 @@ def run_grid(
 
     Parameters
     ----------
-    config : RunConfig
-        The grid. Ignored when ``resume`` is true: the configuration stored in ``run.json`` is used.
+    config : RunConfig or None
+        The grid. When ``resume`` is true, None means the configuration stored in ``run.json``; a given
+        configuration must equal it (`same_options`).
     out : path
         Run directory.
     make_executor : callable
         ``make_executor(timeout)`` returns the `Executor` that runs the cells.
     resume, force : bool
-        Continue the run in ``out`` / overwrite a run in ``out``.
+        Continue the run in ``out`` / replace the run in ``out`` (only the files it wrote are removed).
     reporter : Reporter, optional
         Progress events.
     command : list of str, optional
@@ -233,13 +375,15 @@ def run_grid(
     Returns
     -------
     RunSummary
+        ``summary.lost`` is non-empty when the infrastructure lost cells (``run.json`` then says
+        ``incomplete``; ``--resume`` runs them).
 
     Raises
     ------
     RunDirectoryError, ValueError
         For an unusable directory or configuration (before any cell runs).
     harness._records.RecordsWriteError
-        When a part file cannot be written (e.g. the disk is full); finished cells stay recorded.
+        When a records file cannot be written (e.g. the disk is full); finished cells stay recorded.
     KeyboardInterrupt
         On Ctrl-C, after stopping the workers and marking ``run.json`` interrupted.
     """
@@ -247,50 +391,99 @@ def run_grid(
     reporter = reporter or SilentReporter()
     previous = previous_run(out, resume=resume, force=force)
     if previous is not None:
-        config = RunConfig.from_dict(previous["config"])
-    config = validate_config(config)
+        stored = validate_config(RunConfig.from_dict(previous["config"]))
+        if config is not None:
+            same_options(stored, validate_config(config), out)
+        config = stored
+    elif config is None:
+        raise ValueError("run_grid needs a configuration unless it resumes a run")
+    else:
+        config = validate_config(config)
+    digests = {rig: rig_digest(rig, config.seed) for rig in config.rigs}
+    if previous is not None:
+        same_rigs(previous, digests, out)
+    _check_apart_from_rigs(out, config.rigs)
+    if out.exists() and not out.is_dir():
+        raise RunDirectoryError(f"--out {out} exists and is not a folder; choose another --out")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise write_error(out, error) from None
+    with locked(out):
+        return _run_locked(config, out, digests, previous, make_executor, force, reporter, command, execution)
+
+
+def _run_locked(
+    config: RunConfig,
+    out: Path,
+    digests: dict[str, str],
+    previous: dict[str, Any] | None,
+    make_executor: Callable[[float | None], Executor],
+    force: bool,
+    reporter: Reporter,
+    command: list[str] | None,
+    execution: dict[str, Any] | None,
+) -> RunSummary:
+    """`run_grid` once the folder is locked."""
     solver_infos = {name: plugins.solver_info(name) for name in config.solvers}
     unavailable = {
         name: item.reason or "unavailable" for name, item in solver_infos.items() if not item.available
     }
-    cells = config.cells()
-    done = finished_cells(out) if resume else set()
+    cells = config.cells(digests)
+    if previous is not None:
+        previous = read_run(out)  # as the last writer left it, now that no other run can write it
+        folder = open_for_resume(out)
+        done, set_aside_parts = repair_parts(out, folder, {spec.id for spec in cells})
+    else:
+        folder = open_new(out, force)
+        done, set_aside_parts = set(), {}
     pending = [spec for spec in cells if spec.id not in done]
     runnable = [spec for spec in pending if spec.solver not in unavailable]
     executor = make_executor(config.timeout) if runnable else None  # an unreachable cluster fails here
-    summary = RunSummary(out, total=len(cells), already_done=len(cells) - len(pending))
+    summary = RunSummary(
+        out, total=len(cells), already_done=len(cells) - len(pending), set_aside=set_aside_parts
+    )
     info: dict[str, Any] = {}
     try:
-        prepare_directory(out, resume=resume)
+        if previous is None:
+            remove_previous(folder)
         info = previous or _new_run_info(config, solver_infos, command)
         if previous is not None:
             info["state"], info["finished"] = "running", None
             info["resumed"] = [*info.get("resumed", []), now()]
+            info.pop("error", None)
         info["n_cells"] = len(cells)
-        info["execution"] = execution or {}
-        write_run(out, info)
+        info["rig_digests"] = digests
+        info["execution"] = {**(execution or {}), "pid": os.getpid(), "host": socket.gethostname()}
+        info["lost"] = {}
+        write_run(out, info, folder)
 
         clock = time.perf_counter()
+        for path, reason in set_aside_parts.items():
+            reporter.notice(f"set aside broken part file {path}: {reason}; its cell runs again")
         reporter.begin(len(cells), summary.already_done, pending, unavailable)
         for spec in pending:
             if spec.solver in unavailable:
                 reason = f"solver {spec.solver!r} unavailable: {unavailable[spec.solver]}"
-                _record(out, spec, failure_rows(spec, "skipped", reason), summary, reporter)
+                _record(out, folder, spec, failure_rows(spec, "skipped", reason), summary, reporter)
         if executor is not None:
-            for spec, rows in executor.map(runnable):
-                _record(out, spec, rows, summary, reporter)
-        write_overlap(out)
+            for spec, outcome in executor.map(runnable):
+                if isinstance(outcome, Lost):
+                    _lose(out, folder, info, spec, outcome.reason, summary, reporter)
+                else:
+                    _record(out, folder, spec, outcome, summary, reporter)
+        write_overlap(out, folder)
         summary.seconds = time.perf_counter() - clock
     except KeyboardInterrupt:
-        _mark(out, info, "interrupted")
+        _mark(out, folder, info, "interrupted")
         raise
     except BaseException as error:
-        _mark(out, info, "failed", error=str(error))
+        _mark(out, folder, info, "failed", error=str(error))
         raise
     finally:
         _close_quietly(executor)
         reporter.end()
-    _mark(out, info, "complete")
+    _mark(out, folder, info, "incomplete" if summary.lost else "complete")
     return summary
 
 
@@ -304,6 +497,7 @@ def _new_run_info(
         "command": command or sys.argv,
         "config": config.to_dict(),
         "n_cells": 0,
+        "rig_digests": {},
         "versions": {
             **environment.versions(),
             "solvers": {name: item.as_dict() for name, item in solver_infos.items()},
@@ -317,12 +511,40 @@ def _new_run_info(
     }
 
 
+def write_run(out: Path, info: dict[str, Any], folder: OutputFolder) -> None:
+    """Write ``run.json`` atomically (listed in the folder's manifest)."""
+    data = (json.dumps(info, indent=2, default=str) + "\n").encode()
+    write_listed(folder, RUN_FILE, data)
+
+
 def _record(
-    out: Path, spec: CellSpec, rows: list[dict[str, Any]], summary: RunSummary, reporter: Reporter
+    out: Path,
+    folder: OutputFolder,
+    spec: CellSpec,
+    rows: list[dict[str, Any]],
+    summary: RunSummary,
+    reporter: Reporter,
 ) -> None:
-    write_part(out, spec.id, rows)
+    write_listed(folder, f"{RECORDS_DIR}/{spec.id}.parquet", part_bytes(spec.id, rows))
     summary.statuses[rows[0]["status"]] += 1
     reporter.cell_finished(spec, rows)
+
+
+def _lose(
+    out: Path,
+    folder: OutputFolder,
+    info: dict[str, Any],
+    spec: CellSpec,
+    reason: str,
+    summary: RunSummary,
+    reporter: Reporter,
+) -> None:
+    """A cell without result: no part file; ``run.json`` lists it (written at once, a later crash keeps
+    the reason) and ``--resume`` runs it again."""
+    summary.lost[spec.id] = reason
+    info["lost"][spec.id] = {"cell": spec.label(), "reason": reason}
+    write_run(out, info, folder)
+    reporter.cell_lost(spec, reason)
 
 
 def _close_quietly(executor: Executor | None) -> None:
@@ -334,19 +556,21 @@ def _close_quietly(executor: Executor | None) -> None:
         pass
 
 
-def _mark(out: Path, info: dict[str, Any], state: str, *, error: str | None = None) -> None:
+def _mark(
+    out: Path, folder: OutputFolder, info: dict[str, Any], state: str, *, error: str | None = None
+) -> None:
     if not info:  # failed before run.json was written
         return
     info["state"], info["finished"] = state, now()
     if error:
         info["error"] = error
     try:
-        write_run(out, info)
+        write_run(out, info, folder)
     except OSError:
         pass  # e.g. the disk is full; run.json still says "running" and --resume works the same
 
 
-def write_overlap(out: Path) -> None:
+def write_overlap(out: Path, folder: OutputFolder) -> None:
     """(Re)compute the Table 3 overlap from the records and write ``OUT/overlap.parquet`` atomically."""
     try:
         records = read_records(out)
@@ -359,9 +583,8 @@ def write_overlap(out: Path) -> None:
             for name in OVERLAP_COLUMNS
         ]
     )
-    write_table_atomically(
-        pa.Table.from_pandas(table, schema=schema, preserve_index=False), out / OVERLAP_FILE
-    )
+    data = parquet_bytes(pa.Table.from_pandas(table, schema=schema, preserve_index=False))
+    write_listed(folder, OVERLAP_FILE, data)
 
 
 def read_overlap(out: str | Path) -> Any:

@@ -1,9 +1,11 @@
-"""A local worker process: ``python -m harness._worker FD`` serves cells over the connected socket FD.
+"""A local worker process: ``python -m harness._worker FD PARENT`` serves cells over the connected socket FD.
 
-The parent (`harness._executors.LocalExecutor`) sends cell specs as dicts; for each the worker warms the
-cell's solver up once (untimed, see `harness._cell.warm_up`), replies ``("started", id)``, runs the cell and
-replies ``("done", id, rows)``. ``None`` or a closed socket ends the worker. Ctrl-C is left to the parent,
-which stops its workers itself.
+The parent (`harness._executors.LocalExecutor`, process id PARENT) sends cell specs as dicts; for each the
+worker warms the cell's solver up once (untimed, see `harness._cell.warm_up`), replies ``("started", id)``,
+runs the cell and replies ``("done", id, outcome)`` (record rows, or `harness._cell.Lost`). ``None`` or a
+closed socket ends the worker, and so does the end of its parent, even by ``kill -9``
+(`solvers._worker.exit_with_parent`): a worker never outlives the run that started it. Ctrl-C is left to
+the parent, which stops its workers itself.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import sys
 
 from harness._cell import run_cell, warm_up
 from harness._grid import CellSpec
+from solvers._worker import exit_with_parent
 
 
 def serve(connection: multiprocessing.connection.Connection) -> None:
@@ -36,6 +39,7 @@ def serve(connection: multiprocessing.connection.Connection) -> None:
 
 def main() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    exit_with_parent(int(sys.argv[2]))
     serve(multiprocessing.connection.Connection(int(sys.argv[1])))
 
 

@@ -3,6 +3,8 @@
 Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``, ``show``.
 Other distributions add commands through the entry-point group ``harness.commands``: each entry point names a
 `click.Command` (or a ``typer.Typer`` app) and is imported only when its command is used or listed in help.
+A built-in command's module is imported only when the command runs or shows its own help: ``harness --help``
+lists the built-ins from their summaries here (`BUILTIN`), so that it starts at once.
 
 User errors (unknown names, unreadable files, an occupied output directory) end as one line on stderr saying
 what to do, with exit code 2; Ctrl-C ends with exit code 130.
@@ -12,22 +14,59 @@ from __future__ import annotations
 
 import importlib.metadata
 import sys
+from dataclasses import dataclass
 from typing import Any
 
 import click
-from rich.markup import escape
 
 from harness._cli_types import terminal
 
 #: Entry-point group through which other packages add ``harness`` subcommands.
 COMMANDS_GROUP = "harness.commands"
 
-_BUILTIN = {
-    "rigs": ("harness._cli_rigs", "rigs"),
-    "list": ("harness._cli_show", "list_command"),
-    "run": ("harness._cli_run", "run"),
-    "pack": ("harness._cli_pack", "pack"),
-    "show": ("harness._cli_show", "show"),
+
+@dataclass(frozen=True)
+class Builtin:
+    """A built-in command: where it is defined, and the first sentence of its help (the summary that
+    ``harness --help`` shows; a test keeps it equal to the command's own)."""
+
+    module: str
+    attribute: str
+    summary: str
+
+    def short_help(self, limit: int) -> str:
+        """The summary shortened to ``limit`` characters as click shortens a command's help."""
+        return click.Command(self.attribute, help=self.summary).get_short_help_str(limit)
+
+
+BUILTIN = {
+    "rigs": Builtin(
+        "harness._cli_rigs", "rigs", "Generate, inspect, warp, convert and fetch blendshape rigs."
+    ),
+    "list": Builtin(
+        "harness._cli_show",
+        "list_command",
+        "Solvers and transfers (availability with the reason, capabilities, versions), rig presets, warps.",
+    ),
+    "run": Builtin(
+        "harness._cli_run",
+        "run",
+        "Run the grid rigs x warps x solvers x packing parameters x repetitions; record every cell.",
+    ),
+    "pack": Builtin(
+        "harness._cli_pack",
+        "pack",
+        "Choose the reference expressions of RIG (any rig file or folder, a preset name, or a fetched rig's "
+        "name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per "
+        "expression (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and "
+        "materials), the pictures and the scan sheet session.html.",
+    ),
+    "show": Builtin(
+        "harness._cli_show",
+        "show",
+        "Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their "
+        "ratio to deformation transfer), the paper's claims held or not, problems.",
+    ),
 }
 
 
@@ -37,6 +76,8 @@ class UserError(click.ClickException):
     exit_code = 2
 
     def show(self, file: Any = None) -> None:
+        from rich.markup import escape
+
         terminal(stderr=True).print(f"[bold red]error:[/] {escape(self.format_message())}")
 
 
@@ -74,12 +115,12 @@ class HarnessGroup(click.Group):
     the error boundary that turns user errors into one line."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted({*_BUILTIN, *_plugin_entry_points()})
+        return sorted({*BUILTIN, *_plugin_entry_points()})
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        if cmd_name in _BUILTIN:
-            module, attribute = _BUILTIN[cmd_name]
-            return getattr(importlib.import_module(module), attribute)
+        if cmd_name in BUILTIN:
+            builtin = BUILTIN[cmd_name]
+            return getattr(importlib.import_module(builtin.module), builtin.attribute)
         entry = _plugin_entry_points().get(cmd_name)
         if entry is None:
             return None
@@ -90,26 +131,50 @@ class HarnessGroup(click.Group):
                 cmd_name, f"the {cmd_name!r} command ({entry.value}) failed to load: {error}"
             )
 
-    def invoke(self, ctx: click.Context) -> Any:
-        from harness._records import RecordsWriteError
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """The command list of ``harness --help``: built-ins by their summaries (not imported), plugins by
+        their own short help (imported, as click does)."""
+        names = self.list_commands(ctx)
+        limit = formatter.width - 6 - max(map(len, names), default=0)
+        rows = []
+        for name in names:
+            if name in BUILTIN:
+                rows.append((name, BUILTIN[name].short_help(limit)))
+                continue
+            command = self.get_command(ctx, name)
+            if command is not None and not command.hidden:
+                rows.append((name, command.get_short_help_str(limit)))
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
 
+    def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except RecordsWriteError as error:
-            raise UserError(
-                f"{error.strerror}; free space, then finish with: harness run --resume OUT"
-            ) from None
-        except (
-            ValueError,
-            FileNotFoundError,
-            IsADirectoryError,
-            NotADirectoryError,
-            PermissionError,
-        ) as error:
+        except OSError as error:
+            if _is_records_write_error(error):
+                raise UserError(
+                    f"{error.strerror}; free space, then finish with: harness run --resume OUT"
+                ) from None
+            if isinstance(error, _USER_OS_ERRORS):
+                raise UserError(_one_line(error)) from None
+            raise
+        except ValueError as error:
             raise UserError(_one_line(error)) from None
         except KeyboardInterrupt:
             terminal(stderr=True).print("[yellow]interrupted[/]")
             sys.exit(130)
+
+
+#: File errors a user can fix (a wrong path, a folder given for a file, no permission): one line each.
+_USER_OS_ERRORS = (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
+
+
+def _is_records_write_error(error: BaseException) -> bool:
+    """Whether the records store failed to write (checked without importing the store: a command that
+    never imported it cannot have raised its error)."""
+    records = sys.modules.get("harness._records")
+    return records is not None and isinstance(error, records.RecordsWriteError)
 
 
 def _one_line(error: BaseException) -> str:

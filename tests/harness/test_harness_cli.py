@@ -161,29 +161,53 @@ def test_show_summarises_a_run(tmp_path) -> None:
     assert_one_line_error(invoke("show", tmp_path / "nothing"), "no run.json here")
 
 
-def _pack(tmp_path, *extra: str, input: str | None = None) -> dict:
-    out = tmp_path / "pack"
+def _pack(out, *extra: str, input: str | None = None) -> dict:
     result = invoke("pack", "tiny", "--solver", "cpsat", "--jmax", "3", "--out", out, *extra, input=input)
     assert result.exit_code == 0, result.output
     return json.loads((out / "expressions.json").read_text())
 
 
 def test_pack_writes_exactly_the_documented_keys_and_one_mesh_per_expression(tmp_path) -> None:
-    document = _pack(tmp_path)
-    assert list(document) == ["rig", "solver", "params", "pairs", "expressions"]
+    document = _pack(tmp_path / "pack")
+    assert list(document) == [
+        "rig", "solver", "params", "sequence", "target", "pairs", "expressions", "excluded", "warnings"
+    ]  # fmt: skip
     assert document["rig"] == "tiny" and document["solver"] == "cpsat"
-    assert document["params"] == {"mu": 0.3, "alpha": 0.5, "beta": 0.0, "symmetry": True}
+    assert document["params"] == {
+        "mu": 0.3,
+        "alpha": 0.5,
+        "beta": 0.0,
+        "symmetry": True,
+        "importance": True,
+        "max_per_expression": None,
+        "extra_examples": False,
+        "together": [],
+        "apart": [],
+        "regions": None,
+    }
+    assert document["sequence"] == {
+        "mode": "sequence", "jmax": 3, "seed": 0, "time_limit": None, "timeout": None, "overlap": 0.0
+    }  # fmt: skip
+    assert document["target"] is None and document["excluded"] == []
     assert all(len(pair) == 2 for pair in document["pairs"])
     assert 1 <= len(document["expressions"]) <= 3
     for expression in document["expressions"]:
-        assert list(expression) == ["shapes", "extra_examples", "objective", "status"]
+        assert list(expression) == ["shapes", "extra_examples", "objective", "status", "files"]
         assert expression["status"] == "optimal"
+    assert isinstance(document["warnings"], list)
     rig = rigs.generate("tiny")
-    packing.check(rig, document["expressions"], mu=0.3)
+    packing.check(
+        rig,
+        document["expressions"],
+        pairs=document["pairs"],
+        overlap=document["sequence"]["overlap"],
+        **document["params"],
+    )
     meshes = sorted((tmp_path / "pack").glob("expression_*.obj"))
     assert [m.name for m in meshes] == [
         f"expression_{i:02d}.obj" for i in range(1, len(document["expressions"]) + 1)
     ]
+    assert [e["files"]["mesh"] for e in document["expressions"]] == [m.name for m in meshes]
     first = np.array(
         [line.split()[1:] for line in meshes[0].read_text().splitlines() if line.startswith("v ")], float
     )
@@ -192,14 +216,15 @@ def test_pack_writes_exactly_the_documented_keys_and_one_mesh_per_expression(tmp
 
 
 def test_pack_rejections_remove_a_shape_from_that_expression_only(tmp_path) -> None:
-    chosen = _pack(tmp_path)["expressions"][0]["shapes"]
-    rejected = _pack(tmp_path, "--reject", f"1:{chosen[0]}")
+    chosen = _pack(tmp_path / "plain")["expressions"][0]["shapes"]
+    rejected = _pack(tmp_path / "rejected", "--reject", f"1:{chosen[0]}")
     assert chosen[0] not in rejected["expressions"][0]["shapes"]
+    assert rejected["expressions"][0]["status"] == "optimal"  # optimal once the rejected shape is out
     assert (
         any(chosen[0] in e["shapes"] for e in rejected["expressions"][1:])
         or len(rejected["expressions"]) == 3
     )
-    interactive = _pack(tmp_path, "--refine", input="n\n" + "y\n" * 100)
+    interactive = _pack(tmp_path / "interactive", "--refine", input="n\n" + "y\n" * 100)
     assert interactive["expressions"][0]["shapes"] != chosen
     assert_one_line_error(
         invoke("pack", "tiny", "--out", tmp_path / "x", "--reject", "1:noSuchShape"), "noSuchShape"
@@ -228,7 +253,7 @@ def test_pack_reads_a_target_neutral_obj(tmp_path) -> None:
     rig = rigs.generate("tiny")
     target = tmp_path / "target.obj"
     write_obj(target, rig.neutral * np.array([1.3, 1.0, 1.0]), rig.triangles, comment="wider face")
-    document = _pack(tmp_path, "--target", target)
+    document = _pack(tmp_path / "pack", "--target", target)
     assert document["expressions"] and document["pairs"]
     short = tmp_path / "short.obj"
     write_obj(short, rig.neutral[:-1], rig.triangles[:0])

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 
 import pytest
 
 import harness
 import packing
-from harness import _plugins
+from harness import _outdir, _plugins, _records
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
 
@@ -146,28 +148,38 @@ def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
     )
 
 
+class _FullDisk:
+    """The `os` module as `harness._outdir` sees it on a full disk: data is written, fsync fails."""
+
+    def __getattr__(self, name):
+        return getattr(os, name)
+
+    @staticmethod
+    def fsync(descriptor):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+
 def test_a_full_disk_stops_the_run_with_finished_cells_kept(rig_file, tmp_path, monkeypatch, inline) -> None:
-    import errno
+    real = _records.atomic_write
+    parts = []
 
-    from harness import _records
+    def second_part_hits_a_full_disk(path, data):
+        if path.parent.name == "records":
+            parts.append(path)
+            if len(parts) == 2:
+                monkeypatch.setattr(_outdir, "os", _FullDisk())
+        try:
+            return real(path, data)
+        finally:
+            monkeypatch.setattr(_outdir, "os", os)
 
-    real = _records.pq.write_table
-    calls = []
-
-    def fail_second(table, where, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            where.write(b"PAR1 torn")
-            raise OSError(errno.ENOSPC, "No space left on device")
-        return real(table, where, **kwargs)
-
-    monkeypatch.setattr(_records.pq, "write_table", fail_second)
+    monkeypatch.setattr(_records, "atomic_write", second_part_hits_a_full_disk)
     config = _config(rig_file, solvers=("greedy", "highs", "cpsat"), transfers=())
-    with pytest.raises(harness.RecordsWriteError, match="disk full"):
+    with pytest.raises(harness.RecordsWriteError, match=r"could not write .*records.*disk full"):
         harness.run_grid(config, tmp_path, make_executor=inline)
-    assert sorted(p.name.endswith(".parquet") for p in (tmp_path / "records").iterdir()) == [True]
+    assert [path.name for path in (tmp_path / "records").iterdir()] == [parts[0].name]
     assert harness.read_run(tmp_path)["state"] == "failed"
-    monkeypatch.setattr(_records.pq, "write_table", real)
+    monkeypatch.setattr(_records, "atomic_write", real)
     resumed = harness.run_grid(config, tmp_path, make_executor=inline, resume=True)
     assert resumed.already_done == 1 and resumed.statuses == {"ok": 2}
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import errno
 import math
+import os
+import shutil
 
 import pyarrow.parquet as pq
 import pytest
@@ -11,9 +13,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import harness
-from harness import _records
+from harness import _outdir, _records
 from harness._durations import format_duration, parse_duration
-from harness._grid import CellSpec, RunConfig
+from harness._grid import CellSpec, RunConfig, rig_digest
 
 
 @pytest.mark.parametrize(
@@ -79,9 +81,10 @@ def _cell_rows(cell: str) -> list[dict]:
 def test_part_files_round_trip_in_the_documented_schema(tmp_path) -> None:
     for cell in ("b" * 16, "a" * 16):
         _records.write_part(tmp_path, cell, _cell_rows(cell))
-    assert _records.finished_cells(tmp_path) == {"a" * 16, "b" * 16}
+    assert _records.check_parts(tmp_path) == ({"a" * 16, "b" * 16}, {})
     table = pq.read_table(_records.part_path(tmp_path, "a" * 16))
     assert table.schema.names == list(harness.RECORD_COLUMNS)
+    assert table.schema.metadata == {b"harness.cell": b"a" * 16, b"harness.rows": b"3"}
     frame = harness.read_records(tmp_path)
     assert list(frame["cell"]) == ["a" * 16] * 3 + ["b" * 16] * 3
     assert list(frame["kind"][:3]) == ["cell", "expression", "transfer"]
@@ -94,26 +97,67 @@ def test_unknown_record_column_is_refused() -> None:
         _records.records_table([{"cell": "x", "colour": "red"}])
 
 
-def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
-    def write_half_then_fail(table, where, **kwargs):
-        where.write(b"PAR1 half a parquet file")
+class _FullDisk:
+    """The `os` module as `harness._outdir` sees it on a full disk: data is written, fsync fails."""
+
+    def __getattr__(self, name):
+        return getattr(os, name)
+
+    @staticmethod
+    def fsync(descriptor):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(_records.pq, "write_table", write_half_then_fail)
+
+def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
+    monkeypatch.setattr(_outdir, "os", _FullDisk())
     with pytest.raises(harness.RecordsWriteError, match=r"could not write .*aaaa.parquet: disk full"):
         _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
     assert list((tmp_path / "records").iterdir()) == []
-    assert _records.finished_cells(tmp_path) == set()
+    assert _records.check_parts(tmp_path) == (set(), {})
 
 
-def test_partial_files_are_invisible_and_removed_on_resume(tmp_path) -> None:
+def test_temporary_files_are_invisible_and_removed_on_resume(tmp_path) -> None:
     _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
-    stale = tmp_path / "records" / f".{'b' * 16}.parquet.123.partial"
+    stale = tmp_path / "records" / f".{'b' * 16}.parquet.x1y2z3.tmp"
     stale.write_bytes(b"PAR1 torn")
-    assert _records.finished_cells(tmp_path) == {"a" * 16}
+    users = [tmp_path / "records" / ".mine.txt.abc.tmp", tmp_path / "records" / "notes.parquet"]
+    for path in users:
+        path.write_bytes(b"the user's")
+    assert _records.check_parts(tmp_path) == ({"a" * 16}, {})
     assert len(harness.read_records(tmp_path)) == 3
     assert _records.remove_partial_files(tmp_path) == [stale]
-    assert not stale.exists()
+    assert not stale.exists() and all(path.exists() for path in users)
+
+
+@pytest.mark.parametrize(
+    ("damage", "problem"),
+    [
+        (lambda path, data: path.write_bytes(data[: len(data) // 2]), "unreadable"),
+        (lambda path, data: path.write_bytes(data.replace(b"greedy", b"greedx", 1)), "CRC checksum"),
+        (lambda path, data: path.write_bytes(b""), "unreadable"),
+        (lambda path, data: shutil.copy(path.with_name("b" * 16 + ".parquet"), path), "another cell"),
+    ],
+    ids=["truncated", "flipped-bit", "empty", "renamed-copy"],
+)
+def test_a_damaged_part_file_is_found_and_named(tmp_path, damage, problem) -> None:
+    for cell in ("a" * 16, "b" * 16):
+        _records.write_part(tmp_path, cell, _cell_rows(cell))
+    path = _records.part_path(tmp_path, "a" * 16)
+    damage(path, path.read_bytes())
+    done, broken = _records.check_parts(tmp_path)
+    assert done == {"b" * 16} and list(broken) == [path] and problem in broken[path]
+    moved = _records.set_aside(tmp_path, path)
+    assert moved == tmp_path / "broken-parts" / path.name and moved.exists() and not path.exists()
+
+
+def test_reading_a_truncated_part_is_one_line_naming_it(tmp_path) -> None:
+    _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
+    path = _records.part_path(tmp_path, "a" * 16)
+    path.write_bytes(path.read_bytes()[:300])
+    expected = rf"^{path}: not a readable part file .* --resume"
+    with pytest.raises(_records.RecordsReadError, match=expected) as e:
+        harness.read_records(tmp_path)
+    assert "\n" not in str(e.value)
 
 
 def test_reading_an_empty_run_says_where_it_looked(tmp_path) -> None:
@@ -141,16 +185,53 @@ def test_grid_is_the_product_of_its_axes_with_solvers_innermost() -> None:
 
 
 def test_cell_ids_are_stable_and_depend_on_every_field() -> None:
-    cell = _config().cells()[0]
+    cell = _config(together=(("a", "b"),), regions=(("lip", (3, 4)),)).cells({"r1": "sha256:1"})[0]
     assert CellSpec.from_dict(cell.to_dict()) == cell
     assert CellSpec.from_dict(cell.to_dict()).id == cell.id
-    for change in ({"mu": 0.31}, {"time_limit": 1.0}, {"j_values": (2,)}, {"transfers": ()}, {"solver": "x"}):
+    for change in (
+        {"mu": 0.31},
+        {"time_limit": 1.0},
+        {"j_values": (2,)},
+        {"transfers": ()},
+        {"solver": "x"},
+        {"rig_digest": "sha256:2"},
+        {"together": ()},
+        {"apart": (("a", "b"),)},
+        {"regions": {"lip": [3, 5]}},
+    ):
         changed = CellSpec.from_dict({**cell.to_dict(), **change})
         assert changed.id != cell.id
 
 
+def test_the_rig_digest_follows_the_content_not_the_path(tmp_path) -> None:
+    first, copy, other = tmp_path / "a.npz", tmp_path / "b.npz", tmp_path / "c.npz"
+    first.write_bytes(b"rig one")
+    copy.write_bytes(b"rig one")
+    other.write_bytes(b"rig two")
+    assert rig_digest(str(first), 0) == rig_digest(str(copy), 0) != rig_digest(str(other), 0)
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (folder / "neutral.obj").write_text("v 0 0 0\n")
+    before = rig_digest(str(folder), 0)
+    (folder / "smile.obj").write_text("v 0 0 1\n")
+    assert rig_digest(str(folder), 0) != before
+    gltf = tmp_path / "face.gltf"
+    gltf.write_text('{"buffers": [{"uri": "face.bin"}]}')
+    (tmp_path / "face.bin").write_bytes(b"one")
+    before = rig_digest(str(gltf), 0)
+    (tmp_path / "face.bin").write_bytes(b"two")
+    assert rig_digest(str(gltf), 0) != before
+    assert rig_digest("tiny", 0) == rig_digest("tiny", 0) != rig_digest("tiny", 1) != rig_digest("male", 1)
+
+
+def test_the_rig_digest_never_reads_a_fifo(tmp_path) -> None:
+    fifo = tmp_path / "rig.npz"
+    os.mkfifo(fifo)
+    assert rig_digest(str(fifo), 0).startswith("sha256:")
+
+
 def test_run_config_round_trips_through_json_and_rejects_unknown_keys() -> None:
-    config = _config(cap=(None, 3), time_limit=2.5)
+    config = _config(cap=(None, 3), time_limit=2.5, apart=(("a", "b"),), regions=(("lip", (1, 2)),))
     assert RunConfig.from_dict(config.to_dict()) == config
     with pytest.raises(ValueError, match=r"unknown keys \['colour'\]"):
         RunConfig.from_dict({**config.to_dict(), "colour": 1})

@@ -1,0 +1,295 @@
+"""The paper's claims (Carrigan et al. 2020, sec. 5.2), held or not, computed from a run's records.
+
+Each claim names the cells it compares, the numbers it reads from them and the rule that decides it; a run
+without the cells a claim needs reports it as ``not measured`` and says which cells are missing. Values are
+medians over repetitions; cells are compared only with cells of the same rig, warp and other settings.
+
+============================ ==========================================================================
+claim                        rule (constants of this module)
+============================ ==========================================================================
+greedy/optimal overlap       shapes both chose / shapes the optimal solver chose, in the first 5, 10, 20
+                             expressions (Table 3), all within `SHARED_RANGE` (67%-98%); points where
+                             the optimal solver had used every shape already are left out
+optimal below greedy         ``ebfr`` RMS with the optimal solver's expressions below greedy's at more
+                             than half of the (rig, warp, J) points, median relative difference < 0
+importance lowers RMS        the same, optimal solver with importance against without (Fig. 9)
+alpha = 0.5 best or near     per rig and warp, the mean RMS over J at alpha 0.5 within `ALPHA_NEAR` of
+                             the best alpha run (Fig. 9)
+20 expressions cover         shapes covered after 20 expressions (optimal and greedy) within
+                             `COVERAGE_TOLERANCE` of 67% (female), 86% (male), 95% (toon)
+symmetry barely matters      the optimal solver's RMS with and without symmetry differ by at most
+                             `SYMMETRY_CHANGE` at every (rig, warp, J) point
+============================ ==========================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from harness._overlap import overlap_table
+
+#: The transfer the claims read (the paper's example-based facial rigging).
+CLAIM_TRANSFER = "ebfr"
+#: The paper's greedy solver (Algorithm 2).
+GREEDY = "greedy"
+#: Exact solvers, the first present in a run standing for "optimal".
+OPTIMAL_SOLVERS: tuple[str, ...] = ("cpsat", "highs", "scip", "cbc-pulp", "cbc-mip", "naive-pulp-cbc")
+#: The paper's default importance mix (eq. 4) and the settings of its main comparisons.
+PAPER_ALPHA = 0.5
+#: Table 3: between 67% and 98% of the optimal method's shapes were also chosen by greedy.
+SHARED_RANGE = (0.67, 0.98)
+#: "alpha = 0.5 was found to be the best trade-off": near means at most this much above the best alpha.
+ALPHA_NEAR = 0.02
+#: Sec. 5.2: with 20 expressions both methods covered about 67% (Female), 86% (Male) and 95% (Toon).
+PAPER_COVERAGE = {"female": 0.67, "male": 0.86, "toon": 0.95}
+COVERAGE_TOLERANCE = 0.05
+COVERAGE_EXPRESSIONS = 20
+#: "adding the symmetry constraint to the optimal solution had basically no influence on the RMS-error".
+SYMMETRY_CHANGE = 0.02
+
+HELD, NOT_HELD, NOT_MEASURED = "held", "not held", "not measured"
+CLAIM_COLUMNS: tuple[str, ...] = ("claim", "paper", "measured", "verdict")
+
+#: Columns that pair cells across solvers or settings (everything but the compared field and solver).
+_CASE = ("rig", "rig_seed", "warp", "mu", "beta", "cap", "jmax", "time_limit")
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One row of the claims table."""
+
+    claim: str
+    paper: str
+    measured: str
+    verdict: str
+
+
+def claims_table(records: pd.DataFrame) -> pd.DataFrame:
+    """The paper's claims as a table of ``claim``, ``paper``, ``measured`` and ``verdict``.
+
+    Parameters
+    ----------
+    records : DataFrame
+        A run's records (`harness.read_records`).
+
+    Returns
+    -------
+    DataFrame with `CLAIM_COLUMNS`, one row per claim in the order of the module documentation; the
+    verdict is ``held``, ``not held`` or ``not measured``.
+    """
+    checks: list[Callable[[pd.DataFrame], Claim]] = [
+        _shared_shapes,
+        _optimal_below_greedy,
+        _importance_lowers_rms,
+        _alpha_best,
+        _coverage,
+        _symmetry_barely_matters,
+    ]
+    return pd.DataFrame([vars(check(records)) for check in checks], columns=list(CLAIM_COLUMNS))
+
+
+def _optimal_solver(records: pd.DataFrame) -> str | None:
+    cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
+    present = set(cells["solver"])
+    return next((solver for solver in OPTIMAL_SOLVERS if solver in present), None)
+
+
+def _paper_setting(rows: pd.DataFrame, **changes: object) -> pd.DataFrame:
+    """Rows with the paper's setting (importance and symmetry on, alpha 0.5), some fields changed."""
+    wanted: dict[str, object] = {"importance": True, "symmetry": True, "alpha": PAPER_ALPHA, **changes}
+    mask = np.ones(len(rows), dtype=bool)
+    for column, value in wanted.items():
+        if value is not None:
+            mask &= rows[column].astype(object).to_numpy() == value
+    return rows[mask]
+
+
+def _rms(records: pd.DataFrame, solver: str | None, **changes: object) -> pd.Series:
+    """Median ``ebfr`` RMS over repetitions per case and J, for one solver and setting."""
+    rows = records[
+        (records["kind"] == "transfer")
+        & (records["status"] == "ok")
+        & (records["transfer"] == CLAIM_TRANSFER)
+        & records["rms"].notna()
+        & (records["solver"] == solver)
+    ]
+    rows = _paper_setting(rows, **changes)
+    if rows.empty:
+        return pd.Series(dtype=float)
+    return rows.groupby([*_CASE, "j"], dropna=False)["rms"].median().astype(float)
+
+
+def _lower(better: pd.Series, worse: pd.Series) -> tuple[int, int, float]:
+    """Points where ``better`` < ``worse``, points compared, median relative difference."""
+    both = pd.concat([better, worse], axis=1, keys=["a", "b"], join="inner").dropna()
+    if both.empty:
+        return 0, 0, float("nan")
+    relative = (both["a"] - both["b"]) / both["b"]
+    return int((relative < 0).sum()), len(both), float(relative.median())
+
+
+def _compare(
+    title: str, paper: str, better: pd.Series, worse: pd.Series, names: tuple[str, str], missing: str
+) -> Claim:
+    wins, count, median = _lower(better, worse)
+    if count == 0:
+        return Claim(title, paper, missing, NOT_MEASURED)
+    held = wins * 2 > count and median < 0
+    measured = (
+        f"{names[0]} below {names[1]} at {wins} of {count} (rig, warp, J) points; "
+        f"median difference {median:+.1%}"
+    )
+    return Claim(title, paper, measured, HELD if held else NOT_HELD)
+
+
+def _shared_shapes(records: pd.DataFrame) -> Claim:
+    title = "greedy and optimal choose similar, not identical shapes"
+    paper = "Table 3: 67%-98% of the optimal method's shapes also chosen by greedy (first 5, 10, 20 expr.)"
+    optimal = _optimal_solver(records)
+    overlap = overlap_table(records)
+    if optimal is None or overlap.empty:
+        return Claim(title, paper, f"needs ok cells of {GREEDY} and an optimal solver", NOT_MEASURED)
+    pairs = overlap[
+        (overlap["solver_a"].isin([optimal, GREEDY]))
+        & (overlap["solver_b"].isin([optimal, GREEDY]))
+        & (overlap["solver_a"] != overlap["solver_b"])
+    ]
+    pairs = _paper_setting(pairs)
+    pairs = pairs[pairs["repetition"] == pairs["repetition"].min()] if not pairs.empty else pairs
+    if pairs.empty:
+        return Claim(title, paper, f"needs {GREEDY} and {optimal} on the same rigs", NOT_MEASURED)
+    chosen = np.where(pairs["solver_a"] == optimal, pairs["shapes_a"], pairs["shapes_b"]).astype(float)
+    cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
+    packable = (
+        (cells["n_shapes"].astype(float) - cells["n_empty"].astype(float).fillna(0.0))
+        .groupby(cells["rig"])
+        .max()
+    )
+    # Once the optimal solver has used every shape, greedy shares them all: no evidence either way.
+    open_points = chosen < pairs["rig"].map(packable).to_numpy(dtype=float)
+    pairs, chosen = pairs[open_points], chosen[open_points]
+    if pairs.empty:
+        return Claim(title, paper, "every compared sequence had used every shape already", NOT_MEASURED)
+    share = pairs["shared"].to_numpy(dtype=float) / np.where(chosen > 0, chosen, np.nan)
+    labels = [f"{rig} {first} ex." for rig, first in zip(pairs["rig"], pairs["first"], strict=True)]
+    low, high = int(np.nanargmin(share)), int(np.nanargmax(share))
+    measured = (
+        f"{GREEDY}/{optimal}: {share[low]:.0%} ({labels[low]}) to {share[high]:.0%} ({labels[high]}), "
+        f"{len(share)} value{'s' if len(share) != 1 else ''}"
+    )
+    lower, upper = SHARED_RANGE
+    held = bool(np.all((np.round(share, 2) >= lower) & (np.round(share, 2) <= upper)))
+    return Claim(title, paper, measured, HELD if held else NOT_HELD)
+
+
+def _optimal_below_greedy(records: pd.DataFrame) -> Claim:
+    title = "optimal expressions transfer better than greedy's"
+    paper = "Fig. 10: ebfr RMS lower with the optimal solver's training expressions"
+    optimal = _optimal_solver(records)
+    return _compare(
+        title,
+        paper,
+        _rms(records, optimal),
+        _rms(records, GREEDY),
+        (optimal or "optimal", GREEDY),
+        f"needs {CLAIM_TRANSFER} records of {GREEDY} and an optimal solver",
+    )
+
+
+def _importance_lowers_rms(records: pd.DataFrame) -> Claim:
+    title = "importance weights lower the transfer error"
+    paper = "Fig. 9: ebfr RMS lower with importance (alpha 0.5) than without"
+    optimal = _optimal_solver(records)
+    return _compare(
+        title,
+        paper,
+        _rms(records, optimal),
+        _rms(records, optimal, importance=False, alpha=None),
+        ("importance", "none"),
+        "needs cells without importance (--variations claims or --importance both)",
+    )
+
+
+def _alpha_best(records: pd.DataFrame) -> Claim:
+    title = "alpha = 0.5 is the best importance mix or near it"
+    paper = "Fig. 9: weighting displacement and distortion equally (alpha 0.5) is the best trade-off"
+    optimal = _optimal_solver(records)
+    by_alpha = _rms(records, optimal, alpha=None)
+    if by_alpha.empty:
+        return Claim(title, paper, "needs ebfr records of an optimal solver", NOT_MEASURED)
+    rows = records[(records["kind"] == "transfer") & (records["solver"] == optimal)]
+    rows = _paper_setting(rows, alpha=None)
+    alphas = sorted(set(rows["alpha"].astype(float)))
+    if PAPER_ALPHA not in alphas or len(alphas) < 2:
+        return Claim(
+            title, paper, "needs alpha 0.5 and other alphas (--variations claims or --alpha)", NOT_MEASURED
+        )
+    table = (
+        rows[rows["status"] == "ok"]
+        .groupby([*_CASE, "j", "alpha"], dropna=False)["rms"]
+        .median()
+        .astype(float)
+        .unstack("alpha")
+        .dropna()
+    )
+    parts, held = [], True
+    for case, block in table.groupby(["rig", "warp"], sort=True):
+        means = block.mean()
+        best = float(means.min())
+        excess = float(means[PAPER_ALPHA]) / best - 1.0
+        held &= excess <= ALPHA_NEAR
+        parts.append(f"{case[0]}/{case[1]}: best alpha {means.idxmin():g}, alpha 0.5 {excess:+.1%}")
+    if not parts:
+        return Claim(title, paper, "no J value with every alpha", NOT_MEASURED)
+    return Claim(title, paper, "; ".join(parts), HELD if held else NOT_HELD)
+
+
+def _coverage(records: pd.DataFrame) -> Claim:
+    title = f"{COVERAGE_EXPRESSIONS} expressions cover most shapes"
+    paper = "Sec. 5.2: about 67% (female), 86% (male), 95% (toon) of the shapes with 20 expressions"
+    optimal = _optimal_solver(records)
+    rows = records[
+        (records["kind"] == "expression")
+        & records["solver"].isin([GREEDY, optimal])
+        & records["rig"].isin(list(PAPER_COVERAGE))
+    ]
+    rows = _paper_setting(rows)
+    if rows.empty:
+        return Claim(title, paper, "needs expressions of female, male or toon", NOT_MEASURED)
+    rows = rows[rows["expression"] <= COVERAGE_EXPRESSIONS]
+    last = rows.sort_values("expression").groupby("cell").tail(1)
+    share = last.groupby(["rig", "warp", "solver"])["coverage"].median().astype(float)
+    parts, held = [], True
+    for (rig, warp, solver), value in share.items():
+        held &= abs(value - PAPER_COVERAGE[rig]) <= COVERAGE_TOLERANCE
+        parts.append(f"{rig}/{warp} {solver} {value:.0%}")
+    return Claim(title, paper, ", ".join(parts), HELD if held else NOT_HELD)
+
+
+def _symmetry_barely_matters(records: pd.DataFrame) -> Claim:
+    title = "symmetry barely changes the optimal solver's transfer error"
+    paper = "Sec. 5.2: the symmetry constraint had basically no influence on the optimal RMS"
+    optimal = _optimal_solver(records)
+    both = pd.concat(
+        [_rms(records, optimal), _rms(records, optimal, symmetry=False)],
+        axis=1,
+        keys=["on", "off"],
+        join="inner",
+    ).dropna()
+    if both.empty:
+        return Claim(
+            title,
+            paper,
+            "needs cells without symmetry (--variations claims or --symmetry both)",
+            NOT_MEASURED,
+        )
+    change = ((both["off"] - both["on"]) / both["on"]).abs()
+    measured = (
+        f"largest change {change.max():.1%}, median {change.median():.1%} "
+        f"over {len(change)} (rig, warp, J) points"
+    )
+    return Claim(title, paper, measured, HELD if float(change.max()) <= SYMMETRY_CHANGE else NOT_HELD)

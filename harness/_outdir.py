@@ -1,0 +1,383 @@
+"""Output folders that only ever replace or remove files the harness wrote itself.
+
+A folder the harness writes into holds a manifest, ``.harness-manifest.json``::
+
+    {"format": "harness-output-folder", "version": 1,
+     "files": {"expressions.json": {"kind": "pack", "sha256": "<hex>"}, ...}}
+
+listing every file the harness wrote there (a path relative to the folder, ``/``-separated), the kind of
+session that wrote it (``pack``, ``run``, ...) and the SHA-256 of what it wrote. The files of one kind are a
+*session*. `claim` opens a folder for a session of one kind:
+
+* a new or empty folder is taken;
+* a folder holding a session of that kind is refused unless ``force`` (the session is then replaced:
+  rewritten files are overwritten, `OutputFolder.remove_stale` removes the leftovers);
+* a non-empty folder without a manifest is refused unless ``force`` (its files are then left alone);
+* a folder that is, contains or lies inside a protected path (the input rig's file or folder) is always
+  refused, so that writing the output can never touch the input.
+
+Whatever ``force`` says, a file is overwritten or removed only when the manifest lists it for this kind
+and its content is still what the harness wrote; a file changed since is left in place with a
+`ChangedFileWarning`. Every write is atomic (`atomic_write`): a unique temporary file in the same folder,
+flushed to disk, then renamed over the target, so a reader never sees half a file. One process writes a
+folder's manifest at a time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Iterable
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+MANIFEST_NAME = ".harness-manifest.json"
+MANIFEST_FORMAT = "harness-output-folder"
+MANIFEST_VERSION = 1
+
+
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Permissions of new files (a temporary file is created private): what ``open()`` would give.
+_FILE_MODE = 0o666 & ~_current_umask()
+
+
+class OutputFolderError(ValueError):
+    """An output folder the harness may not write into, or a file in it the harness may not replace."""
+
+
+class ChangedFileWarning(UserWarning):
+    """A file the harness wrote was changed since, so it is left in place instead of being removed."""
+
+
+def atomic_write(path: Path, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` so that ``path`` holds either its old content or all of the new one.
+
+    The data goes to a uniquely named temporary file in the same folder, is flushed to disk (``fsync``)
+    and renamed over ``path`` (``os.replace``); on any failure the temporary file is removed and
+    ``path`` is unchanged. Text is written as UTF-8.
+
+    Raises
+    ------
+    OSError
+        When the folder is not writable or the disk is full.
+    """
+    path = Path(path)
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(descriptor, "wb") as handle:
+            os.fchmod(handle.fileno(), _FILE_MODE)
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    _sync_folder(path.parent)
+    return path
+
+
+def _write(path: Path, payload: bytes) -> Path:
+    """`atomic_write` into the output folder, creating subfolders; a failure is one `OutputFolderError`."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return atomic_write(path, payload)
+    except OSError as error:
+        raise OutputFolderError(
+            f"{path}: cannot write ({error.strerror or error}); check the free space and permissions"
+        ) from None
+
+
+def _sync_folder(folder: Path) -> None:
+    """Flush a folder's entries (the rename) to disk where the platform allows it."""
+    try:
+        descriptor = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(descriptor)
+    except OSError:
+        pass  # some file systems cannot sync a folder; the rename is still atomic
+    finally:
+        os.close(descriptor)
+
+
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's content, read in blocks."""
+    digest = hashlib.sha256()
+    with Path(path).open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+class OutputFolder:
+    """A claimed output folder: writes files atomically and keeps its manifest (see the module docstring).
+
+    Made by `claim`. ``files`` maps each listed file (relative name) to its ``{"kind", "sha256"}`` entry,
+    the files of other kinds included.
+    """
+
+    def __init__(self, path: Path, kind: str, files: dict[str, dict[str, str]]) -> None:
+        self.path = path
+        self.kind = kind
+        self.files = files
+
+    @property
+    def manifest(self) -> Path:
+        """The manifest file of the folder."""
+        return self.path / MANIFEST_NAME
+
+    def write_file(self, name: str, data: bytes | str) -> Path:
+        """Write ``data`` as ``name`` (relative to the folder) atomically, record it and save the manifest.
+
+        Raises
+        ------
+        OutputFolderError
+            When ``name`` exists and is not this session's unchanged file, or the write fails (naming the
+            file and the reason, e.g. a full disk).
+        """
+        name = _checked_name(name)
+        self.check_free([name])
+        self._check_inside(name)
+        path = self.path / name
+        payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+        _write(path, payload)
+        self.files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
+        self.save()
+        return path
+
+    def record(self, path: Path | str) -> str:
+        """List a file the caller wrote into the folder by other means; `save` persists the manifest.
+
+        Parameters
+        ----------
+        path : path
+            Inside the folder: absolute, or relative to the folder.
+
+        Returns
+        -------
+        str
+            Its name in the manifest.
+
+        Raises
+        ------
+        OutputFolderError
+            For a path outside the folder, a symbolic link, or anything but a regular file.
+        """
+        path = Path(path)
+        full = path if path.is_absolute() else self.path / path
+        try:
+            name = full.relative_to(self.path).as_posix()
+        except ValueError:
+            raise OutputFolderError(f"{full}: not inside the output folder {self.path}") from None
+        name = _checked_name(name)
+        full = self.path / name
+        self._check_inside(name)
+        if full.is_symlink() or not full.is_file():
+            raise OutputFolderError(f"{full}: not a regular file, so it cannot be recorded as output")
+        self.files[name] = {"kind": self.kind, "sha256": file_sha256(full)}
+        return name
+
+    def owns(self, name: str) -> bool:
+        """Whether ``name`` is this session's file and still holds what the harness wrote."""
+        entry = self.files.get(name)
+        path = self.path / name
+        if entry is None or entry["kind"] != self.kind or not self._inside(name):
+            return False
+        return not path.is_symlink() and path.is_file() and file_sha256(path) == entry["sha256"]
+
+    def check_free(self, names: Iterable[str]) -> None:
+        """Every name is absent or this session's unchanged file (call before writing several files).
+
+        Raises
+        ------
+        OutputFolderError
+            For the first name taken by a file the harness did not write (or that was changed since).
+        """
+        for name in map(_checked_name, names):
+            path = self.path / name
+            if os.path.lexists(path) and not self.owns(name):
+                raise OutputFolderError(
+                    f"{path}: exists and was not written by harness {self.kind} (or was changed since); "
+                    "move it away or choose another output folder"
+                )
+
+    def remove_stale(self, keep: Iterable[str]) -> list[Path]:
+        """Remove this session's listed files not in ``keep`` (e.g. meshes of a longer earlier packing).
+
+        Only files listed for this kind and unchanged since the harness wrote them are removed. A listed
+        file that was changed (or replaced by a link or a folder, or reached through a linked folder) is
+        left in place with a `ChangedFileWarning` and dropped from the manifest: it is the user's now. The
+        manifest is saved.
+
+        Returns
+        -------
+        list of Path
+            The removed files.
+        """
+        keep = set(keep)
+        removed = []
+        for name in sorted(self.files):
+            if name in keep or self.files[name]["kind"] != self.kind:
+                continue
+            path = self.path / name
+            if self.owns(name):
+                path.unlink()
+                removed.append(path)
+            elif os.path.lexists(path):
+                why = "changed since harness " + self.kind + " wrote it" if self._inside(name) else "linked"
+                warnings.warn(f"{path}: {why}; left in place", ChangedFileWarning, stacklevel=2)
+            del self.files[name]
+        self.save()
+        return removed
+
+    def _inside(self, name: str) -> bool:
+        """Whether ``name``'s folder is inside the output folder (no linked folder leads out of it)."""
+        return (self.path / name).parent.resolve() == (self.path.resolve() / name).parent
+
+    def _check_inside(self, name: str) -> None:
+        if not self._inside(name):
+            raise OutputFolderError(
+                f"{self.path / name}: a folder on its path links out of {self.path}; remove the link"
+            )
+
+    def save(self) -> Path:
+        """Write the manifest (atomically).
+
+        Raises
+        ------
+        OutputFolderError
+            When it cannot be written (naming the file and the reason).
+        """
+        document = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION, "files": self.files}
+        return _write(self.manifest, (json.dumps(document, indent=2, sort_keys=True) + "\n").encode())
+
+
+def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ()) -> OutputFolder:
+    """Open ``folder`` for a session of ``kind``, creating it (rules in the module docstring).
+
+    Nothing is removed here: replacing a session is `OutputFolder.write_file` over its unchanged files and
+    `OutputFolder.remove_stale` for the rest.
+
+    Parameters
+    ----------
+    folder : Path
+    kind : str
+        The session kind (``pack``, ``run``, ...).
+    force : bool
+        Replace a session of this kind, or write beside the files of a folder without a manifest.
+    protect : iterable of Path
+        Inputs the output must stay apart from: the folder may not be, contain or lie inside any of them.
+
+    Raises
+    ------
+    OutputFolderError
+        One line naming the folder, what is wrong and how to proceed.
+    """
+    folder = Path(folder)
+    _check_apart(folder, protect)
+    if folder.exists() and not folder.is_dir():
+        raise OutputFolderError(f"{folder}: exists and is not a folder; choose another output folder")
+    files: dict[str, dict[str, str]] = {}
+    if folder.is_dir():
+        files, problem = _read_manifest(folder / MANIFEST_NAME)
+        if problem and not force:
+            raise OutputFolderError(
+                f"{folder}: {problem}; choose another output folder, or --force to write beside its files "
+                "(harness only ever replaces files it wrote)"
+            )
+        session = sorted(
+            name for name, entry in files.items() if entry["kind"] == kind and os.path.lexists(folder / name)
+        )
+        if session and not force:
+            listed = ", ".join(session[:3]) + (", ..." if len(session) > 3 else "")
+            raise OutputFolderError(
+                f"{folder}: holds a harness {kind} ({listed}); use --force to replace it, "
+                "or choose another output folder"
+            )
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputFolderError(
+            f"{folder}: cannot create the output folder ({error.strerror or error})"
+        ) from None
+    return OutputFolder(folder, kind, files)
+
+
+def _check_apart(folder: Path, protect: Iterable[Path]) -> None:
+    """Refuse an output folder that is, contains or lies inside a protected input path."""
+    resolved = folder.resolve()
+    for guarded in protect:
+        target = Path(guarded).resolve()
+        if resolved == target:
+            relation = "is"
+        elif target.is_relative_to(resolved):
+            relation = "contains"
+        elif resolved.is_relative_to(target):
+            relation = "lies inside"
+        else:
+            continue
+        raise OutputFolderError(
+            f"{folder}: {relation} the input {guarded}; choose an output folder apart from the inputs"
+        )
+
+
+def _read_manifest(path: Path) -> tuple[dict[str, dict[str, str]], str]:
+    """The manifest's file entries, and what makes the folder not ours ("" when it is ours or empty)."""
+    folder = path.parent
+    if not os.path.lexists(path):
+        others = next(folder.iterdir(), None)
+        return {}, "" if others is None else "is not empty and holds no harness output"
+    try:
+        if path.is_symlink() or not path.is_file():
+            raise ValueError("not a regular file")
+        document = json.loads(path.read_text(encoding="utf-8"))
+        files = _manifest_files(document)
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        return {}, f"{MANIFEST_NAME} is not a harness manifest ({error})"
+    return files, ""
+
+
+def _manifest_files(document: Any) -> dict[str, dict[str, str]]:
+    """Validated ``files`` of a manifest document (ValueError naming what is wrong)."""
+    if not isinstance(document, dict) or document.get("format") != MANIFEST_FORMAT:
+        raise ValueError(f"no 'format': {MANIFEST_FORMAT!r}")
+    if document.get("version") != MANIFEST_VERSION:
+        raise ValueError(f"version {document.get('version')!r}, expected {MANIFEST_VERSION}")
+    files = document.get("files")
+    if not isinstance(files, dict):
+        raise ValueError("'files' is not an object")
+    checked = {}
+    for name, entry in files.items():
+        if not (
+            isinstance(entry, dict)
+            and isinstance(entry.get("kind"), str)
+            and isinstance(entry.get("sha256"), str)
+        ):
+            raise ValueError(f"entry {name!r} is not {{'kind': str, 'sha256': str}}")
+        checked[_checked_name(name)] = {"kind": entry["kind"], "sha256": entry["sha256"]}
+    return checked
+
+
+def _checked_name(name: Any) -> str:
+    """A file name relative to the folder: no absolute path, no ``..``, not the manifest itself."""
+    if not isinstance(name, str) or not name or "\\" in name or "\0" in name:
+        raise OutputFolderError(f"{name!r} is not a file name inside the output folder")
+    pure = PurePosixPath(name)
+    if (
+        pure.is_absolute()
+        or any(part in ("", ".", "..") for part in name.split("/"))
+        or name == MANIFEST_NAME
+    ):
+        raise OutputFolderError(f"{name!r} is not a file name inside the output folder")
+    return pure.as_posix()

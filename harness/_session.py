@@ -1,0 +1,150 @@
+"""The files of a scanning session folder, besides ``expressions.json``.
+
+* ``neutral.obj`` and ``expression_XX.obj`` (`harness._session_mesh`), and with a target
+  ``on_target/expression_XX.obj``;
+* ``expressions.glb`` (``glb``): the template with one morph target per expression (its summed
+  deltas), named ``expression_XX``, for tools that take glTF;
+* ``pictures/expression_XX_front.png`` and ``pictures/expression_XX_three_quarter.png``: the template
+  posed in the expression, seen from the front found from the face (`harness._session_camera`) and turned
+  35 degrees, the active shapes coloured with a legend in plain words (`harness._session_render`);
+* ``session.html``: the one-page scan sheet (`harness._session_sheet`).
+
+Each expression of the document gains ``files``: the names of its mesh, target mesh and pictures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from harness._session_camera import frontal_camera, three_quarter_camera
+from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
+from harness._session_render import FACE_SHARE, SIZE, TITLE_SHARE, render, shape_colours, triangle_labels
+from harness._session_sheet import scan_sheet
+from harness._session_words import plain_words
+
+GLB_FILE = "expressions.glb"
+SHEET_FILE = "session.html"
+PICTURES = "pictures"
+VIEWS = {"front": 0.0, "three_quarter": 35.0}
+
+
+def session_files(
+    rig: Any,
+    document: dict[str, Any],
+    *,
+    target: TargetMesh | None = None,
+    pictures: bool = True,
+    glb: bool = False,
+    notes: Sequence[str] = (),
+) -> dict[str, str | bytes]:
+    """File name (relative to the folder) -> content of every session file; ``document["expressions"]``
+    entries gain their ``files``.
+
+    Parameters
+    ----------
+    rig : rigs.Rig
+        The template the expressions were packed from.
+    document : dict
+        ``expressions.json`` (``params.mu`` colours the active vertices, eq. 2; ``pairs`` groups the
+        legend's colours).
+    target : TargetMesh, optional
+    pictures : bool
+        Render the pictures (the scan sheet is written either way, with pictures when there are).
+    glb : bool
+        Also write ``expressions.glb``.
+    notes : sequence of str
+        Footer lines of the scan sheet.
+    """
+    expressions = document["expressions"]
+    files: dict[str, str | bytes] = dict(session_meshes(rig, expressions, target))
+    for index, expression in enumerate(expressions, start=1):
+        name = expression_name(index, len(expressions))
+        expression["files"] = {"mesh": f"{name}.obj"}
+        if target is not None:
+            expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
+    if glb:
+        files[GLB_FILE] = _glb(rig, expressions)
+    cards = []
+    legends = [_legend(rig, expression, document.get("pairs", ())) for expression in expressions]
+    if pictures and expressions:
+        files.update(_pictures(rig, expressions, legends, float(document["params"]["mu"])))
+    for expression, legend in zip(expressions, legends, strict=True):
+        cards.append(
+            {
+                "picture": expression["files"].get("front"),
+                "objective": expression["objective"],
+                "legend": legend,
+            }
+        )
+    title = str(document.get("rig", rig.meta.get("source", "rig")))
+    face = (FACE_SHARE, FACE_SHARE * SIZE[0] / (TITLE_SHARE * SIZE[1]))
+    files[SHEET_FILE] = scan_sheet(document, cards, title=title, face=face, notes=notes)
+    return files
+
+
+def _legend(
+    rig: Any, expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]
+) -> list[tuple[str, str, np.ndarray, bool]]:
+    """``(plain words, name, colour, extra?)`` of each shape of an expression, symmetry pairs side by side
+    (the two tones of one hue), then the extra examples."""
+    partner = {a: b for a, b in pairs} | {b: a for a, b in pairs}
+    groups: list[list[tuple[str, bool]]] = []
+    for names, extra in ((expression["shapes"], False), (expression.get("extra_examples", ()), True)):
+        placed: set[str] = set()
+        for name in names:
+            if name in placed:
+                continue
+            group = [name]
+            if partner.get(name) in names and partner[name] not in placed:
+                group.append(partner[name])
+            placed.update(group)
+            groups.append([(member, extra) for member in group])
+    colours = shape_colours([len(group) for group in groups])
+    flat = [member for group in groups for member in group]
+    return [
+        (plain_words(name), name, colour, extra) for (name, extra), colour in zip(flat, colours, strict=True)
+    ]
+
+
+def _pictures(
+    rig: Any, expressions: Sequence[dict[str, Any]], legends: Sequence[list[Any]], mu: float
+) -> dict[str, bytes]:
+    """The two pictures of every expression; records them in each expression's ``files``."""
+    from packing import binary_blendshapes
+
+    active = np.asarray(binary_blendshapes(rig.deltas, mu))
+    front = frontal_camera(rig)
+    cameras = {
+        view: three_quarter_camera(front, degrees) if degrees else front for view, degrees in VIEWS.items()
+    }
+    poses = expression_poses(rig, expressions)
+    pictures = {}
+    for index, (expression, legend, delta) in enumerate(
+        zip(expressions, legends, poses, strict=True), start=1
+    ):
+        name = expression_name(index, len(expressions))
+        names = [entry[1] for entry in legend]
+        labels = triangle_labels(rig.triangles, active[rig.indices(names)] if names else active[:0])
+        words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
+        colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
+        for view, camera in cameras.items():
+            path = f"{PICTURES}/{name}_{view}.png"
+            title = f"{index}. {view.replace('_', '-')}"
+            pictures[path] = render(
+                rig.neutral + delta, rig.triangles, camera, labels, words, colours, title=title
+            )
+            expression["files"][view] = path
+    return pictures
+
+
+def _glb(rig: Any, expressions: Sequence[Mapping[str, Any]]) -> bytes:
+    """The template with one morph target per expression."""
+    from rigs._gltf import glb_bytes
+
+    names = tuple(expression_name(index, len(expressions)) for index in range(1, len(expressions) + 1))
+    posed = replace(rig, deltas=expression_poses(rig, expressions), names=names, regions={})
+    return glb_bytes(posed, mesh_name=str(rig.meta.get("mesh", "face")))

@@ -1,0 +1,364 @@
+"""`harness pack` writes a complete scanning session: meshes that keep the source OBJ's own lines, meshes on
+the target, a GLB, frontal pictures, the scan sheet, the excluded shapes, fetched rigs by name."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from matplotlib.image import imread
+from scipy.spatial.transform import Rotation
+
+import rigs
+from harness._outdir import MANIFEST_NAME
+from harness._session_camera import frontal_camera, three_quarter_camera
+from harness.cli import cli
+from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
+
+BACKGROUND = np.array([1.0, 1.0, 1.0])
+
+
+def invoke(*arguments: object):
+    return CliRunner(env={"COLUMNS": "250"}).invoke(cli, [str(a) for a in arguments])
+
+
+def pack(rig: object, out: Path, *extra: object) -> tuple[dict, str]:
+    result = invoke("pack", rig, "--out", out, *extra)
+    assert result.exit_code == 0, result.output
+    return json.loads((out / "expressions.json").read_text()), " ".join(result.output.split())
+
+
+def lines_of(path: Path, *keywords: str) -> list[str]:
+    return [
+        line
+        for line in path.read_text().splitlines()
+        if line.split(None, 1)[:1] and line.split()[0] in keywords
+    ]
+
+
+def positions(path: Path) -> np.ndarray:
+    return np.array([line.split()[1:4] for line in lines_of(path, "v")], dtype=float)
+
+
+def decimals(path: Path) -> int:
+    return max(len(value.partition(".")[2]) for line in lines_of(path, "v") for value in line.split()[1:4])
+
+
+def angle(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1))))
+
+
+def assert_frontal(picture: Path) -> None:
+    """The face fills the centre of the picture's face area, left-right symmetric, taller than wide."""
+    image = imread(picture)[..., :3]
+    face = image[int(0.08 * image.shape[0]) :, : int(0.62 * image.shape[1])]  # (title above, legend right)
+    covered = np.abs(face - BACKGROUND).sum(axis=2) > 0.05
+    rows, columns = np.nonzero(covered)
+    centre = (columns.min() + columns.max()) / 2
+    assert abs(centre - face.shape[1] / 2) < 0.08 * face.shape[1]
+    assert abs((rows.min() + rows.max()) / 2 - face.shape[0] / 2) < 0.08 * face.shape[0]
+    assert np.ptp(rows) > 1.25 * np.ptp(columns)  # a face is far taller than wide only from the front
+    box = covered[rows.min() : rows.max() + 1, columns.min() : columns.max() + 1]
+    assert (box & box[:, ::-1]).sum() / (box | box[:, ::-1]).sum() > 0.85  # mirror-symmetric silhouette
+    tinted = np.ptp(face, axis=2) > 0.15  # coloured shapes (skin and background are near grey)
+    assert tinted.any()
+    assert abs(np.nonzero(tinted)[1].mean() - centre) < 0.15 * np.ptp(columns)
+
+
+@pytest.fixture(scope="module")
+def faceunits_session(faceunits, tmp_path_factory) -> tuple[Path, dict, str]:
+    out = tmp_path_factory.mktemp("faceunits") / "session"
+    document, output = pack("faceunits", out, "--jmax", "4")
+    return out, document, output
+
+
+def test_faceunits_session_keeps_the_source_uvs_and_faces(faceunits, faceunits_session) -> None:
+    out, document, _ = faceunits_session
+    source = Path(faceunits.meta["surface"])
+    assert source == surface_path()
+    uvs, faces = lines_of(source, "vt"), lines_of(source, "f")
+    assert len(uvs) > faceunits.n_vertices and len(faces) > 1000  # the base mesh's UVs and quads
+    meshes = ["neutral.obj", *(f"expression_{i:02d}.obj" for i in range(1, 5))]
+    for name in meshes:
+        assert lines_of(out / name, "vt") == uvs and lines_of(out / name, "f") == faces
+        assert lines_of(out / name, "g") == lines_of(source, "g")
+        assert decimals(out / name) <= 4  # the source's precision, no float noise
+    assert np.abs(positions(out / "neutral.obj") - faceunits.neutral).max() < 1e-9
+    first = document["expressions"][0]["shapes"]
+    posed = faceunits.neutral + faceunits.deltas[faceunits.indices(first)].sum(axis=0)
+    assert np.abs(positions(out / "expression_01.obj") - posed).max() <= 0.5e-4 + 1e-12
+    reread = rigs.load(out / "neutral.obj", format="obj-folder")  # the session folder is itself a rig
+    assert reread.n_shapes == 4 and reread.n_vertices == faceunits.n_vertices
+
+
+def test_faceunits_session_lists_every_file_and_what_was_left_out(faceunits, faceunits_session) -> None:
+    out, document, output = faceunits_session
+    written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()} - {MANIFEST_NAME}
+    manifest = json.loads((out / MANIFEST_NAME).read_text())["files"]
+    assert set(manifest) == written
+    assert {"neutral.obj", "session.html", "pictures/expression_04_three_quarter.png"} <= written
+    for expression in document["expressions"]:
+        assert set(expression["files"]) == {"mesh", "front", "three_quarter"}
+        assert set(expression["files"].values()) <= written
+    used = {name for e in document["expressions"] for name in e["shapes"]}
+    excluded = {entry["shape"]: entry["reason"] for entry in document["excluded"]}
+    assert set(excluded) == set(faceunits.names) - used
+    assert all(reason == "in no expression: --jmax 4 reached" for reason in excluded.values())
+    assert document["sequence"]["mode"] == "sequence" and document["sequence"]["jmax"] == 4
+    assert f"{len(excluded)} blendshapes in no expression (--jmax 4 reached)" in output
+
+
+def test_faceunits_pictures_are_frontal(faceunits, faceunits_session) -> None:
+    out, document, _ = faceunits_session
+    right, up, towards = frontal_camera(faceunits)
+    assert angle(right, np.array([1.0, 0, 0])) < 5 and angle(up, np.array([0, 1.0, 0])) < 10
+    assert angle(towards, np.array([0, 0, 1.0])) < 10  # the mesh's own front (+z), not from above
+    for expression in document["expressions"]:
+        assert_frontal(out / expression["files"]["front"])
+        assert (
+            imread(out / expression["files"]["three_quarter"]).shape
+            == imread(out / expression["files"]["front"]).shape
+        )
+
+
+def test_the_scan_sheet_shows_each_expression_in_plain_words(faceunits_session) -> None:
+    out, document, _ = faceunits_session
+    sheet = (out / "session.html").read_text()
+    assert sheet.count('<section class="card">') == len(document["expressions"])
+    for priority, expression in enumerate(document["expressions"], start=1):
+        assert f"Priority {priority} " in sheet and f'src="{expression["files"]["front"]}"' in sheet
+    if "eyeBlinkLeft" in {name for e in document["expressions"] for name in e["shapes"]}:
+        assert "left eye blink" in sheet
+    swatches = re.findall(
+        r"background: (rgb\([0-9,]+\))", sheet.split("Priority 1 ")[1].split("Priority 2 ")[0]
+    )
+    assert len(swatches) == len(set(swatches)) == len(document["expressions"][0]["shapes"])
+
+
+@pytest.mark.parametrize("preset", ["digidouble", "toon"])
+def test_generated_rigs_are_seen_from_the_front_however_they_are_turned(preset, tmp_path) -> None:
+    rig = rigs.generate(preset)
+    camera = frontal_camera(rig)
+    assert angle(camera[2], np.array([0, 0, 1.0])) < 8 and angle(camera[1], np.array([0, 1.0, 0])) < 8
+    turn = Rotation.from_euler("xyz", [80, 30, -20], degrees=True).as_matrix()  # e.g. a Z-up export, turned
+    turned = replace(rig, neutral=rig.neutral @ turn.T, deltas=rig.deltas @ turn.T)
+    assert np.allclose(frontal_camera(turned), camera @ turn.T, atol=1e-6)
+    inverted = replace(rig, triangles=rig.triangles[:, ::-1])  # normals pointing inwards: still the front
+    assert np.allclose(frontal_camera(inverted), camera, atol=1e-9)
+    quarter = three_quarter_camera(camera)
+    assert angle(quarter[2], camera[2]) == pytest.approx(35.0)
+    path = rigs.save(turned, tmp_path / f"{preset}.npz")
+    document, _ = pack(path, tmp_path / "out", "--jmax", "2")
+    for expression in document["expressions"]:
+        assert_frontal(tmp_path / "out" / expression["files"]["front"])
+
+
+def obj_rig_folder(tiny: rigs.Rig, folder: Path) -> Path:
+    """``tiny`` as a folder of OBJs whose neutral has texture coordinates, normals, groups and materials,
+    written with 6 decimals."""
+    folder.mkdir()
+    faces = tiny.triangles + 1
+    head = ["# exported by a DCC", "mtllib face.mtl", "o head"]
+    uvs = [f"vt {u:.4f} {v:.4f}" for u, v in tiny.neutral[:, :2] / 20 + 0.5]
+    normals = ["vn 0 0 1"]
+    groups = ["g skin", "usemtl skin", "s 1"]
+    face_lines = [f"f {a}/{a}/1 {b}/{b}/1 {c}/{c}/1" for a, b, c in faces]
+    face_lines.insert(len(face_lines) // 2, "g lips")
+    face_lines.insert(len(face_lines) // 2 + 1, "usemtl lips")
+
+    def write(path: Path, vertices: np.ndarray) -> None:
+        vs = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
+        path.write_text("\n".join([*head, *vs, *uvs, *normals, *groups, *face_lines]) + "\n")
+
+    write(folder / "neutral.obj", tiny.neutral)
+    for name, delta in zip(tiny.names, tiny.deltas, strict=True):
+        write(folder / f"{name}.obj", tiny.neutral + delta)
+    return folder
+
+
+def test_an_obj_rig_keeps_every_line_but_the_positions_also_on_the_target(tmp_path) -> None:
+    tiny = rigs.generate("tiny")
+    folder = obj_rig_folder(tiny, tmp_path / "face")
+    source = (folder / "neutral.obj").read_text().splitlines()
+    target = tmp_path / "target.obj"
+    wider = np.round(tiny.neutral * [1.2, 1.0, 1.0], 6)
+    target.write_text(
+        "# the actor\n" + "".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in wider) + "f 1 2 3\n"
+    )
+    out = tmp_path / "out"
+    document, _ = pack(folder, out, "--target", target, "--no-pictures", "--jmax", "3")
+    assert document["target"] == str(target)
+    rig = rigs.load(folder)
+    for index, expression in enumerate(document["expressions"], start=1):
+        name = f"expression_{index:02d}.obj"
+        text = (out / name).read_text().splitlines()
+        assert [line for line in text if not line.startswith(("v ", "# expression"))] == [
+            line for line in source if not line.startswith("v ")
+        ]
+        assert decimals(out / name) <= 6
+        delta = rig.deltas[rig.indices(expression["shapes"])].sum(axis=0)
+        assert np.abs(positions(out / name) - (rig.neutral + delta)).max() <= 0.5e-6 + 1e-12
+        on_target = out / "on_target" / name
+        assert expression["files"]["on_target"] == f"on_target/{name}"
+        assert np.abs(positions(on_target) - (wider + delta)).max() <= 0.5e-6 + 1e-12
+        assert lines_of(on_target, "f") == ["f 1 2 3"]  # the target OBJ's own lines
+    assert not (out / "pictures").exists() and (out / "session.html").is_file()
+
+
+def test_glb_holds_the_expressions_as_morph_targets(tmp_path) -> None:
+    pytest.importorskip("pygltflib")
+    document, _ = pack("tiny", tmp_path / "out", "--glb", "--no-pictures")
+    glb = rigs.load(tmp_path / "out" / "expressions.glb", noise_floor=0.0)
+    tiny = rigs.generate("tiny")
+    count = len(document["expressions"])
+    assert glb.names == tuple(f"expression_{i:02d}" for i in range(1, count + 1))
+    for delta, expression in zip(glb.deltas, document["expressions"], strict=True):
+        expected = tiny.deltas[tiny.indices(expression["shapes"])].sum(axis=0)
+        assert np.abs(delta - expected).max() < 1e-5
+    assert np.abs(glb.neutral - tiny.neutral).max() < 1e-5 and glb.n_triangles == tiny.n_triangles
+
+
+def test_empty_shapes_are_recorded_as_excluded_with_the_reason(tmp_path) -> None:
+    tiny = rigs.generate("tiny")
+    silent = replace(
+        tiny,
+        deltas=np.concatenate([tiny.deltas, np.zeros((1, *tiny.neutral.shape))]),
+        names=(*tiny.names, "x"),
+    )
+    document, _ = pack(rigs.save(silent, tmp_path / "silent.npz"), tmp_path / "out", "--no-pictures")
+    assert document["excluded"] == [
+        {"shape": "x", "reason": "empty: no displacement above the noise floor (sec. 4.1)"}
+    ]
+    assert document["sequence"]["seed"] == 0 and set(document["params"]) >= {"mu", "max_per_expression"}
+
+
+@pytest.fixture
+def cache(monkeypatch, tmp_path) -> Path:
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_rigs_list_shows_presets_and_fetched_rigs_with_their_cache(cache) -> None:
+    listing = json.loads(invoke("rigs", "list", "--json").output)
+    kinds = {row["name"]: (row["kind"], row["cached"]) for row in listing}
+    assert kinds["faceunits"] == ("fetched", None) and kinds["tiny"] == ("preset", None)
+    assert set(rigs.PRESETS) <= set(kinds)
+    result = invoke("pack", "faceunits", "--out", cache.parent / "out")
+    assert result.exit_code == 2 and "run `harness rigs fetch faceunits` first" in result.output
+    rigs.save(rigs.generate("tiny"), cached_rig_path())  # as if fetched
+    listing = json.loads(invoke("rigs", "list", "--json").output)
+    assert next(row for row in listing if row["name"] == "faceunits")["cached"] == str(cached_rig_path())
+    assert str(cached_rig_path()) in " ".join(invoke("rigs", "list").output.split())
+    document, _ = pack("faceunits", cache.parent / "out", "--no-pictures", "--jmax", "1")
+    assert document["rig"] == "faceunits" and document["expressions"]
+    inside = invoke("pack", "faceunits", "--out", cache / "session")
+    assert inside.exit_code == 2 and "apart from the inputs" in inside.output
+
+
+def conflict_rig(seed: int, n_shapes: int = 7, n_vertices: int = 12) -> rigs.Rig:
+    """Shapes moving random vertex sets of a strip (no left/right names, so no pairs)."""
+    generator = np.random.default_rng(seed)
+    x = np.arange(n_vertices, dtype=float)
+    neutral = np.stack([np.repeat(x, 2), np.tile([0.0, 1.0], n_vertices), np.zeros(2 * n_vertices)], axis=1)
+    triangles = np.array([[2 * i, 2 * i + 2, 2 * i + 1] for i in range(n_vertices - 1)])
+    deltas = np.zeros((n_shapes, len(neutral), 3))
+    for k in range(n_shapes):
+        moved = generator.choice(len(neutral), size=generator.integers(2, 6), replace=False)
+        deltas[k, moved, 2] = 1.0
+    return rigs.Rig(neutral, deltas, triangles, tuple(f"shape{k}" for k in range(n_shapes)))
+
+
+def chromatic_number(rig: rigs.Rig) -> int:
+    """Fewest colours of the shapes' conflict graph (shapes sharing a moved vertex), by brute force."""
+    import itertools
+
+    moved = np.linalg.norm(rig.deltas, axis=2) > 0
+    edges = [(a, b) for a, b in itertools.combinations(range(rig.n_shapes), 2) if (moved[a] & moved[b]).any()]
+    for colours in range(1, rig.n_shapes + 1):
+        for colouring in itertools.product(range(colours), repeat=rig.n_shapes):
+            if all(colouring[a] != colouring[b] for a, b in edges):
+                return colours
+    raise AssertionError("unreachable: n colours always suffice")
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_minimum_is_the_chromatic_number_of_the_conflict_graph(seed, tmp_path) -> None:
+    rig = conflict_rig(seed)
+    path = rigs.save(rig, tmp_path / "rig.npz")
+    document, output = pack(path, tmp_path / "out", "--minimum", "--no-symmetry", "--no-pictures")
+    fewest = chromatic_number(rig)
+    assert len(document["expressions"]) == fewest
+    assert document["sequence"]["minimum"] == {
+        "count": fewest,
+        "lower_bound": fewest,
+        "proven": True,
+        "time_limit": 60.0,
+    }
+    assert f"minimum: {fewest} expressions cover every shape, proven (lower bound {fewest})" in output
+    assert sorted(name for e in document["expressions"] for name in e["shapes"]) == sorted(rig.names)
+    objectives = [e["objective"] for e in document["expressions"]]
+    assert all(a >= b - 1e-9 for a, b in zip(objectives, objectives[1:], strict=False))  # importance order
+
+
+def test_minimum_not_proven_in_time_says_what_was_proven(monkeypatch, tmp_path) -> None:
+    import solvers
+    from packing import Termination
+
+    found = solvers.minimum_expressions
+
+    def unproven(problem, **options):
+        result = found(problem, **options)
+        return replace(result, lower_bound=result.count - 1, termination=Termination.TIME_LIMIT)
+
+    monkeypatch.setattr(solvers, "minimum_expressions", unproven)
+    path = rigs.save(conflict_rig(1), tmp_path / "rig.npz")
+    document, output = pack(path, tmp_path / "out", "--minimum", "--no-pictures", "--time-limit", "5s")
+    count = len(document["expressions"])
+    assert document["sequence"]["minimum"]["proven"] is False
+    message = (
+        f"--minimum not proven within 5s: the fewest expressions is at least {count - 1} and at most "
+        f"{count}; the {count} found are written"
+    )
+    assert message in output and any(message in warning for warning in document["warnings"])
+
+
+def test_minimum_refuses_what_it_cannot_honour(tmp_path) -> None:
+    result = invoke("pack", "tiny", "--minimum", "--extra-examples", "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "--minimum covers every shape" in result.output
+
+
+def test_the_scan_sheet_renders_in_headless_chromium(faceunits_session, tmp_path) -> None:
+    import shutil
+    import subprocess
+
+    browser = next(
+        (shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None
+    )
+    if browser is None:
+        pytest.skip("chromium is not installed (apt-get install chromium)")
+    out, document, _ = faceunits_session
+    screenshot, pdf = tmp_path / "sheet.png", tmp_path / "sheet.pdf"
+    flags = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        f"--user-data-dir={tmp_path}",
+    ]
+    page = (out / "session.html").as_uri()
+    for target in (f"--screenshot={screenshot}", f"--print-to-pdf={pdf}"):
+        subprocess.run(
+            [browser, *flags, "--window-size=1240,1754", "--no-pdf-header-footer", target, page],
+            capture_output=True,
+            timeout=120,
+            check=True,
+        )
+    image = imread(screenshot)[..., :3]
+    tinted = np.ptp(image, axis=2) > 0.15  # the pictures' coloured shapes came through
+    assert tinted.sum() > 2000
+    assert len(re.findall(rb"/Type\s*/Page\b", pdf.read_bytes())) == 1  # one printed page
