@@ -409,7 +409,7 @@ def ordered_minimum_sequence(
                 cp_model, problem, remaining, cover, left, time_limit, seed
             )
         expressions.append(tuple(sorted(chosen)))
-        objectives.append(problem.objective(chosen))
+        objectives.append(problem.unperturbed_objective(chosen))
         terminations.append(termination)
         remaining = np.setdiff1d(remaining, chosen)
     return OrderedSequence(tuple(expressions), tuple(objectives), tuple(terminations), minimum, clock.lap())
