@@ -74,7 +74,8 @@ class OrderedSequence:
     expressions : tuple of tuple of int
         Items of each expression in sequence order.
     objectives : tuple of float
-        Eq. 3a weight of each expression.
+        Eq. 3a weight of each expression: its importance sum, without the tie-break (as
+        `packing.Expression.objective`).
     terminations : tuple of Termination
         Per step: OPTIMAL when the step's weight is proved maximal under the count constraint.
     minimum : MinimumExpressions

@@ -80,7 +80,7 @@ def test_ordered_sequence_keeps_the_minimum_and_maximises_the_first_expression(s
     assert len(result.expressions) == count
     _assert_cover(problem, result.expressions)
     # Brute force of step 1: the heaviest packing whose complement fits in count - 1 expressions.
-    best = 0.0
+    best, heaviest = 0.0, ()
     for size in range(problem.n_items + 1):
         for chosen in itertools.combinations(range(problem.n_items), size):
             try:
@@ -89,6 +89,8 @@ def test_ordered_sequence_keeps_the_minimum_and_maximises_the_first_expression(s
                 continue
             rest = [i for i in range(problem.n_items) if i not in chosen]
             if not rest or solvers.minimum_expressions(problem.restrict(rest)).count <= count - 1:
-                best = max(best, problem.objective(chosen))
-    assert result.objectives[0] == pytest.approx(best, rel=1e-12)
+                if problem.objective(chosen) > best:
+                    best, heaviest = problem.objective(chosen), chosen
+    assert result.expressions[0] == heaviest
+    assert result.objectives[0] == pytest.approx(problem.unperturbed_objective(heaviest), rel=1e-12)
     assert all(t is Termination.OPTIMAL for t in result.terminations)

@@ -1,0 +1,143 @@
+"""Film-scale speed (issue 14): the ``film`` preset (N = 20k, K = 1,000) and the ``dense`` preset
+(N = 100k, K = 265), both on the procedural Female layout, against the alien target.
+
+Targets: on ``film`` the analysis <= 1 s, the whole optimal sequence (``cpsat``, Algorithm 1 until every shape
+is used) <= 3 s, the whole greedy sequence <= 0.3 s and the peak memory of analysis and both sequences
+<= 1 GB; on ``dense`` all three together <= 3 s and <= 1.5 GB. The peak is the resident-set high-water mark
+of a fresh process from the moment its rig and target neutral are loaded (so it includes them, not the
+loading), read on Linux from ``/proc``; elsewhere it is not measured. Every time is also recorded as a ratio
+to the same figure on ``female`` measured in the same run, so that runs on other machines compare. Targets
+are checked on the best of a few repetitions (see ``conftest.speed_target``). Run with
+``pytest tests/benchmarks/test_bench_film.py --benchmark-enable``.
+"""
+
+from __future__ import annotations
+
+import functools
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import packing
+import rigs
+import solvers
+
+#: Seconds (and megabytes) of the issue, per preset.
+TARGETS = {
+    "film": {"analysis": 1.0, "optimal": 3.0, "greedy": 0.3, "peak_mb": 1024.0},
+    "dense": {"total": 3.0, "peak_mb": 1536.0},
+}
+REFERENCE = "female"
+REPEATS = 2
+#: The peak is read from here (Linux).
+PROC = Path("/proc/self")
+
+
+def _rig(preset: str) -> tuple[rigs.Rig, np.ndarray]:
+    """The preset's rig and the neutral of its alien warp (the target of eqs. 6-7)."""
+    rig = rigs.generate(preset)
+    return rig, rigs.warp(rig, "alien").neutral
+
+
+def _best(function, repeats: int = REPEATS):
+    """Fewest seconds of ``repeats`` calls, and the last result."""
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = function()
+        times.append(time.perf_counter() - start)
+    return min(times), result
+
+
+def _figures(rig: rigs.Rig, target: np.ndarray) -> tuple[dict[str, float], packing.Analysis, dict]:
+    """Seconds of the analysis and of the whole optimal and greedy sequences, with their expressions."""
+    analysis_time, analysis = _best(lambda: packing.analyse(rig, target))
+    figures, sequences = {"analysis": analysis_time}, {}
+    for label, name in (("optimal", "cpsat"), ("greedy", "greedy")):
+        solver = solvers.get(name)
+        figures[label], sequences[label] = _best(
+            lambda solver=solver: packing.sequence(rig, solver, analysis=analysis)
+        )
+    figures["total"] = figures["analysis"] + figures["optimal"] + figures["greedy"]
+    return figures, analysis, sequences
+
+
+@functools.cache
+def _reference() -> dict[str, float]:
+    return _figures(*_rig(REFERENCE))[0]
+
+
+#: Run in a fresh process: load the rig and the target neutral, forget the loading's high-water mark, then
+#: analyse and run both sequences; print the resident-set peak (MB) since the rig was in memory.
+_PEAK_SCRIPT = """
+import gc, sys
+import numpy as np
+import packing, rigs, solvers
+rig, target = rigs.load(sys.argv[1]), np.load(sys.argv[2])
+gc.collect()
+with open("/proc/self/clear_refs", "w") as refs:
+    refs.write("5")
+analysis = packing.analyse(rig, target)
+for name in ("cpsat", "greedy"):
+    packing.sequence(rig, solvers.get(name), analysis=analysis)
+status = dict(line.split(":", 1) for line in open("/proc/self/status"))
+print(int(status["VmHWM"].split()[0]) / 1024)
+"""
+
+
+def _peak_mb(rig: rigs.Rig, target: np.ndarray, folder: Path) -> float | None:
+    """Peak resident megabytes of analysis and both sequences in a fresh process (None off Linux)."""
+    if not (PROC / "clear_refs").exists():
+        return None
+    rigs.save(rig, folder / "rig.npz")
+    np.save(folder / "target.npy", target)
+    done = subprocess.run(
+        [sys.executable, "-c", _PEAK_SCRIPT, str(folder / "rig.npz"), str(folder / "target.npy")],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return float(done.stdout.split()[-1])
+
+
+@pytest.mark.parametrize("preset", list(TARGETS))
+def test_bench_film_scale(benchmark, speed_target, tmp_path, preset):
+    rig, target = _rig(preset)
+    figures, analysis, sequences = _figures(rig, target)
+    packable = sorted(rig.names[k] for k in np.flatnonzero(analysis.packable))
+    for expressions in sequences.values():
+        packing.check(rig, expressions, pairs=analysis.pairs)
+        assert sorted(shape for expression in expressions for shape in expression.shapes) == packable
+    benchmark.pedantic(
+        packing.sequence,
+        args=(rig, solvers.get("cpsat")),
+        kwargs={"analysis": analysis},
+        rounds=1,
+        iterations=1,
+    )
+    peak = _peak_mb(rig, target, tmp_path)
+    reference = _reference()
+    benchmark.extra_info.update(
+        preset=preset,
+        n_vertices=rig.n_vertices,
+        n_shapes=rig.n_shapes,
+        n_items=analysis.problem.n_items,
+        clique_rows=len(analysis.problem.cliques),
+        optimal_expressions=len(sequences["optimal"]),
+        greedy_expressions=len(sequences["greedy"]),
+        seconds={name: round(value, 4) for name, value in figures.items()},
+        steps={step: round(value, 4) for step, value in analysis.timings.items()},
+        peak_mb=None if peak is None else round(peak),
+        rig_mb=round((rig.deltas.nbytes + rig.neutral.nbytes + target.nbytes) / 2**20),
+        reference=REFERENCE,
+        ratio_to_reference={name: round(value / reference[name], 2) for name, value in figures.items()},
+    )
+    for name, limit in TARGETS[preset].items():
+        if name in figures:
+            speed_target(f"{name} of {preset} [s]", figures[name], limit)
+    if peak is not None:
+        speed_target(f"peak memory of {preset} [MB]", peak, TARGETS[preset]["peak_mb"])
