@@ -2,33 +2,68 @@
 sheets, a self-contained HTML page with its Markdown twin, and run-to-run comparison for CI.
 
 Everything here reads a run's records (`harness.read_records`); nothing is recomputed.
+
+Names are imported from their modules on first use (PEP 562), so that ``harness --help``, which lists the
+``report`` and ``compare`` commands, starts without importing pandas or matplotlib.
 """
 
-from harness import claims_table
-from reports._compare import Change, Comparison, compare, comparison_table
-from reports._contact import contact_sheet
-from reports._figures import coverage_figure, rms_figure
-from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
-from reports._png import png_bytes
-from reports._report import build_report
-from reports._tables import (
-    BASELINE_SOLVER,
-    REFERENCE_TRANSFERS,
-    cell_times,
-    expression_count_table,
-    overlap_table,
-    problem_table,
-    rms_table,
-    separation_table,
-    timing_table,
-    worst_shapes_table,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from harness._claims import claims_table
+    from reports._compare import Change, Comparison, compare, comparison_table
+    from reports._contact import contact_sheet
+    from reports._figures import coverage_figure, rms_figure
+    from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
+    from reports._png import png_bytes
+    from reports._report import build_report
+    from reports._tables import (
+        BASELINE_SOLVER,
+        REFERENCE_TRANSFERS,
+        cell_times,
+        expression_count_table,
+        overlap_table,
+        problem_table,
+        rms_table,
+        separation_table,
+        timing_table,
+        worst_shapes_table,
+    )
+
+#: The module that defines each public name.
+_MODULE_OF = {
+    "claims_table": "harness._claims",
+    "Change": "reports._compare",
+    "Comparison": "reports._compare",
+    "compare": "reports._compare",
+    "comparison_table": "reports._compare",
+    "contact_sheet": "reports._contact",
+    "coverage_figure": "reports._figures",
+    "rms_figure": "reports._figures",
+    "PAPER_OVERLAP": "reports._paper",
+    "PAPER_TIMINGS": "reports._paper",
+    "png_bytes": "reports._png",
+    "build_report": "reports._report",
+    "BASELINE_SOLVER": "reports._tables",
+    "REFERENCE_TRANSFERS": "reports._tables",
+    "cell_times": "reports._tables",
+    "expression_count_table": "reports._tables",
+    "overlap_table": "reports._tables",
+    "problem_table": "reports._tables",
+    "rms_table": "reports._tables",
+    "separation_table": "reports._tables",
+    "timing_table": "reports._tables",
+    "worst_shapes_table": "reports._tables",
+}
 
 __all__ = [
     "BASELINE_SOLVER",
-    "REFERENCE_TRANSFERS",
     "PAPER_OVERLAP",
     "PAPER_TIMINGS",
+    "REFERENCE_TRANSFERS",
     "Change",
     "Comparison",
     "build_report",
@@ -42,9 +77,23 @@ __all__ = [
     "overlap_table",
     "png_bytes",
     "problem_table",
+    "rms_figure",
     "rms_table",
     "separation_table",
-    "rms_figure",
     "timing_table",
     "worst_shapes_table",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name from its module on first use and keep it in the package namespace."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'reports' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

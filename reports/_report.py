@@ -13,6 +13,7 @@ from harness import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
 from reports._figures import coverage_figure, rms_figure
+from reports._layout import REPORT_DIR
 from reports._png import png_bytes
 from reports._tables import (
     BASELINE_SOLVER,
@@ -32,9 +33,6 @@ from reports._tables import (
     varying_settings,
     worst_shapes_table,
 )
-
-#: Folder inside the run directory that receives the report.
-REPORT_DIR = "report"
 
 _EXAMPLES = {
     "scan": "scan-like (transfer.scan_expressions: correctives where combined shapes meet, scanner noise, "

@@ -1,15 +1,16 @@
-"""``harness report`` and ``harness compare``: click commands for the ``harness.commands`` entry points."""
+"""``harness report`` and ``harness compare``: click commands for the ``harness.commands`` entry points.
+
+``harness --help`` imports this module to list the commands, so it imports only click at the top: the
+commands import pandas, matplotlib and rich (through the reports modules) when they run.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import click
-from rich.console import Console
 
-from reports._compare import compare as compare_runs
-from reports._compare import comparison_table
-from reports._report import REPORT_DIR, build_report
+from reports._layout import REPORT_DIR
 
 
 class InputError(click.ClickException):
@@ -31,6 +32,8 @@ class InputError(click.ClickException):
     help="Leading expressions drawn per solver on the contact sheets.",
 )
 def report(out: Path, expressions: int) -> None:
+    from reports._report import build_report
+
     try:
         page, text = build_report(out, expressions=expressions)
     except FileNotFoundError as error:
@@ -84,6 +87,11 @@ def compare(
     fail_on_time: bool,
     only_changes: bool,
 ) -> None:
+    from rich.console import Console
+
+    from reports._compare import compare as compare_runs
+    from reports._compare import comparison_table
+
     try:
         comparison = compare_runs(old, new, threshold=threshold, tolerance=tolerance, min_time=min_time)
     except (FileNotFoundError, ValueError) as error:
