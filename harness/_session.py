@@ -5,7 +5,7 @@
 * ``expressions.glb`` (``glb``): the template with one morph target per expression (its summed
   deltas), named ``expression_XX``, for tools that take glTF;
 * ``pictures/expression_XX_front.png`` and ``pictures/expression_XX_three_quarter.png``: the template
-  posed in the expression, seen from the front found from the face (`harness._session_camera`) and turned
+  posed in the expression, seen from the front found from the face (`rigs.frontal_camera`) and turned
   35 degrees, the active shapes coloured with a legend in plain words (`harness._session_render`);
 * ``session.html``: the one-page scan sheet (`harness._session_sheet`).
 
@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from harness._session_camera import frontal_camera, three_quarter_camera
 from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
 from harness._session_render import FACE_SHARE, SIZE, TITLE_SHARE, render, shape_colours, triangle_labels
 from harness._session_sheet import scan_sheet
@@ -114,12 +113,14 @@ def _pictures(
     rig: Any, expressions: Sequence[dict[str, Any]], legends: Sequence[list[Any]], mu: float
 ) -> dict[str, bytes]:
     """The two pictures of every expression; records them in each expression's ``files``."""
+    import rigs
     from packing import binary_blendshapes
 
     active = np.asarray(binary_blendshapes(rig.deltas, mu))
-    front = frontal_camera(rig)
+    front = rigs.frontal_camera(rig)
     cameras = {
-        view: three_quarter_camera(front, degrees) if degrees else front for view, degrees in VIEWS.items()
+        view: rigs.three_quarter_camera(front, degrees) if degrees else front
+        for view, degrees in VIEWS.items()
     }
     poses = expression_poses(rig, expressions)
     pictures = {}

@@ -1,6 +1,7 @@
 """Blendshape rigs: the `Rig` value, loaders and writers, the procedural generator, warps, mirror map and
-left/right names."""
+left/right names, the frontal camera of a face."""
 
+from rigs._camera import frontal_camera, three_quarter_camera
 from rigs._character import Character
 from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
 from rigs._generate import PRESETS, PresetSpec, generate
@@ -25,6 +26,7 @@ __all__ = [
     "RigWarning",
     "cached_faceunits",
     "fetch_faceunits",
+    "frontal_camera",
     "generate",
     "load",
     "load_faceunits",
@@ -38,5 +40,6 @@ __all__ = [
     "regions_from_mapping",
     "save",
     "side_of",
+    "three_quarter_camera",
     "warp",
 ]

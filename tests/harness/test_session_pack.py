@@ -16,7 +16,6 @@ from scipy.spatial.transform import Rotation
 
 import rigs
 from harness._outdir import MANIFEST_NAME
-from harness._session_camera import frontal_camera, three_quarter_camera
 from harness.cli import cli
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
 
@@ -47,10 +46,6 @@ def positions(path: Path) -> np.ndarray:
 
 def decimals(path: Path) -> int:
     return max(len(value.partition(".")[2]) for line in lines_of(path, "v") for value in line.split()[1:4])
-
-
-def angle(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1))))
 
 
 def assert_frontal(picture: Path) -> None:
@@ -113,11 +108,8 @@ def test_faceunits_session_lists_every_file_and_what_was_left_out(faceunits, fac
     assert f"{len(excluded)} blendshapes in no expression (--jmax 4 reached)" in output
 
 
-def test_faceunits_pictures_are_frontal(faceunits, faceunits_session) -> None:
+def test_faceunits_pictures_are_frontal(faceunits_session) -> None:
     out, document, _ = faceunits_session
-    right, up, towards = frontal_camera(faceunits)
-    assert angle(right, np.array([1.0, 0, 0])) < 5 and angle(up, np.array([0, 1.0, 0])) < 10
-    assert angle(towards, np.array([0, 0, 1.0])) < 10  # the mesh's own front (+z), not from above
     for expression in document["expressions"]:
         assert_frontal(out / expression["files"]["front"])
         assert (
@@ -141,17 +133,10 @@ def test_the_scan_sheet_shows_each_expression_in_plain_words(faceunits_session) 
 
 
 @pytest.mark.parametrize("preset", ["digidouble", "toon"])
-def test_generated_rigs_are_seen_from_the_front_however_they_are_turned(preset, tmp_path) -> None:
+def test_pictures_of_turned_rigs_are_frontal(preset, tmp_path) -> None:
     rig = rigs.generate(preset)
-    camera = frontal_camera(rig)
-    assert angle(camera[2], np.array([0, 0, 1.0])) < 8 and angle(camera[1], np.array([0, 1.0, 0])) < 8
     turn = Rotation.from_euler("xyz", [80, 30, -20], degrees=True).as_matrix()  # e.g. a Z-up export, turned
     turned = replace(rig, neutral=rig.neutral @ turn.T, deltas=rig.deltas @ turn.T)
-    assert np.allclose(frontal_camera(turned), camera @ turn.T, atol=1e-6)
-    inverted = replace(rig, triangles=rig.triangles[:, ::-1])  # normals pointing inwards: still the front
-    assert np.allclose(frontal_camera(inverted), camera, atol=1e-9)
-    quarter = three_quarter_camera(camera)
-    assert angle(quarter[2], camera[2]) == pytest.approx(35.0)
     path = rigs.save(turned, tmp_path / f"{preset}.npz")
     document, _ = pack(path, tmp_path / "out", "--jmax", "2")
     for expression in document["expressions"]:

@@ -1,4 +1,4 @@
-"""A frontal camera found from the face itself, for the pictures of a scanning session.
+"""A frontal camera found from the face itself: how to look at a rig so that its face is seen from the front.
 
 The viewer's right axis is the normal of the face's left/right symmetry plane (the plane of the mirror map,
 Carrigan et al. 2020, sec. 4.4.1); the view direction lies in that plane and is where the moving part of
@@ -20,6 +20,10 @@ import re
 
 import numpy as np
 
+from rigs._mirror import mirror_map
+from rigs._names import side_of
+from rigs._rig import Rig
+
 #: Names of shapes of the upper face and of the lower face, for the sign of "up".
 _UPPER = re.compile(r"brow|eye|lid|forehead", re.IGNORECASE)
 _LOWER = re.compile(r"mouth|jaw|lip|chin|tongue", re.IGNORECASE)
@@ -27,16 +31,27 @@ _LOWER = re.compile(r"mouth|jaw|lip|chin|tongue", re.IGNORECASE)
 _PLANE_SAMPLE = 20000
 
 
-def frontal_camera(rig: object) -> np.ndarray:
+def frontal_camera(rig: Rig) -> np.ndarray:
     """Orthonormal rows (right, up, towards the viewer) of a front view of ``rig``'s face.
+
+    The right axis is the normal of the left/right symmetry plane of the mirror map (Carrigan et al.
+    2020, sec. 4.4.1); the view direction is where the moving part of the face looks, in that plane.
 
     Parameters
     ----------
-    rig : rigs.Rig
+    rig : Rig
 
     Returns
     -------
-    (3, 3) float array; ``right x up = towards``.
+    (3, 3) float array; ``right x up = towards``. Project positions with ``positions @ camera.T``:
+    columns 0 and 1 are the picture's x (to the viewer's right) and y (up), column 2 the nearness.
+
+    Examples
+    --------
+    >>> import rigs
+    >>> camera = rigs.frontal_camera(rigs.generate("tiny"))
+    >>> bool(np.allclose(camera @ camera.T, np.eye(3)))
+    True
 
     Notes
     -----
@@ -60,7 +75,8 @@ def frontal_camera(rig: object) -> np.ndarray:
 
 
 def three_quarter_camera(camera: np.ndarray, degrees: float = 35.0) -> np.ndarray:
-    """``camera`` turned about its up axis by ``degrees``, towards the character's left side."""
+    """``camera`` (rows right, up, towards the viewer) turned about its up axis by ``degrees``, towards
+    the character's left side, which then faces the viewer more."""
     right, up, towards = camera
     angle = np.radians(degrees)
     turned = np.cos(angle) * towards + np.sin(angle) * right
@@ -70,9 +86,7 @@ def three_quarter_camera(camera: np.ndarray, degrees: float = 35.0) -> np.ndarra
 def _symmetry_normal(neutral: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Unit normal of the left/right symmetry plane: principal direction of the mirror map's chords
     (the world x axis for a mesh without a mirror)."""
-    import rigs
-
-    mirror = rigs.mirror_map(neutral, triangles=triangles if len(triangles) else None)
+    mirror = mirror_map(neutral, triangles=triangles if len(triangles) else None)
     source = np.flatnonzero(mirror >= 0)
     chords = neutral[source] - neutral[mirror[source]]
     chords = chords[np.einsum("ij,ij->i", chords, chords) > 0]
@@ -126,10 +140,8 @@ def _vertical(
 
 def _side_sign(names: tuple[str, ...], motion: np.ndarray, neutral: np.ndarray, right: np.ndarray) -> float:
     """+1 unless the shapes named for the character's left lie on the viewer's left (seen from behind)."""
-    import rigs
-
-    left = [k for k, name in enumerate(names) if rigs.side_of(name) == "L"]
-    right_side = [k for k, name in enumerate(names) if rigs.side_of(name) == "R"]
+    left = [k for k, name in enumerate(names) if side_of(name) == "L"]
+    right_side = [k for k, name in enumerate(names) if side_of(name) == "R"]
     a, b = _region_centre(left, motion, neutral), _region_centre(right_side, motion, neutral)
     if a is None or b is None or (a - b) @ right == 0:
         return 1.0
