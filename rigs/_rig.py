@@ -63,6 +63,35 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
+def _check_displacements(deltas: np.ndarray, names: tuple[str, ...], source: str) -> None:
+    """Raise `RigError` for the first blendshape with a non-finite displacement, else for the first with
+    one beyond `LARGEST_COORDINATE`, naming the shape and the vertex.
+
+    Notes
+    -----
+    Two reductions over the (K, N, 3) deltas (NaN propagates through both) and no temporary array of
+    their size; only a shape found at fault is examined vertex by vertex.
+    """
+    if not deltas.size:
+        return
+    lowest, highest = deltas.min(axis=(1, 2)), deltas.max(axis=(1, 2))
+    suspects = np.flatnonzero(~((lowest >= -LARGEST_COORDINATE) & (highest <= LARGEST_COORDINATE)))
+    for k in suspects:
+        bad = ~np.isfinite(deltas[k])
+        if bad.any():
+            vertex = int(np.argwhere(bad)[0, 0])
+            raise RigError(
+                f"{source}: blendshape {names[k]!r} has a non-finite displacement at vertex {vertex}"
+            )
+    if suspects.size:
+        k = int(suspects[0])
+        vertex = int(np.argwhere(np.abs(deltas[k]) > LARGEST_COORDINATE)[0, 0])
+        raise RigError(
+            f"{source}: blendshape {names[k]!r} has a displacement beyond {LARGEST_COORDINATE:g} at "
+            f"vertex {vertex} (its lengths would overflow)"
+        )
+
+
 @dataclass(frozen=True, eq=False)
 class Rig:
     """A blendshape rig: neutral mesh, K delta blendshapes, triangles and optional vertex regions.
@@ -140,21 +169,7 @@ class Rig:
             if name in seen:
                 raise RigError(f"{source}: duplicate blendshape name {name!r}")
             seen.add(name)
-        finite = np.isfinite(deltas).all(axis=(1, 2))
-        if not finite.all():
-            bad = int(np.flatnonzero(~finite)[0])
-            vertex = int(np.argwhere(~np.isfinite(deltas[bad]))[0, 0])
-            raise RigError(
-                f"{source}: blendshape {names[bad]!r} has a non-finite displacement at vertex {vertex}"
-            )
-        huge = (np.abs(deltas) > LARGEST_COORDINATE).any(axis=(1, 2)) if deltas.size else finite
-        if huge.any():
-            bad = int(np.flatnonzero(huge)[0])
-            vertex = int(np.argwhere(np.abs(deltas[bad]) > LARGEST_COORDINATE)[0, 0])
-            raise RigError(
-                f"{source}: blendshape {names[bad]!r} has a displacement beyond {LARGEST_COORDINATE:g} at "
-                f"vertex {vertex} (its lengths would overflow)"
-            )
+        _check_displacements(deltas, names, source)
 
         triangles = _index_array(self.triangles, "triangles", source)
         if triangles.size == 0:
