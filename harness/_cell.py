@@ -38,8 +38,6 @@ _warmed_up: set[str] = set()
 _MEMO_SIZE = 512
 _transfer_memo: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
 _estimate_memo: dict[tuple[Any, ...], np.ndarray] = {}
-#: Solvers with an exact minimum-expression mode (`solvers.minimum_expressions`).
-MINIMUM_MODE_SOLVERS = ("cpsat", "highs")
 #: Shapes with the largest transfer error recorded per transfer row.
 _WORST_SHAPES = 5
 
@@ -219,10 +217,11 @@ def _pack(spec: CellSpec, solver: Any, template: Any, target: Any) -> tuple[Any,
 
 
 def _minimum(spec: CellSpec, analysis: Any) -> dict[str, Any]:
-    """The fewest expressions covering every shape, for cells whose solver has that exact mode."""
+    """The fewest expressions covering every shape, for cells whose solver declares that exact mode
+    (``capabilities.minimum_cover``)."""
     import solvers
 
-    if spec.solver not in MINIMUM_MODE_SOLVERS:
+    if not solvers.solver_class(spec.solver).capabilities.minimum_cover:
         return {}
     found = solvers.minimum_expressions(
         analysis.problem, solver=spec.solver, time_limit=spec.time_limit, seed=spec.seed

@@ -6,6 +6,12 @@ Beyond single expressions: artist refinement (sec. 4.5.3, `refine`, `RefiningSol
 number of expressions with its ordered sequence (`minimum_expressions`, `ordered_minimum_sequence`).
 The conformance checks for plugins live in `solvers.testing`.
 
+The plugin kit: a plugin's ``solve`` returns a `Result` (items, termination, bound); `load` (which `get`
+applies) checks its arguments and turns its answer into a `packing.Solution` once for every plugin. An
+exact plugin subclasses `ExactSolver` and solves the presolved `CliqueModel`; a heuristic fills an
+`OpenExpression`, which keeps eq. 3b, the cap and the apart pairs; `package_availability` answers
+``availability()`` without importing the backend.
+
 Names are imported from their modules on first use (PEP 562): listing the plugins imports neither a
 backend nor the minimum-expression machinery.
 """
@@ -16,13 +22,25 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from solvers._base import Availability, AvailabilityStatus, Capabilities, Solver
+    from solvers._base import (
+        Availability,
+        AvailabilityStatus,
+        Capabilities,
+        Result,
+        Solver,
+        package_availability,
+    )
+    from solvers._exact import ExactSolver
+    from solvers._loaded import LoadedSolver, load
     from solvers._minimum import (
         MinimumExpressions,
         OrderedSequence,
+        minimum_cover_solvers,
         minimum_expressions,
         ordered_minimum_sequence,
     )
+    from solvers._model import CliqueModel
+    from solvers._open import OpenExpression
     from solvers._refine import Proposal, RefiningSolver, refine, rejecting
     from solvers._registry import (
         SolverInfo,
@@ -33,6 +51,7 @@ if TYPE_CHECKING:
         info,
         names,
         refresh,
+        solver_class,
     )
 
 #: The module that defines each public name.
@@ -40,9 +59,17 @@ _MODULE_OF = {
     "Availability": "solvers._base",
     "AvailabilityStatus": "solvers._base",
     "Capabilities": "solvers._base",
+    "Result": "solvers._base",
     "Solver": "solvers._base",
+    "package_availability": "solvers._base",
+    "ExactSolver": "solvers._exact",
+    "LoadedSolver": "solvers._loaded",
+    "load": "solvers._loaded",
+    "CliqueModel": "solvers._model",
+    "OpenExpression": "solvers._open",
     "MinimumExpressions": "solvers._minimum",
     "OrderedSequence": "solvers._minimum",
+    "minimum_cover_solvers": "solvers._minimum",
     "minimum_expressions": "solvers._minimum",
     "ordered_minimum_sequence": "solvers._minimum",
     "Proposal": "solvers._refine",
@@ -57,16 +84,22 @@ _MODULE_OF = {
     "info": "solvers._registry",
     "names": "solvers._registry",
     "refresh": "solvers._registry",
+    "solver_class": "solvers._registry",
 }
 
 __all__ = [
     "Availability",
     "AvailabilityStatus",
     "Capabilities",
+    "CliqueModel",
+    "ExactSolver",
+    "LoadedSolver",
     "MinimumExpressions",
+    "OpenExpression",
     "OrderedSequence",
     "Proposal",
     "RefiningSolver",
+    "Result",
     "Solver",
     "SolverInfo",
     "SolverUnavailableError",
@@ -74,12 +107,16 @@ __all__ = [
     "availability",
     "get",
     "info",
+    "load",
+    "minimum_cover_solvers",
     "minimum_expressions",
     "names",
     "ordered_minimum_sequence",
+    "package_availability",
     "refine",
     "refresh",
     "rejecting",
+    "solver_class",
 ]
 
 

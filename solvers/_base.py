@@ -1,9 +1,10 @@
 """The solver plugin contract: capabilities, availability, the `Solver` protocol (DESIGN.md, "Plugin").
 
 A solver plugin is a class with a ``name``, typed ``capabilities``, a cheap ``availability()`` that never
-imports the backend library, and ``solve(problem, *, time_limit, seed) -> Solution``. Built-in backends share
-the helpers below (argument checks, timing, building the returned `Solution`); third-party plugins only need
-the protocol.
+imports the backend library, and ``solve(problem, *, time_limit, seed) -> Result``: the items it chose, why
+it stopped and any bound it proved. Everything else a `packing.Solution` holds (sorted items, shape names,
+the objective of eq. 3a, timings, backend and version) is filled in once by the framework
+(`solvers.load`, which `solvers.get` applies), so built-in and third-party plugins are treated alike.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import importlib.metadata
 import importlib.util
 import math
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
@@ -23,6 +24,9 @@ import numpy as np
 if TYPE_CHECKING:  # imported where used, so that listing plugins does not import the method
     from packing import PackingProblem, Solution, Termination
 
+#: Relative shortfall of a reported bound below its objective that is taken for rounding (backends' own
+#: feasibility tolerances), not for a false claim.
+BOUND_SLACK = 1e-6
 #: Largest seed every backend accepts (CP-SAT and HiGHS take a 32-bit signed int).
 MAX_SEED = 2**31 - 1
 
@@ -48,6 +52,9 @@ class Capabilities:
         item is added (Algorithm 2 with allowed overlap, sec. 4.5.2). 0 for every solver of eq. 3, whose
         chosen items never share an active vertex (eq. 3b). Results are verified with this allowance and
         no other.
+    minimum_cover : bool
+        Also proves the fewest expressions that cover every item (`solvers.minimum_expressions`): the
+        plugin implements ``solve_colouring(problem, start, lower, *, time_limit, seed)``.
     """
 
     exact: bool
@@ -56,6 +63,7 @@ class Capabilities:
     deterministic: bool = True
     isolated_process: bool = False
     max_overlap: float = 0.0
+    minimum_cover: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.max_overlap < 1.0:
@@ -133,6 +141,37 @@ class Availability:
         return cls(AvailabilityStatus.LOAD_ERROR, reason=text)
 
 
+@dataclass(frozen=True)
+class Result:
+    """What a solver plugin returns for one packing problem: its answer and nothing derived from it.
+
+    Attributes
+    ----------
+    items : sequence of int
+        Chosen items of the problem, in any order (empty when none was found).
+    termination : Termination
+        Why the plugin stopped: COMPLETED for a heuristic that ran to its end, OPTIMAL when optimality of
+        eq. 3 is proved, TIME_LIMIT with the incumbent, INFEASIBLE, or ERROR with a ``message``.
+    bound : float or None
+        Proved upper bound on eq. 3a, if any.
+    build_time, solve_time : float or None
+        Seconds to build the backend's model and to solve it, where the plugin measures them itself (an
+        isolated worker does); None lets the framework time the whole call as solve time.
+    version : str
+        The backend version that ran, when it differs from what ``availability()`` reports.
+    message : str
+        Details for the records (an error text, the options used).
+    """
+
+    items: Sequence[int]
+    termination: Termination
+    bound: float | None = None
+    build_time: float | None = None
+    solve_time: float | None = None
+    version: str = ""
+    message: str = ""
+
+
 @runtime_checkable
 class Solver(Protocol):
     """A backend that solves one expression's packing problem (eq. 3).
@@ -149,8 +188,8 @@ class Solver(Protocol):
         """Whether the backend can run here (cheap: never imports it)."""
         ...
 
-    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
-        """Choose items for one expression; see `packing.Solution` for the fields."""
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
+        """Choose items for one expression (eq. 3). Arguments arrive checked; see `Result`."""
         ...
 
 
@@ -221,16 +260,18 @@ def make_solution(
     Backends report the chosen items only; the objective is always evaluated here in double precision so
     that every backend's value is comparable to 1e-9. It is the importance sum of eq. 3a: the tie-break
     perturbation that backends maximise along with it stays inside them. A bound proved on the perturbed
-    objective also bounds the importance sum; it is never reported below the objective it bounds.
+    objective also bounds the importance sum: one within `BOUND_SLACK` (relative) of the objective is
+    reported as at least the objective (the objective itself when optimal), one further below is kept as
+    claimed, so that the checker rejects an answer its own bound contradicts.
     """
     from packing import Solution, Termination
 
     chosen = tuple(sorted(int(i) for i in items))
     objective = problem.unperturbed_objective(chosen)
-    if termination is Termination.OPTIMAL:
+    if bound is not None and bound >= objective - BOUND_SLACK * max(1.0, abs(objective)):
+        bound = objective if termination is Termination.OPTIMAL else max(float(bound), objective)
+    elif bound is None and termination is Termination.OPTIMAL:
         bound = objective
-    elif bound is not None:
-        bound = max(float(bound), objective)
     return Solution(
         items=chosen,
         shapes=problem.shapes_of(chosen),

@@ -1,122 +1,91 @@
-"""Shared driver of the exact backends: presolved arrays in, a checked `Solution` out.
+"""The base of exact plugins: a plugin solves the presolved `CliqueModel`, this base does the rest.
 
-Each exact plugin implements only ``_solve_model(model, time_limit, seed) -> BackendResult`` on the
-`CliqueModel`; this driver validates the arguments, answers the empty problem, applies the exact reductions
-of `solvers._reduce` (dominated items out, conflict-free items in: the optimal packings stay exactly the
-same) so that the backend sees only the kernel, times the array preparation, turns backend exceptions into
-``Termination.ERROR`` and, when a time limit stops a backend with no incumbent or one worse than Algorithm
-2's packing, returns that packing instead (valid by construction), so a time-limited solve always has an
-incumbent at least as good as the greedy one.
+An exact plugin implements ``solve_model(model, *, time_limit, seed) -> Result`` on the `CliqueModel`
+(arrays of eq. 3 after presolve). `ExactSolver.solve` answers the empty problem, applies the exact
+reductions of `solvers._reduce` (dominated items out, conflict-free items in: the optimal packings stay
+exactly the same) so that the backend sees only the kernel, maps the kernel's items back to the problem's,
+times the array preparation and, when a time limit stops a backend with no incumbent or one worse than
+Algorithm 2's packing, answers that packing instead (valid by construction), so a time-limited solve
+always has an incumbent at least as good as the greedy one. The framework (`solvers.load`) then checks and
+normalises the answer as for any plugin.
 """
 
 from __future__ import annotations
 
-import functools
-import traceback
-from dataclasses import dataclass
+from dataclasses import replace
 from typing import ClassVar
 
-from packing import PackingProblem, Solution, Termination
-from solvers._base import Capabilities, Stopwatch, check_solve_arguments, make_solution, trivial_bound
+from packing import PackingProblem, Termination
+from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
 from solvers._model import CliqueModel
 from solvers._reduce import reduce_problem
 
 
-@dataclass(frozen=True)
-class BackendResult:
-    """What a backend reports on a `CliqueModel` (picklable, so isolated workers can return it).
+class ExactSolver:
+    """A `Solver` whose subclasses solve eq. 3 on the presolved model (MILP, CP-SAT, ...).
 
-    Attributes
-    ----------
-    items : tuple of int
-        Chosen items (empty when none was found).
-    termination : Termination
-    bound : float or None
-        Proved upper bound on eq. 3a, if the backend reports one.
-    build_time, solve_time : float
-        Seconds to build the backend's model and to solve it, measured where the backend runs.
-    version : str
-        Backend library (and binary) version that ran.
-    message : str
-    """
+    Subclasses set ``name``, ``capabilities`` and ``availability`` as any plugin, and implement
+    `solve_model`. ``reduces`` (default True) applies `solvers._reduce.reduce_problem` first, so
+    ``solve_model`` gets the model of the kernel; a plugin that must see the problem as given (the
+    paper's per-vertex formulation, ``naive-pulp-cbc``) sets it False and overrides `solve_problem`.
 
-    items: tuple[int, ...]
-    termination: Termination
-    bound: float | None
-    build_time: float
-    solve_time: float
-    version: str
-    message: str = ""
-
-
-@functools.cache
-def _reported_version(solver: type) -> str:
-    """The backend version a solver class reports by its availability (read once per process)."""
-    return solver.availability().version
-
-
-class ExactSolverBase:
-    """`Solver` implementation shared by the MILP / CP-SAT plugins; subclasses provide `_solve_model`.
-
-    ``reduces`` (default True) applies `solvers._reduce.reduce_problem` first: ``_solve_model`` then gets
-    the model of the kernel (its items are ``Reduction.kept``) and must read the model, not the problem's
-    items. A plugin that must see the problem as given (the paper's formulation, ``naive-pulp-cbc``) sets it
-    False.
+    Examples
+    --------
+    ``examples/solver_plugin/example_scipy_milp.py`` is a complete plugin on SciPy's MILP interface:
+    ``solve_model`` calls ``scipy.optimize.milp(-model.weights, integrality=1, bounds=(0, 1),
+    constraints=model.constraint())`` and returns ``Result(items, termination, bound=...)``.
     """
 
     name: ClassVar[str]
     capabilities: ClassVar[Capabilities]
     reduces: ClassVar[bool] = True
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
-        raise NotImplementedError
-
-    def _version(self) -> str:
-        """Version string reported when the backend did not run (empty or failed solve)."""
-        return _reported_version(type(self))
-
-    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
-        """Solve eq. 3 on the presolved model to proven optimality (MIP gap 0) or until ``time_limit``.
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+        """Solve ``max w.x`` over the model's clique rows and cap row, x binary (eq. 3 after presolve).
 
         Parameters
         ----------
-        problem : PackingProblem
-        time_limit : float, optional
-            Seconds for the backend's search (build time not included).
+        model : CliqueModel
+        time_limit : float or None
+            Seconds for the backend's search.
         seed : int
-            Backend random seed; the same seed gives the same items.
+            The backend's random seed.
 
         Returns
         -------
-        Solution
-            ``termination`` is OPTIMAL, TIME_LIMIT (with the incumbent and the proved bound), or ERROR
-            with the backend's message.
+        Result
+            Items as indices of ``model``; OPTIMAL (MIP gap 0) or TIME_LIMIT with the incumbent and the
+            proved bound, or ERROR with the backend's message.
         """
-        check_solve_arguments(problem, time_limit, seed)
+        raise NotImplementedError(f"{type(self).__name__} must implement solve_model")
+
+    def solve_problem(
+        self, problem: PackingProblem, model: CliqueModel, *, time_limit: float | None, seed: int
+    ) -> Result:
+        """The backend's answer for ``problem``, presolved as ``model`` (by default `solve_model`'s)."""
+        return self.solve_model(model, time_limit=time_limit, seed=seed)
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
+        """Solve eq. 3 to proven optimality (MIP gap 0) or until ``time_limit`` (build time not included).
+
+        Returns
+        -------
+        Result
+            Items of ``problem``; at a time limit the better of the backend's incumbent and Algorithm 2's
+            packing, with a bound no lower than it.
+        """
         clock = Stopwatch()
         if problem.n_items == 0:
-            return make_solution(
-                problem, (), termination=Termination.OPTIMAL, bound=0.0, build_time=0.0, solve_time=0.0,
-                backend=self.name, version=self._version(),
-            )  # fmt: skip
+            return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
         reduction = reduce_problem(problem, cap_binds) if self.reduces else None
         model = CliqueModel.from_problem(problem) if reduction is None else reduction.model
         prepare_time = clock.lap()
-        try:
-            if model.n_items == 0:  # the reductions decided every item
-                result = BackendResult((), Termination.OPTIMAL, 0.0, 0.0, 0.0, self._version())
-            else:
-                result = self._solve_model(problem, model, time_limit, seed)
-        except Exception as error:  # a failing backend is reported, never raised into the run
-            detail = "".join(traceback.format_exception_only(error)).strip()
-            return make_solution(
-                problem, (), termination=Termination.ERROR, bound=None, build_time=prepare_time,
-                solve_time=clock.lap(), backend=self.name, version=self._version(), message=detail,
-            )  # fmt: skip
-        items, message, bound = result.items, result.message, result.bound
+        if model.n_items == 0:  # the reductions decided every item
+            result = Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
+        else:
+            result = self.solve_problem(problem, model, time_limit=time_limit, seed=seed)
+        items, message, bound = tuple(int(i) for i in result.items), result.message, result.bound
         if reduction is not None:
             items = reduction.items(items)
             if bound is not None:
@@ -130,18 +99,13 @@ class ExactSolverBase:
                 message = (
                     message + "; " if message else ""
                 ) + "incumbent at the time limit: Algorithm 2's packing"
-        if result.termination is Termination.TIME_LIMIT and (
-            bound is None or bound < problem.objective(items) - 1e-9 * max(1.0, abs(bound))
-        ):
-            bound = trivial_bound(problem)  # the backend proved nothing usable before it stopped
-        return make_solution(
-            problem,
-            items,
-            termination=result.termination,
+            if bound is None or bound < problem.objective(items) - 1e-9 * max(1.0, abs(bound)):
+                bound = trivial_bound(problem)  # the backend proved nothing usable before it stopped
+        return replace(
+            result,
+            items=items,
             bound=bound,
-            build_time=prepare_time + result.build_time,
-            solve_time=result.solve_time,
-            backend=self.name,
-            version=result.version,
             message=message,
+            build_time=prepare_time + (result.build_time or 0.0),
+            solve_time=result.solve_time if result.solve_time is not None else clock.lap(),
         )

@@ -23,12 +23,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing import PackingProblem, SolutionStatus, Termination
+from solvers import _registry as registry
 from solvers._base import Stopwatch, check_solve_arguments, distribution_version
 from solvers._model import conflict_graph
 from solvers.cpsat import cpsat_parameters, integer_weights
-
-#: Backends of `minimum_expressions`.
-MINIMUM_SOLVERS = ("cpsat", "highs")
 
 
 @dataclass(frozen=True)
@@ -148,8 +146,9 @@ def minimum_expressions(
     ----------
     problem : PackingProblem
         All items (blendshapes and symmetry pairs) to cover, with the optional cap.
-    solver : {"cpsat", "highs"}
-        CP-SAT, or HiGHS for the same model as a MILP.
+    solver : str
+        A solver plugin whose capabilities declare ``minimum_cover`` (`minimum_cover_solvers`): CP-SAT,
+        or HiGHS for the same model as a MILP.
     time_limit : float, optional
         Seconds for the solver; when reached, the best cover found is returned with TIME_LIMIT.
     seed : int
@@ -172,10 +171,7 @@ def minimum_expressions(
     3
     """
     check_solve_arguments(problem, time_limit, seed)
-    if solver not in MINIMUM_SOLVERS:
-        raise ValueError(
-            f"minimum_expressions: solver must be one of {', '.join(MINIMUM_SOLVERS)}, got {solver!r}"
-        )
+    plugin = _covering_plugin(solver)
     _check_cap(problem)
     clock = Stopwatch()
     lower = _lower_bound(problem)
@@ -184,12 +180,13 @@ def minimum_expressions(
     start = first_fit_colouring(problem)
     n_colours = int(start.max()) + 1
     if n_colours == lower:
-        version = distribution_version("ortools" if solver == "cpsat" else "highspy")
+        version = plugin.availability().version
         return MinimumExpressions(
             n_colours, lower, _classes(problem, start), Termination.OPTIMAL, clock.lap(), solver, version
         )
-    solve = _colour_cpsat if solver == "cpsat" else _colour_highs
-    colour, bound, proved, version = solve(problem, start, lower, time_limit, seed)
+    colour, bound, proved, version = plugin.solve_colouring(
+        problem, start, lower, time_limit=time_limit, seed=seed
+    )
     count = int(colour.max()) + 1
     lower = max(lower, bound)
     termination = Termination.OPTIMAL if proved or count == lower else Termination.TIME_LIMIT
@@ -198,11 +195,32 @@ def minimum_expressions(
     )
 
 
+def minimum_cover_solvers() -> list[str]:
+    """Installed, available solver plugins whose capabilities declare ``minimum_cover``."""
+    return [
+        name
+        for name in registry.names()
+        if registry.availability(name) and registry.solver_class(name).capabilities.minimum_cover
+    ]
+
+
+def _covering_plugin(name: str):
+    """An instance of solver ``name``, which must declare ``minimum_cover``."""
+    plugin = registry.get(name).plugin
+    if not plugin.capabilities.minimum_cover:
+        raise ValueError(
+            f"minimum_expressions: solver {name!r} cannot prove the fewest expressions; "
+            f"use one of {', '.join(minimum_cover_solvers())}"
+        )
+    return plugin
+
+
 def _largest_clique(problem: PackingProblem) -> np.ndarray:
     return max(problem.cliques, key=lambda c: (c.size, -c[0])) if problem.cliques else np.zeros(0, np.int64)
 
 
-def _colour_cpsat(problem, start, lower, time_limit, seed):
+def colour_cpsat(problem, start, lower, time_limit, seed):
+    """The colouring model in CP-SAT: (colours, proved lower bound, proved optimal, version)."""
     from ortools.sat.python import cp_model
 
     n_items, n_colours = problem.n_items, int(start.max()) + 1
@@ -272,8 +290,11 @@ def _compact(colour: np.ndarray) -> np.ndarray:
     return mapping[colour]
 
 
-def _colour_highs(problem, start, lower, time_limit, seed):
+def colour_highs(problem, start, lower, time_limit, seed):
+    """The colouring model as a HiGHS MILP: (colours, proved lower bound, proved optimal, version)."""
     import highspy
+
+    from solvers.highs import configured_highs, highs_lp
 
     n_items, n_colours = problem.n_items, int(start.max()) + 1
     n_x = n_items * n_colours  # x[i, c] is column i * n_colours + c, used[c] is column n_x + c
@@ -322,27 +343,13 @@ def _colour_highs(problem, start, lower, time_limit, seed):
     for c, item in enumerate(_largest_clique(problem).tolist()):
         col_lower[item * n_colours + c] = 1.0
     col_lower[n_x : n_x + lower] = 1.0  # used[c] for c < lower bound
-    lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = n_x + n_colours, len(lower_rows)
-    lp.col_cost_ = np.concatenate([np.zeros(n_x), np.ones(n_colours)])
-    lp.col_lower_, lp.col_upper_ = col_lower, np.ones(n_x + n_colours)
-    lp.row_lower_, lp.row_upper_ = np.array(lower_rows), np.array(upper_rows)
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = lp.num_col_, lp.num_row_
-    lp.a_matrix_.start_, lp.a_matrix_.index_ = matrix.indptr.astype(np.int32), matrix.indices.astype(np.int32)
-    lp.a_matrix_.value_ = matrix.data
-    lp.integrality_ = [highspy.HighsVarType.kInteger] * lp.num_col_
-    highs = highspy.Highs()
-    for option, value in (
-        ("output_flag", False),
-        ("threads", 1),
-        ("random_seed", int(seed)),
-        ("mip_rel_gap", 0.0),
-    ):
-        highs.setOptionValue(option, value)
-    if time_limit is not None:
-        highs.setOptionValue("time_limit", float(time_limit))
-    highs.passModel(lp)
+    highs = configured_highs(highspy, time_limit, seed)
+    highs.passModel(
+        highs_lp(
+            highspy, matrix, np.array(lower_rows), np.array(upper_rows),
+            np.concatenate([np.zeros(n_x), np.ones(n_colours)]), col_lower, np.ones(n_x + n_colours),
+        )
+    )  # fmt: skip
     hint = np.zeros(n_x + n_colours)
     hint[np.arange(n_items) * n_colours + start] = 1.0
     hint[n_x:] = 1.0
@@ -462,9 +469,10 @@ def _unconstrained_step(problem, sub, remaining, left, time_limit, seed):
     satisfies the count constraint is the step's answer; a first-fit cover, or a cover found by
     `minimum_expressions` within the time limit, proves that it does.
     """
+    from solvers._loaded import load
     from solvers.cpsat import CpSatSolver
 
-    solution = CpSatSolver().solve(sub, time_limit=time_limit, seed=seed)
+    solution = load(CpSatSolver).solve(sub, time_limit=time_limit, seed=seed)
     if solution.termination is not Termination.OPTIMAL:
         return None
     rest_index = np.setdiff1d(np.arange(sub.n_items), solution.items)

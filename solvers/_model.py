@@ -65,6 +65,29 @@ class CliqueModel:
         """Items of clique row ``r``."""
         return self.row_items[self.row_starts[r] : self.row_starts[r + 1]]
 
+    def matrix(self) -> sp.csr_matrix:
+        """(R, I) float CSR matrix of every row: the clique rows, then the cap row when there is one.
+
+        With `upper`, the model's constraints are ``matrix() @ x <= upper()``.
+        """
+        starts, items, values = self.row_starts, self.row_items, np.ones(self.row_items.size)
+        if self.cap is not None:
+            starts = np.append(starts, starts[-1] + self.n_items)
+            items = np.concatenate([items, np.arange(self.n_items)])
+            values = np.concatenate([values, self.shape_counts.astype(np.float64)])
+        return sp.csr_matrix((values, items, starts), shape=(starts.size - 1, self.n_items))
+
+    def upper(self) -> np.ndarray:
+        """Right-hand side of every row of `matrix`: 1 per clique, then the cap."""
+        ones = np.ones(self.n_rows)
+        return ones if self.cap is None else np.append(ones, float(self.cap))
+
+    def constraint(self):
+        """The rows as one ``scipy.optimize.LinearConstraint`` (``-inf <= matrix() @ x <= upper()``)."""
+        from scipy.optimize import LinearConstraint
+
+        return LinearConstraint(self.matrix(), -np.inf, self.upper())
+
 
 def clique_matrix(problem: PackingProblem) -> sp.csr_matrix:
     """(R, I) 0/1 CSR matrix with one row per conflict set of the problem."""

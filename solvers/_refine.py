@@ -23,6 +23,7 @@ import numpy as np
 
 from packing import PackingProblem, Solution, Termination
 from solvers._base import Capabilities, check_solve_arguments, make_solution
+from solvers._loaded import load
 from solvers._model import conflict_graph
 
 
@@ -100,6 +101,7 @@ def refine(
         hit the limit, ERROR if one failed. ``message`` lists the rejected items.
     """
     check_solve_arguments(problem, time_limit, seed)
+    solver = load(solver)
     adjacency = conflict_graph(problem)
     counts = problem.item_shape_counts
     accepted: list[int] = []
@@ -194,7 +196,7 @@ class RefiningSolver:
     """
 
     def __init__(self, inner, decide: Decide) -> None:
-        self.inner = inner
+        self.inner = load(inner)
         self.decide = decide
         self.name = f"{inner.name}+refine"
         self.capabilities: Capabilities = dataclasses.replace(inner.capabilities, exact=False)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from solvers._base import Availability, Capabilities
+from solvers._loaded import LoadedSolver, load
 
 #: Entry-point group that solver plugins register under.
 GROUP = "harness.solvers"
@@ -166,8 +167,8 @@ def availability(name: str) -> Availability:
     return found
 
 
-def get(name: str, **parameters: Any):
-    """An instance of solver ``name``, constructed with ``parameters``.
+def get(name: str, **parameters: Any) -> LoadedSolver:
+    """Solver ``name``, constructed with ``parameters``, behind the framework's checks (`solvers.load`).
 
     Raises
     ------
@@ -183,7 +184,7 @@ def get(name: str, **parameters: Any):
     if not found:
         raise SolverUnavailableError(name, found)
     try:
-        return cls(**parameters)
+        return load(cls(**parameters))
     except TypeError as error:
         raise TypeError(f"solver {name!r} does not take parameters {sorted(parameters)}: {error}") from None
 

@@ -11,9 +11,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination
-from solvers._base import Availability, Capabilities, Stopwatch, package_availability
-from solvers._exact import BackendResult, ExactSolverBase
+from packing import Termination
+from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 from solvers._worker import worker
 
@@ -21,7 +21,7 @@ from solvers._worker import worker
 WORKER_GRACE = 120.0
 
 
-class MipCbcSolver(ExactSolverBase):
+class MipCbcSolver(ExactSolver):
     """Eq. 3 after presolve, solved by python-mip's CBC (gaps 0, one thread, seeded, native time limit)."""
 
     name: ClassVar[str] = "cbc-mip"
@@ -32,16 +32,14 @@ class MipCbcSolver(ExactSolverBase):
         """Available when the ``mip`` distribution is installed (it is only imported in the worker)."""
         return package_availability("mip", hint="pip install mip")
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
         timeout = None if time_limit is None else time_limit + WORKER_GRACE
         return worker(self.name).call(
             "solvers.cbc_mip:solve_clique_model", model, time_limit, seed, timeout=timeout
         )
 
 
-def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> BackendResult:
+def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> Result:
     """Build and solve the clique model with python-mip (runs inside the worker process)."""
     import mip
 
@@ -69,8 +67,8 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
         items = tuple(np.flatnonzero(values > 0.5).tolist())
     bound = float(lp.objective_bound) if np.isfinite(lp.objective_bound) else None
     if status is mip.OptimizationStatus.OPTIMAL:
-        return BackendResult(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
+        return Result(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
     if status in (mip.OptimizationStatus.FEASIBLE, mip.OptimizationStatus.NO_SOLUTION_FOUND):
-        return BackendResult(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
+        return Result(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
     message = f"python-mip stopped with status {status.name}"
-    return BackendResult((), Termination.ERROR, None, build_time, solve_time, version, message)
+    return Result((), Termination.ERROR, None, build_time, solve_time, version, message)

@@ -6,14 +6,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem
-from solvers._base import Availability, Capabilities, Stopwatch
+from solvers._base import Availability, Capabilities, Result, Stopwatch
 from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, run_cbc
-from solvers._exact import BackendResult, ExactSolverBase
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
 
-class PulpCbcSolver(ExactSolverBase):
+class PulpCbcSolver(ExactSolver):
     """Eq. 3 after presolve (one row per conflict set, one cap row), written by PuLP and solved by CBC.
 
     Expressions are built from coefficient lists (``LpAffineExpression``), not by summing terms in
@@ -38,9 +37,7 @@ class PulpCbcSolver(ExactSolverBase):
         """PuLP installed and a CBC executable found (cbcbox's or PuLP's own)."""
         return cbc_availability()
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
         import pulp
 
         binary = find_cbc(self.cbc)
@@ -63,6 +60,6 @@ class PulpCbcSolver(ExactSolverBase):
         if outcome.has_solution:
             values = np.array([v.varValue or 0.0 for v in chosen])
             items = tuple(np.flatnonzero(values > 0.5).tolist())
-        return BackendResult(
+        return Result(
             items, outcome.termination, outcome.bound, build_time, solve_time, version, outcome.message
         )

@@ -11,9 +11,16 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination
-from solvers._base import Availability, Capabilities, Stopwatch, distribution_version, package_availability
-from solvers._exact import BackendResult, ExactSolverBase
+from packing import Termination
+from solvers._base import (
+    Availability,
+    Capabilities,
+    Result,
+    Stopwatch,
+    distribution_version,
+    package_availability,
+)
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
 #: Total of the scaled integer weights. CP-SAT needs integer coefficients; scaling the weights so that
@@ -50,7 +57,7 @@ def set_parameters(parameters, time_limit: float | None, seed: int, workers: int
         parameters.max_time_in_seconds = float(time_limit)
 
 
-class CpSatSolver(ExactSolverBase):
+class CpSatSolver(ExactSolver):
     """Eq. 3 as a CP-SAT model: a Boolean per item, ``AddAtMostOne`` per clique, a linear cap row.
 
     Parameters
@@ -61,7 +68,7 @@ class CpSatSolver(ExactSolverBase):
     """
 
     name: ClassVar[str] = "cpsat"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, minimum_cover=True)
 
     def __init__(self, workers: int = 1) -> None:
         if not isinstance(workers, int) or workers < 1:
@@ -73,9 +80,13 @@ class CpSatSolver(ExactSolverBase):
         """Available when the ``ortools`` distribution is installed."""
         return package_availability("ortools", hint="pip install ortools")
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_colouring(self, problem, start, lower, *, time_limit, seed):
+        """The fewest expressions covering every item, as CP-SAT's colouring model (`solvers._minimum`)."""
+        from solvers._minimum import colour_cpsat
+
+        return colour_cpsat(problem, start, lower, time_limit, seed)
+
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
         from ortools.sat.python import cp_model_helper
 
         clock = Stopwatch()
@@ -92,7 +103,7 @@ class CpSatSolver(ExactSolverBase):
         version = f"ortools {distribution_version('ortools')}"
         if status not in (found.OPTIMAL, found.FEASIBLE, found.UNKNOWN):
             message = f"CP-SAT stopped with status {status.name}"
-            return BackendResult((), Termination.ERROR, None, build_time, solve_time, version, message)
+            return Result((), Termination.ERROR, None, build_time, solve_time, version, message)
         items: tuple[int, ...] = ()
         if status in (found.OPTIMAL, found.FEASIBLE):
             values = np.asarray(response.solution)[: model.n_items]
@@ -101,7 +112,7 @@ class CpSatSolver(ExactSolverBase):
         scale = integer_weights(model.weights)[1]
         bound = (response.best_objective_bound + 0.5 * model.n_items) / scale
         termination = Termination.OPTIMAL if status == found.OPTIMAL else Termination.TIME_LIMIT
-        return BackendResult(items, termination, bound, build_time, solve_time, version)
+        return Result(items, termination, bound, build_time, solve_time, version)
 
 
 def _model_proto(cp_model_helper, model: CliqueModel):

@@ -10,15 +10,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Solution, Termination
-from solvers._base import (
-    Availability,
-    Capabilities,
-    Stopwatch,
-    check_solve_arguments,
-    distribution_version,
-    make_solution,
-)
+from packing import PackingProblem, Termination
+from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
+from solvers._open import OpenExpression
 
 #: Distribution that ships the built-in pure-numpy solvers (their version is the project's).
 PROJECT_DISTRIBUTION = "expression-packing-harness"
@@ -101,28 +95,11 @@ def greedy_items(
         order = greedy_order(problem, counts)
     if overlap == 0.0:
         return _strict_greedy(problem, order, counts)
-    incidence = problem.incidence
-    indptr, indices = incidence.indptr, incidence.indices
-    allowed = np.floor(overlap * problem.item_active_counts + 1e-9).astype(np.int64)
-    room = np.inf if problem.cap is None else problem.cap
-    active = np.zeros(incidence.shape[1], dtype=bool)
-    barred = np.zeros(problem.n_items, dtype=bool)  # apart from a chosen item (artist constraints)
-    partners: dict[int, list[int]] = {}
-    for a, b in problem.apart:
-        partners.setdefault(a, []).append(b)
-        partners.setdefault(b, []).append(a)
-    chosen: list[int] = []
+    expression = OpenExpression(problem, overlap)
     for item in order.tolist():
-        if counts[item] > room or barred[item]:
-            continue
-        vertices = indices[indptr[item] : indptr[item + 1]]
-        if np.count_nonzero(active[vertices]) > allowed[item]:
-            continue
-        active[vertices] = True
-        barred[partners.get(item, [])] = True
-        chosen.append(item)
-        room -= counts[item]
-    return tuple(chosen)
+        if expression.fits(item):
+            expression.add(item)
+    return expression.items
 
 
 def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarray) -> tuple[int, ...]:
@@ -170,27 +147,17 @@ class GreedySolver:
         """Always available: numpy only."""
         return Availability.available(distribution_version(PROJECT_DISTRIBUTION))
 
-    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
         """Run Algorithm 2 to completion (``time_limit`` and ``seed`` are accepted and unused)."""
-        check_solve_arguments(problem, time_limit, seed)
         return self._run(problem, 0.0)
 
-    def _run(self, problem: PackingProblem, overlap: float) -> Solution:
+    def _run(self, problem: PackingProblem, overlap: float) -> Result:
         clock = Stopwatch()
         order = greedy_order(problem)
         build_time = clock.lap()
         items = greedy_items(problem, overlap, order)
-        return make_solution(
-            problem,
-            items,
-            termination=Termination.COMPLETED,
-            bound=None,
-            build_time=build_time,
-            solve_time=clock.lap(),
-            backend=self.name,
-            version=distribution_version(PROJECT_DISTRIBUTION),
-            message=f"overlap_allowed={overlap:g}" if overlap else "",
-        )
+        message = f"overlap_allowed={overlap:g}" if overlap else ""
+        return Result(items, Termination.COMPLETED, None, build_time, clock.lap(), message=message)
 
 
 class GreedyOverlapSolver(GreedySolver):
@@ -216,7 +183,6 @@ class GreedyOverlapSolver(GreedySolver):
         self.overlap = float(overlap)
         self.capabilities = replace(type(self).capabilities, max_overlap=self.overlap)
 
-    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
         """Run Algorithm 2 with the allowed overlap to completion."""
-        check_solve_arguments(problem, time_limit, seed)
         return self._run(problem, self.overlap)

@@ -10,24 +10,25 @@ import importlib.metadata
 from typing import ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
-from packing import PackingProblem, Termination
-from solvers._base import Availability, Capabilities, Stopwatch, package_availability
-from solvers._exact import BackendResult, ExactSolverBase
+from packing import Termination
+from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
 #: HiGHS version bundled by each OR-Tools release line; highspy must match it to share a process.
 ORTOOLS_BUNDLED_HIGHS = {"9.15": "1.12.0"}
 
 
-class HighsSolver(ExactSolverBase):
+class HighsSolver(ExactSolver):
     """Eq. 3 (cliques as at-most-one rows, the cap as one row) solved by HiGHS's branch and cut.
 
     Options: ``mip_rel_gap = mip_abs_gap = 0``, one thread, ``random_seed = seed``, native time limit.
     """
 
     name: ClassVar[str] = "highs"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, minimum_cover=True)
 
     @classmethod
     def availability(cls) -> Availability:
@@ -48,24 +49,26 @@ class HighsSolver(ExactSolverBase):
             )
         return found
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_colouring(self, problem, start, lower, *, time_limit, seed):
+        """The fewest expressions covering every item, as a HiGHS MILP of the colouring model."""
+        from solvers._minimum import colour_highs
+
+        return colour_highs(problem, start, lower, time_limit, seed)
+
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
         import highspy
 
         clock = Stopwatch()
-        highs = highspy.Highs()
-        for option, value in (
-            ("output_flag", False),
-            ("threads", 1),
-            ("random_seed", int(seed)),
-            ("mip_rel_gap", 0.0),
-            ("mip_abs_gap", 0.0),
-        ):
-            highs.setOptionValue(option, value)
-        if time_limit is not None:
-            highs.setOptionValue("time_limit", float(time_limit))
-        highs.passModel(_highs_lp(highspy, model))
+        highs = configured_highs(highspy, time_limit, seed)
+        highs.setOptionValue("mip_abs_gap", 0.0)
+        matrix = model.matrix()
+        n_items = model.n_items
+        highs.passModel(
+            highs_lp(
+                highspy, matrix, np.full(matrix.shape[0], -np.inf), model.upper(), model.weights,
+                np.zeros(n_items), np.ones(n_items), maximise=True,
+            )
+        )  # fmt: skip
         build_time = clock.lap()
         highs.run()
         solve_time = clock.lap()
@@ -79,38 +82,53 @@ class HighsSolver(ExactSolverBase):
         bound = float(info.mip_dual_bound) if np.isfinite(info.mip_dual_bound) else None
         version = f"highspy {highs.version()}"
         if status == highspy.HighsModelStatus.kOptimal:
-            return BackendResult(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
+            return Result(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
         if status == highspy.HighsModelStatus.kTimeLimit:
-            return BackendResult(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
+            return Result(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
         message = f"HiGHS stopped with model status {highs.modelStatusToString(status)}"
-        return BackendResult((), Termination.ERROR, None, build_time, solve_time, version, message)
+        return Result((), Termination.ERROR, None, build_time, solve_time, version, message)
 
 
-def _highs_lp(highspy, model: CliqueModel):
-    """``highspy.HighsLp`` of the clique model: maximise, binaries, one row per clique plus the cap row."""
-    n_items, n_rows = model.n_items, model.n_rows
-    row_starts, row_items = model.row_starts, model.row_items
-    coefficients = np.ones(row_items.size)
-    row_upper = np.ones(n_rows)
-    if model.cap is not None:
-        row_starts = np.append(row_starts, row_starts[-1] + n_items)
-        row_items = np.concatenate([row_items, np.arange(n_items)])
-        coefficients = np.concatenate([coefficients, model.shape_counts.astype(np.float64)])
-        row_upper = np.append(row_upper, float(model.cap))
+def configured_highs(highspy, time_limit: float | None, seed: int):
+    """A silent, single-threaded ``highspy.Highs`` with relative MIP gap 0, the seed and the time limit."""
+    highs = highspy.Highs()
+    for option, value in (
+        ("output_flag", False),
+        ("threads", 1),
+        ("random_seed", int(seed)),
+        ("mip_rel_gap", 0.0),
+    ):
+        highs.setOptionValue(option, value)
+    if time_limit is not None:
+        highs.setOptionValue("time_limit", float(time_limit))
+    return highs
+
+
+def highs_lp(
+    highspy,
+    matrix: sp.csr_matrix,
+    row_lower: np.ndarray,
+    row_upper: np.ndarray,
+    cost: np.ndarray,
+    col_lower: np.ndarray,
+    col_upper: np.ndarray,
+    *,
+    maximise: bool = False,
+):
+    """``highspy.HighsLp`` of ``row_lower <= matrix @ x <= row_upper``, ``col_lower <= x <= col_upper``,
+    every column integer, optimising ``cost @ x`` (infinite row bounds become HiGHS's infinity)."""
+    n_rows, n_cols = matrix.shape
     lp = highspy.HighsLp()
-    lp.num_col_ = n_items
-    lp.num_row_ = row_upper.size
-    lp.sense_ = highspy.ObjSense.kMaximize
-    lp.col_cost_ = model.weights
-    lp.col_lower_ = np.zeros(n_items)
-    lp.col_upper_ = np.ones(n_items)
-    lp.row_lower_ = np.full(row_upper.size, -highspy.kHighsInf)
-    lp.row_upper_ = row_upper
+    lp.num_col_, lp.num_row_ = n_cols, n_rows
+    lp.sense_ = highspy.ObjSense.kMaximize if maximise else highspy.ObjSense.kMinimize
+    lp.col_cost_ = np.asarray(cost, dtype=np.float64)
+    lp.col_lower_, lp.col_upper_ = np.asarray(col_lower, np.float64), np.asarray(col_upper, np.float64)
+    lp.row_lower_ = np.clip(np.asarray(row_lower, np.float64), -highspy.kHighsInf, highspy.kHighsInf)
+    lp.row_upper_ = np.clip(np.asarray(row_upper, np.float64), -highspy.kHighsInf, highspy.kHighsInf)
     lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = n_items
-    lp.a_matrix_.num_row_ = row_upper.size
-    lp.a_matrix_.start_ = row_starts.astype(np.int32)
-    lp.a_matrix_.index_ = row_items.astype(np.int32)
-    lp.a_matrix_.value_ = coefficients
-    lp.integrality_ = [highspy.HighsVarType.kInteger] * n_items
+    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = n_cols, n_rows
+    lp.a_matrix_.start_ = matrix.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = matrix.indices.astype(np.int32)
+    lp.a_matrix_.value_ = matrix.data.astype(np.float64)
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * n_cols
     return lp

@@ -17,8 +17,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Solution, Termination
-from solvers._base import Availability, Capabilities, Stopwatch, check_solve_arguments, make_solution
+from packing import PackingProblem, Termination
+from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
 from solvers._model import conflict_graph
 from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_order
 
@@ -152,22 +152,10 @@ class GreedySwapSolver:
     @classmethod
     def availability(cls) -> Availability:
         """Always available: numpy and scipy only."""
-        from solvers._base import distribution_version
-
         return Availability.available(distribution_version(PROJECT_DISTRIBUTION))
 
-    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
         """Run the local search to a local optimum (``time_limit`` and ``seed`` are accepted and unused)."""
-        check_solve_arguments(problem, time_limit, seed)
         clock = Stopwatch()
         items = swap_local_search(problem) if problem.n_items else ()
-        return make_solution(
-            problem,
-            items,
-            termination=Termination.COMPLETED,
-            bound=None,
-            build_time=0.0,
-            solve_time=clock.lap(),
-            backend=self.name,
-            version=type(self).availability().version,
-        )
+        return Result(items, Termination.COMPLETED, None, 0.0, clock.lap())

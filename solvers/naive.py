@@ -22,13 +22,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing import PackingProblem
-from solvers._base import Availability, Capabilities, Stopwatch
+from solvers._base import Availability, Capabilities, Result, Stopwatch
 from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, run_cbc
-from solvers._exact import BackendResult, ExactSolverBase
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
 
-class NaivePulpCbcSolver(ExactSolverBase):
+class NaivePulpCbcSolver(ExactSolver):
     """Eq. 3 with one row per vertex, as published, through PuLP and CBC (no presolve).
 
     Parameters
@@ -51,9 +51,10 @@ class NaivePulpCbcSolver(ExactSolverBase):
         """PuLP installed with its bundled CBC executable."""
         return cbc_availability("bundled")
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_problem(
+        self, problem: PackingProblem, model: CliqueModel, *, time_limit: float | None, seed: int
+    ) -> Result:
+        """One PuLP row per vertex, pair and apart constraint, as published (``model`` is not used)."""
         import pulp
 
         binary = find_cbc(self.cbc)
@@ -93,6 +94,4 @@ class NaivePulpCbcSolver(ExactSolverBase):
         message = "; ".join(
             filter(None, [f"{lp.numConstraints()} rows, {len(shape_vars)} variables", outcome.message])
         )
-        return BackendResult(
-            items, outcome.termination, outcome.bound, build_time, solve_time, version, message
-        )
+        return Result(items, outcome.termination, outcome.bound, build_time, solve_time, version, message)

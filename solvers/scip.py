@@ -10,13 +10,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination
-from solvers._base import Availability, Capabilities, Stopwatch, package_availability
-from solvers._exact import BackendResult, ExactSolverBase
+from packing import Termination
+from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
+from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
 
-class ScipSolver(ExactSolverBase):
+class ScipSolver(ExactSolver):
     """Eq. 3 after presolve solved by SCIP (gaps 0, one thread, seeded, native time limit)."""
 
     name: ClassVar[str] = "scip"
@@ -29,13 +29,11 @@ class ScipSolver(ExactSolverBase):
             "PySCIPOpt", "pyscipopt", hint="pip install expression-packing-harness[scip]"
         )
 
-    def _solve_model(
-        self, problem: PackingProblem, model: CliqueModel, time_limit: float | None, seed: int
-    ) -> BackendResult:
+    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
         return solve_clique_model(model, time_limit, seed)
 
 
-def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> BackendResult:
+def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> Result:
     """Build and solve the clique model with PySCIPOpt."""
     import pyscipopt
 
@@ -67,9 +65,7 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
     bound = float(scip.getDualbound())
     bound = bound if np.isfinite(bound) else None
     if status == "optimal":
-        return BackendResult(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
+        return Result(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
     if status == "timelimit":
-        return BackendResult(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
-    return BackendResult(
-        (), Termination.ERROR, None, build_time, solve_time, version, f"SCIP status {status}"
-    )
+        return Result(items, Termination.TIME_LIMIT, bound, build_time, solve_time, version)
+    return Result((), Termination.ERROR, None, build_time, solve_time, version, f"SCIP status {status}")

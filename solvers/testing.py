@@ -3,29 +3,46 @@
 >>> from solvers.testing import check_solver
 >>> from solvers.greedy import GreedySolver
 >>> check_solver(GreedySolver)  # raises AssertionError naming the failed check
+['declaration', 'answer', 'validity', 'objective', 'maximality', 'determinism', 'time limit']
 
-Every check runs the solver on small generated problems (random sparse active-vertex sets, symmetry
-pairs, caps) and verifies its answers independently of the presolve: items valid and pairwise disjoint
-on the incidence matrix (or within the allowed overlap for non-strict solvers), the cap respected,
-the `Solution` fields consistent, determinism where claimed, the brute-force optimum for exact solvers,
-and a usable answer under a tiny time limit.
+Every check runs the solver, behind the framework's normalisation (`solvers.load`), on small generated
+problems (random sparse active-vertex sets, symmetry pairs, caps, apart pairs) and verifies its answers
+independently of the presolve (`CHECKS`): the declaration; the answer's type and the normalised `Solution`'s
+fields; items valid and pairwise disjoint on the incidence matrix (or within the declared ``max_overlap``),
+the cap and apart pairs respected; the brute-force optimum for exact solvers, no better than it for strict
+heuristics; maximality (no item of positive weight still fits: a do-nothing heuristic fails); determinism
+where claimed; a usable answer under a tiny time limit where claimed. `check_solver` runs them all and
+stops at the first failure; `parametrize_with_checks` makes one pytest case per check.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
 
 import numpy as np
 
 from packing import PackingProblem, Solution, Termination, problem_from_incidence
-from solvers._base import Availability, Capabilities, Solver
+from solvers._base import Availability, Capabilities, Result
+from solvers._loaded import LoadedSolver, load
 from solvers._problems import face_like_problem, random_problem
 
 __all__ = [
+    "CHECKS",
     "brute_force_optimum",
+    "check_answer",
+    "check_declaration",
+    "check_determinism",
+    "check_maximality",
+    "check_objective",
     "check_packing",
     "check_solver",
+    "check_time_limit",
+    "check_validity",
+    "parametrize_with_checks",
+    "solver_checks",
     "conformance_problems",
     "face_like_problem",
     "hard_problem",
@@ -133,6 +150,10 @@ def conformance_problems(seed: int = 0) -> list[tuple[str, PackingProblem]]:
         ("disjoint", problem_from_incidence(np.eye(6, dtype=bool), np.linspace(0.1, 0.6, 6))),
         ("one-clique", problem_from_incidence(np.ones((5, 4), dtype=bool), [0.2, 0.9, 0.4, 0.3, 0.1])),
         ("pairs-with-cap-1", random_problem(8, 20, seed=seed + 7, pairs=0.5, cap=1)),
+        (
+            "apart",
+            problem_from_incidence(np.eye(6, dtype=bool), np.linspace(0.1, 0.6, 6), apart=[(0, 1), (2, 5)]),
+        ),
     ]
     return problems
 
@@ -142,50 +163,68 @@ def hard_problem(seed: int = 0) -> PackingProblem:
     return random_problem(300, 400, seed=seed, active=(6, 12), pairs=0.2)
 
 
-def _instance(solver) -> Solver:
-    return solver() if isinstance(solver, type) else solver
-
-
-def check_solver(solver, *, seed: int = 0) -> list[str]:
-    """Run every conformance check on a solver plugin class or instance.
-
-    Parameters
-    ----------
-    solver : Solver class or instance
-        A class is instantiated without arguments.
-    seed : int
-        Seed of the generated problems.
-
-    Returns
-    -------
-    list of str: the names of the checks that ran.
-
-    Raises
-    ------
-    AssertionError
-        On the first failed check, naming the check and the problem.
-    RuntimeError
-        When the solver reports itself unavailable here (the reason is in the message).
-    """
-    cls = solver if isinstance(solver, type) else type(solver)
-    ran = ["declaration"]
-    _check_declaration(cls)
-    found = cls.availability()
+def _loaded(solver: Any) -> LoadedSolver:
+    """The solver behind the framework's normalisation, or a skip/RuntimeError when it cannot run here."""
+    loaded = load(solver)
+    found = loaded.availability()
     if not found:
-        raise RuntimeError(f"{cls.name} is unavailable here, cannot check it: {found.reason}")
-    instance = _instance(solver)
-    capabilities: Capabilities = instance.capabilities
-    overlap = capabilities.max_overlap
+        raise RuntimeError(f"{loaded.name} is unavailable here, cannot check it: {found.reason}")
+    return loaded
+
+
+def _solutions(loaded: LoadedSolver, seed: int) -> Iterator[tuple[str, PackingProblem, Solution]]:
+    """The solver's normalised answer to every conformance problem it declares it can take."""
     for label, problem in conformance_problems(seed):
-        if problem.cap is not None and not capabilities.supports_cap:
+        if problem.cap is not None and not loaded.capabilities.supports_cap:
             continue
-        solution = instance.solve(problem, seed=seed)
-        where = f"{cls.name} on {label!r}"
-        _check_fields(problem, solution, cls.name, where)
+        yield f"{loaded.name} on {label!r}", problem, loaded.solve(problem, seed=seed)
+
+
+def check_declaration(solver: Any, seed: int = 0) -> None:
+    """``name`` is a non-empty str, ``capabilities`` a `Capabilities`, ``availability()`` an
+    `Availability` that says why when it is falsy."""
+    plugin = load(solver).plugin
+    name = getattr(plugin, "name", None)
+    kind = type(plugin).__name__
+    assert isinstance(name, str) and name, f"{kind}.name must be a non-empty str, got {name!r}"
+    assert isinstance(getattr(plugin, "capabilities", None), Capabilities), (
+        f"{name}.capabilities must be a solvers.Capabilities"
+    )
+    found = plugin.availability()
+    assert isinstance(found, Availability), f"{name}.availability() must return a solvers.Availability"
+    assert bool(found) or found.reason, f"{name}: an unavailable solver must say why"
+
+
+def check_answer(solver: Any, seed: int = 0) -> None:
+    """``solve`` returns a `Result` (or a full `Solution`) whose items are the problem's, none twice, and
+    whose termination is a `Termination`; the framework turns it into a consistent `Solution`."""
+    loaded = _loaded(solver)
+    problem = random_problem(10, 30, seed=seed, active=(2, 6))
+    raw = loaded.plugin.solve(problem, time_limit=None, seed=seed)
+    assert isinstance(raw, Result | Solution), (
+        f"{loaded.name}: solve returned {type(raw).__name__}, not a solvers.Result"
+    )
+    for where, problem, solution in _solutions(loaded, seed):
+        _check_fields(problem, solution, loaded.name, where)
+
+
+def check_validity(solver: Any, seed: int = 0) -> None:
+    """Every expression is valid on the incidence matrix alone (eq. 3b, or within the declared
+    ``max_overlap``), respects the cap and the apart pairs."""
+    loaded = _loaded(solver)
+    for where, problem, solution in _solutions(loaded, seed):
         try:
-            check_packing(problem, solution.items, overlap=overlap)
+            check_packing(problem, solution.items, overlap=loaded.capabilities.max_overlap)
         except AssertionError as error:
             raise AssertionError(f"{where}: invalid expression: {error}") from None
+
+
+def check_objective(solver: Any, seed: int = 0) -> None:
+    """An exact solver ends OPTIMAL at the brute-force optimum; a heuristic ends COMPLETED (or OPTIMAL) no
+    better than it (strict solvers: eq. 3 has no better packing)."""
+    loaded = _loaded(solver)
+    capabilities = loaded.capabilities
+    for where, problem, solution in _solutions(loaded, seed):
         best, _ = brute_force_optimum(problem)
         tolerance = OBJECTIVE_TOLERANCE * max(1.0, abs(best))
         found = problem.objective(solution.items)  # with the tie-break, as the backends maximise it
@@ -203,29 +242,137 @@ def check_solver(solver, *, seed: int = 0) -> list[str]:
             assert solution.termination in (Termination.COMPLETED, Termination.OPTIMAL), (
                 f"{where}: heuristic ended {solution.termination}"
             )
-        if capabilities.deterministic:
-            again = instance.solve(problem, seed=seed)
-            assert again.items == solution.items, (
-                f"{where}: not deterministic: {solution.items} then {again.items}"
-            )
-    ran += ["fields", "validity", "brute-force optimum" if capabilities.exact else "objective", "determinism"]
-    _check_bad_arguments(instance, cls.name)
-    ran.append("bad arguments")
-    if capabilities.time_limit:
-        _check_time_limit(instance, cls.name, seed)
-        ran.append("time limit")
-    return ran
 
 
-def _check_declaration(cls: type) -> None:
-    name = getattr(cls, "name", None)
-    assert isinstance(name, str) and name, f"{cls.__name__}.name must be a non-empty str, got {name!r}"
-    assert isinstance(getattr(cls, "capabilities", None), Capabilities), (
-        f"{name}.capabilities must be a solvers.Capabilities"
+def check_maximality(solver: Any, seed: int = 0) -> None:
+    """A solver that ran to its end leaves no item of positive weight that still fits the expression
+    (no shared vertex beyond the declared overlap, room under the cap, no apart partner chosen): a
+    packing that could take one more item for free is never the answer of Algorithm 2 or eq. 3."""
+    loaded = _loaded(solver)
+    overlap = loaded.capabilities.max_overlap
+    for where, problem, solution in _solutions(loaded, seed):
+        if solution.termination not in (Termination.OPTIMAL, Termination.COMPLETED):
+            continue
+        fitting = [
+            item
+            for item in range(problem.n_items)
+            if item not in solution.items
+            and problem.weights[item] > 0
+            and _fits(problem, solution.items, item, overlap)
+        ]
+        assert not fitting, f"{where}: items {fitting} still fit the expression {solution.items}"
+
+
+def check_determinism(solver: Any, seed: int = 0) -> None:
+    """A solver that declares ``deterministic`` gives the same items for the same problem and seed."""
+    loaded = _loaded(solver)
+    if not loaded.capabilities.deterministic:
+        return
+    for where, problem, solution in _solutions(loaded, seed):
+        again = loaded.solve(problem, seed=seed)
+        assert again.items == solution.items, (
+            f"{where}: not deterministic: {solution.items} then {again.items}"
+        )
+
+
+def check_time_limit(solver: Any, seed: int = 0) -> None:
+    """A solver that declares ``time_limit`` stops on a hard problem with a valid incumbent and a bound."""
+    loaded = _loaded(solver)
+    if not loaded.capabilities.time_limit:
+        return
+    problem = hard_problem(seed)
+    solution = loaded.solve(problem, time_limit=0.05, seed=seed)
+    where = f"{loaded.name} on the hard problem with time_limit=0.05"
+    _check_fields(problem, solution, loaded.name, where)
+    assert solution.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT), (
+        f"{where}: ended {solution.termination}"
     )
-    found = cls.availability()
-    assert isinstance(found, Availability), f"{name}.availability() must return a solvers.Availability"
-    assert bool(found) or found.reason, f"{name}: an unavailable solver must say why"
+    assert solution.items, f"{where}: no incumbent"
+    check_packing(problem, solution.items)
+    assert solution.bound is not None and solution.bound >= solution.objective, (
+        f"{where}: bound {solution.bound}"
+    )
+
+
+#: Every conformance check, in the order `check_solver` runs them.
+CHECKS: dict[str, Callable[..., None]] = {
+    "declaration": check_declaration,
+    "answer": check_answer,
+    "validity": check_validity,
+    "objective": check_objective,
+    "maximality": check_maximality,
+    "determinism": check_determinism,
+    "time limit": check_time_limit,
+}
+
+
+def solver_checks(solver: Any) -> list[tuple[str, Callable[[], None]]]:
+    """Each conformance check of ``solver`` as a named callable, to run one per test.
+
+    A check that does not apply (determinism of a solver that does not claim it, the time limit of one
+    without) passes at once.
+    """
+    return [(name, functools.partial(check, solver)) for name, check in CHECKS.items()]
+
+
+def parametrize_with_checks(solvers: Iterable[Any]):
+    """A ``pytest.mark.parametrize`` over every (solver, check) pair, as scikit-learn's.
+
+    Examples
+    --------
+    ::
+
+        from solvers.testing import parametrize_with_checks
+
+        @parametrize_with_checks([MySolver])
+        def test_my_solver(solver, check):
+            check(solver)
+    """
+    import pytest
+
+    cases = [(solver, check) for solver in solvers for check in CHECKS.values()]
+    ids = [f"{load(solver).name}-{name}" for solver in solvers for name in CHECKS]
+    return pytest.mark.parametrize(("solver", "check"), cases, ids=ids)
+
+
+def check_solver(solver: Any, *, seed: int = 0) -> list[str]:
+    """Run every conformance check on a solver plugin (class, instance or `solvers.get` result).
+
+    Parameters
+    ----------
+    solver : Solver class or instance, or LoadedSolver
+        A class is instantiated without arguments.
+    seed : int
+        Seed of the generated problems.
+
+    Returns
+    -------
+    list of str: the names of the checks that ran (`CHECKS`).
+
+    Raises
+    ------
+    AssertionError
+        On the first failed check, naming the check and the problem.
+    RuntimeError
+        When the solver reports itself unavailable here (the reason is in the message).
+    """
+    for name, check in CHECKS.items():
+        try:
+            check(solver, seed)
+        except AssertionError as error:
+            raise AssertionError(f"check {name!r}: {error}") from None
+    return list(CHECKS)
+
+
+def _fits(problem: PackingProblem, chosen: tuple[int, ...], item: int, overlap: float) -> bool:
+    """Whether ``item`` can join ``chosen``: the cap, the apart pairs and the vertex overlap allow it."""
+    if problem.cap is not None and problem.item_shape_counts[[*chosen, item]].sum() > problem.cap:
+        return False
+    if any({item, other} == {a, b} for a, b in problem.apart for other in chosen):
+        return False
+    taken = np.asarray(problem.incidence[list(chosen)].sum(axis=0)).ravel() > 0
+    own = problem.incidence[item].indices
+    return np.count_nonzero(taken[own]) <= overlap * own.size + 1e-9
 
 
 def _check_fields(problem: PackingProblem, solution: Solution, name: str, where: str) -> None:
@@ -254,28 +401,3 @@ def _check_fields(problem: PackingProblem, solution: Solution, name: str, where:
         )
     assert solution.backend == name, f"{where}: backend {solution.backend!r}, expected {name!r}"
     assert isinstance(solution.version, str) and solution.version, f"{where}: version must be a non-empty str"
-
-
-def _check_bad_arguments(instance: Solver, name: str) -> None:
-    problem = random_problem(5, 10, seed=1)
-    for arguments in ({"time_limit": -1.0}, {"time_limit": math.nan}, {"seed": -1}):
-        try:
-            instance.solve(problem, **arguments)
-        except ValueError:
-            continue
-        raise AssertionError(f"{name}: solve({arguments}) must raise ValueError")
-
-
-def _check_time_limit(instance: Solver, name: str, seed: int) -> None:
-    problem = hard_problem(seed)
-    solution = instance.solve(problem, time_limit=0.05, seed=seed)
-    where = f"{name} on the hard problem with time_limit=0.05"
-    _check_fields(problem, solution, name, where)
-    assert solution.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT), (
-        f"{where}: ended {solution.termination}"
-    )
-    assert solution.items, f"{where}: no incumbent"
-    check_packing(problem, solution.items)
-    assert solution.bound is not None and solution.bound >= solution.objective, (
-        f"{where}: bound {solution.bound}"
-    )

@@ -32,7 +32,7 @@ def test_the_quick_preset_runs_every_solver_and_its_records_pass_the_checker(tmp
         template = harness.resolve_rig(cell.rig, seed=cell.rig_seed)
         expressions = records[(records["cell"] == cell.cell) & (records["kind"] == "expression")]
         solver = solvers.get(cell.solver)
-        overlap = 0.0 if solver.capabilities.strict else solver.overlap
+        overlap = solver.capabilities.max_overlap
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", packing.MissingTargetWarning)
             packing.check(

@@ -71,7 +71,7 @@ class IdleSolver(GreedySolver):
 
     def solve(self, problem, *, time_limit=None, seed=0):
         solution = super().solve(problem, time_limit=time_limit, seed=seed)
-        return replace(solution, items=(), shapes=(), objective=0.0)
+        return replace(solution, items=())
 '''
 
 NAMES = {

@@ -1,10 +1,16 @@
-"""Every built-in solver plugin passes the public conformance suite (solvers.testing.check_solver)."""
+"""Every built-in solver plugin passes the public conformance suite (`solvers.testing`), one check per
+test, and the suite fails plugins that break each rule."""
 
+import dataclasses
+
+import numpy as np
 import pytest
 
 import solvers
-from solvers.greedy import GreedyOverlapSolver
-from solvers.testing import check_solver
+from packing import Termination
+from solvers import Capabilities, Result
+from solvers.greedy import GreedyOverlapSolver, GreedySolver
+from solvers.testing import CHECKS, check_solver, parametrize_with_checks
 
 BUILT_IN = [
     "cbc-mip",
@@ -19,58 +25,130 @@ BUILT_IN = [
 ]
 
 
-@pytest.mark.parametrize("name", BUILT_IN)
-def test_built_in_solver_passes_conformance(name):
-    found = solvers.availability(name)
+@pytest.fixture(params=BUILT_IN)
+def built_in(request):
+    found = solvers.availability(request.param)
     if not found:
-        pytest.skip(f"{name} unavailable here: {found.reason}")
-    ran = check_solver(solvers.get(name))
-    expected = {"validity", "determinism", "bad arguments"}
-    if solvers.get(name).capabilities.exact:
-        expected |= {"brute-force optimum", "time limit"}
-    assert expected <= set(ran)
+        pytest.skip(f"{request.param} unavailable here: {found.reason}")
+    return solvers.get(request.param)
 
 
-@pytest.mark.parametrize("overlap", [0.0, 0.25, 0.5])
-def test_greedy_overlap_passes_conformance_at_each_fraction(overlap):
-    assert "validity" in check_solver(GreedyOverlapSolver(overlap))
+@pytest.mark.parametrize("name", list(CHECKS))
+def test_built_in_solver_passes_each_check(built_in, name):
+    CHECKS[name](built_in)
 
 
-def test_check_solver_catches_a_wrong_objective():
-    class Liar(solvers.get("greedy").__class__):
-        name = "greedy"
+@parametrize_with_checks([GreedyOverlapSolver(0.25), GreedyOverlapSolver(0.5)])
+def test_greedy_overlap_passes_each_check_at_other_fractions(solver, check):
+    check(solver)
 
+
+def test_check_solver_runs_every_check_and_names_them():
+    assert check_solver(GreedySolver) == list(CHECKS)
+
+
+class DoNothing:
+    """A heuristic that returns no items at all."""
+
+    name = "do-nothing"
+    capabilities = Capabilities(exact=False, time_limit=False)
+
+    @classmethod
+    def availability(cls):
+        return solvers.Availability.available("1.0")
+
+    def solve(self, problem, *, time_limit=None, seed=0):
+        return Result((), Termination.COMPLETED)
+
+
+def test_check_solver_fails_a_do_nothing_heuristic():
+    with pytest.raises(AssertionError, match="check 'maximality'.*still fit"):
+        check_solver(DoNothing)
+
+
+def test_check_solver_catches_items_outside_the_problem():
+    class OutOfRange(DoNothing):
         def solve(self, problem, *, time_limit=None, seed=0):
-            import dataclasses
+            return Result((problem.n_items,), Termination.COMPLETED)
 
-            solution = super().solve(problem, time_limit=time_limit, seed=seed)
-            return dataclasses.replace(solution, objective=solution.objective + 1.0)
+    with pytest.raises(AssertionError, match="check 'answer'.*not items of a problem"):
+        check_solver(OutOfRange)
 
-    with pytest.raises(AssertionError, match="is not the items' importance sum"):
-        check_solver(Liar)
+
+def test_check_solver_catches_an_answer_that_is_not_a_result():
+    class Sloppy(DoNothing):
+        def solve(self, problem, *, time_limit=None, seed=0):
+            return [0]
+
+    with pytest.raises(AssertionError, match="not a solvers.Result"):
+        check_solver(Sloppy)
 
 
 def test_check_solver_catches_an_overlapping_packing():
-    class Overlapping(solvers.get("greedy").__class__):
+    class Overlapping(DoNothing):
         def solve(self, problem, *, time_limit=None, seed=0):
-            import dataclasses
+            return Result(range(problem.n_items), Termination.COMPLETED)
 
-            everything = tuple(range(problem.n_items))
-            solution = super().solve(problem, time_limit=time_limit, seed=seed)
-            return dataclasses.replace(
-                solution,
-                items=everything,
-                shapes=problem.shapes_of(everything),
-                objective=problem.objective(everything),
-            )
-
-    with pytest.raises(AssertionError, match="invalid expression"):
+    with pytest.raises(AssertionError, match="check 'validity'.*invalid expression"):
         check_solver(Overlapping)
 
 
+def test_check_solver_catches_a_joined_apart_pair():
+    class JoinsApart(GreedySolver):
+        def solve(self, problem, *, time_limit=None, seed=0):
+            found = super().solve(problem)
+            joined = {i for pair in problem.apart for i in pair}
+            return dataclasses.replace(found, items=tuple(sorted(set(found.items) | joined)))
+
+    with pytest.raises(AssertionError, match="apart but both chosen"):
+        check_solver(JoinsApart)
+
+
 def test_check_solver_catches_a_suboptimal_exact_solver():
-    class NotExact(solvers.get("greedy").__class__):
-        capabilities = solvers.Capabilities(exact=True, time_limit=False)
+    class NotExact(GreedySolver):
+        capabilities = Capabilities(exact=True, time_limit=False)
 
     with pytest.raises(AssertionError, match="brute-force optimum|exact solver ended"):
         check_solver(NotExact)
+
+
+def test_check_solver_catches_a_nondeterministic_solver():
+    class Coin(GreedySolver):
+        calls = 0
+
+        def solve(self, problem, *, time_limit=None, seed=0):
+            Coin.calls += 1
+            found = super().solve(problem)
+            return dataclasses.replace(found, items=found.items[: -1 if Coin.calls % 2 else None])
+
+    with pytest.raises(AssertionError, match="check '(maximality|determinism)'"):
+        check_solver(Coin)
+
+
+def test_the_framework_fills_what_a_plugin_leaves_out():
+    problem = solvers.testing.random_problem(8, 20, seed=3)
+    solution = solvers.load(GreedySolver).solve(problem)
+    assert solution.objective == pytest.approx(problem.unperturbed_objective(solution.items))
+    assert solution.shapes == problem.shapes_of(solution.items)
+    assert solution.backend == "greedy" and solution.version
+    assert solution.items == tuple(sorted(solution.items))
+
+
+def test_the_framework_checks_arguments_before_the_plugin_runs():
+    problem = solvers.testing.random_problem(5, 10, seed=1)
+    loaded = solvers.load(DoNothing)
+    for arguments in ({"time_limit": -1.0}, {"time_limit": np.nan}, {"seed": -1}, {"seed": 2**31}):
+        with pytest.raises(ValueError):
+            loaded.solve(problem, **arguments)
+    with pytest.raises(TypeError, match="PackingProblem"):
+        loaded.solve("not a problem")
+
+
+def test_a_plugin_that_raises_is_an_error_solution_naming_it():
+    class Broken(DoNothing):
+        def solve(self, problem, *, time_limit=None, seed=0):
+            raise RuntimeError("backend crashed")
+
+    solution = solvers.load(Broken).solve(solvers.testing.random_problem(5, 10, seed=1))
+    assert solution.termination is Termination.ERROR and solution.items == ()
+    assert "do-nothing: RuntimeError: backend crashed" in solution.message

@@ -68,8 +68,15 @@ def test_item_larger_than_the_cap_is_reported():
 
 
 def test_unknown_backend_is_reported():
-    with pytest.raises(ValueError, match="solver must be one of cpsat, highs"):
+    with pytest.raises(solvers.UnknownSolverError, match="unknown solver 'gurobi'"):
         solvers.minimum_expressions(random_problem(), solver="gurobi")
+
+
+def test_the_minimum_mode_is_a_declared_capability():
+    assert {"cpsat", "highs"} <= set(solvers.minimum_cover_solvers())
+    assert "greedy" not in solvers.minimum_cover_solvers()
+    with pytest.raises(ValueError, match="'greedy' cannot prove the fewest expressions; use one of .*cpsat"):
+        solvers.minimum_expressions(random_problem(), solver="greedy")
 
 
 @pytest.mark.parametrize("seed", range(3))

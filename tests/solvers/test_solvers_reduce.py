@@ -67,7 +67,7 @@ def test_reduced_and_full_models_give_the_same_packings(monkeypatch, name, seed)
     solver = solvers.get(name)
     problems = [face_like_problem(120, 1600, seed=seed), face_like_problem(60, 900, seed=seed, cap=8)]
     reduced = [solver.solve(problem) for problem in problems]
-    monkeypatch.setattr(type(solver), "reduces", False)
+    monkeypatch.setattr(type(solver.plugin), "reduces", False)
     full = [solver.solve(problem) for problem in problems]
     for with_reductions, without in zip(reduced, full, strict=True):
         assert with_reductions.termination is without.termination is packing.Termination.OPTIMAL
@@ -82,7 +82,7 @@ def test_reduced_sequence_equals_the_full_one_on_a_preset(monkeypatch):
         analysis = packing.analyse(rig)
     solver = solvers.get("cpsat")
     reduced = packing.sequence(rig, solver, analysis=analysis)
-    monkeypatch.setattr(type(solver), "reduces", False)
+    monkeypatch.setattr(type(solver.plugin), "reduces", False)
     full = packing.sequence(rig, solver, analysis=analysis)
     assert [e.items for e in reduced] == [e.items for e in full]
     assert [e.objective for e in reduced] == [e.objective for e in full]

@@ -63,7 +63,8 @@ def test_unknown_name_lists_the_valid_ones():
 
 
 def test_get_passes_parameters_and_rejects_unknown_ones():
-    assert solvers.get("greedy-overlap", overlap=0.3).overlap == 0.3
+    assert solvers.get("greedy-overlap", overlap=0.3).plugin.overlap == 0.3
+    assert solvers.get("greedy-overlap", overlap=0.3).capabilities.max_overlap == 0.3
     with pytest.raises(TypeError, match="does not take parameters"):
         solvers.get("highs", workers=4)
     with pytest.raises(ValueError, match="overlap must be a fraction"):

@@ -1,0 +1,171 @@
+"""The one place a plugin's answer becomes a `packing.Solution` (DESIGN.md, "Plugin interface").
+
+A plugin's ``solve`` returns a `Result`: its items, why it stopped and any bound. `load` wraps the plugin in
+a `LoadedSolver`, whose ``solve`` checks the arguments before the plugin sees them, times the call, turns
+an exception or a malformed answer into ``Termination.ERROR`` with a message naming the plugin, and
+builds the `Solution`: items sorted, their shapes, the objective recomputed as the importance sum of
+eq. 3a, the bound never below it, the backend name and version. `solvers.get` returns loaded solvers, so
+every caller (the expression sequence, the harness, the conformance checks) sees the same normalised
+answer whoever wrote the plugin.
+"""
+
+from __future__ import annotations
+
+import functools
+import numbers
+import time
+import traceback
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from solvers._base import Availability, Capabilities, Result, check_solve_arguments, make_solution
+
+if TYPE_CHECKING:
+    from packing import PackingProblem, Solution
+
+
+class MalformedAnswer(ValueError):
+    """A plugin returned something that is not a valid answer to the problem it was given."""
+
+
+@dataclass(frozen=True)
+class LoadedSolver:
+    """A solver plugin behind the framework's argument checks, timing and normalisation.
+
+    Attributes
+    ----------
+    plugin : Solver
+        The plugin instance; its ``solve`` returns a `Result` (a full `packing.Solution` is accepted too).
+    """
+
+    plugin: Any
+
+    @property
+    def name(self) -> str:
+        """The plugin's registered name."""
+        return self.plugin.name
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """The plugin's declared capabilities (per instance where the plugin sets them so)."""
+        return self.plugin.capabilities
+
+    def availability(self) -> Availability:
+        """The plugin's availability."""
+        return self.plugin.availability()
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """Solve one expression's problem (eq. 3) with the plugin and return the normalised `Solution`.
+
+        Parameters
+        ----------
+        problem : PackingProblem
+        time_limit : float, optional
+            Seconds the plugin may search; None for no limit.
+        seed : int in [0, 2**31 - 1]
+
+        Returns
+        -------
+        Solution
+            ``termination`` is ERROR, with the reason in ``message``, when the plugin raised or answered
+            with items the problem does not have.
+
+        Raises
+        ------
+        TypeError, ValueError
+            For a ``problem`` that is not a `PackingProblem`, a non-positive or non-finite
+            ``time_limit`` or a seed out of range (before the plugin is called).
+        """
+        check_solve_arguments(problem, time_limit, seed)
+        start = time.perf_counter()
+        try:
+            answer = self.plugin.solve(problem, time_limit=time_limit, seed=seed)
+            elapsed = time.perf_counter() - start
+            return _solution(problem, answer, elapsed, self.name, _version(self.plugin))
+        except Exception as error:  # a failing plugin is reported, never raised into the run
+            detail = "".join(traceback.format_exception_only(error)).strip()
+            return _failed(problem, self, f"{self.name}: {detail}", time.perf_counter() - start)
+
+
+def load(solver: Any) -> LoadedSolver:
+    """A solver plugin (class, instance or already loaded) behind the framework's normalisation.
+
+    Parameters
+    ----------
+    solver : Solver class or instance, or LoadedSolver
+        A class is instantiated without arguments.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from packing import problem_from_incidence
+    >>> from solvers.greedy import GreedySolver
+    >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
+    >>> load(GreedySolver).solve(problem).shapes
+    ('s0', 's2')
+    """
+    if isinstance(solver, LoadedSolver):
+        return solver
+    return LoadedSolver(solver() if isinstance(solver, type) else solver)
+
+
+def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, version: str) -> Solution:
+    """The `Solution` of a plugin's answer (a `Result`, or a `Solution` from a wrapping solver)."""
+    from packing import Solution, Termination
+
+    if not isinstance(answer, Result | Solution):
+        raise MalformedAnswer(f"solve returned {type(answer).__name__}, not a solvers.Result")
+    termination = answer.termination
+    if not isinstance(termination, Termination):
+        raise MalformedAnswer(f"termination {termination!r} is not a packing.Termination")
+    items = _items(problem, answer.items)
+    build_time = float(answer.build_time or 0.0)
+    solve_time = max(elapsed - build_time, 0.0) if answer.solve_time is None else float(answer.solve_time)
+    backend = answer.backend if isinstance(answer, Solution) and answer.backend else name
+    return make_solution(
+        problem,
+        items,
+        termination=termination,
+        bound=None if answer.bound is None else float(answer.bound),
+        build_time=build_time,
+        solve_time=solve_time,
+        backend=backend,
+        version=answer.version or version,
+        message=answer.message,
+    )
+
+
+def _items(problem: PackingProblem, items: Any) -> tuple[int, ...]:
+    """The answer's items as Python ints, each an item of ``problem`` and none twice."""
+    chosen = list(items)
+    if not all(isinstance(i, numbers.Integral) and not isinstance(i, bool) for i in chosen):
+        raise MalformedAnswer(f"items must be integers, got {chosen!r}")
+    chosen = [int(i) for i in chosen]
+    outside = [i for i in chosen if not 0 <= i < problem.n_items]
+    if outside:
+        raise MalformedAnswer(f"items {outside} are not items of a problem with {problem.n_items}")
+    if len(set(chosen)) != len(chosen):
+        raise MalformedAnswer(f"an item is chosen twice: {sorted(chosen)}")
+    return tuple(chosen)
+
+
+def _failed(problem: PackingProblem, solver: LoadedSolver, message: str, elapsed: float) -> Solution:
+    from packing import Termination
+
+    return make_solution(
+        problem, (), termination=Termination.ERROR, bound=None, build_time=0.0, solve_time=elapsed,
+        backend=solver.name, version=_version(solver.plugin), message=message,
+    )  # fmt: skip
+
+
+def _version(plugin: Any) -> str:
+    """The backend version the plugin reports through its availability (read once per class)."""
+    return _class_version(type(plugin))
+
+
+@functools.cache
+def _class_version(cls: type) -> str:
+    try:
+        return cls.availability().version or "unknown"
+    except Exception:  # noqa: BLE001 - a plugin whose availability fails still gets a version string
+        return "unknown"
