@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.sparse as sp
 
 from packing._params import check_range
-from rigs import Rig
+
+if TYPE_CHECKING:
+    from rigs import Rig
 
 
 def displacement_norms(deltas: np.ndarray) -> np.ndarray:

@@ -12,9 +12,10 @@ import json
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rigs import Rig
+if TYPE_CHECKING:
+    from rigs import Rig
 
 #: The keys of a constraints JSON file.
 CONSTRAINT_KINDS = ("together", "apart")
