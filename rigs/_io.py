@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from rigs._gltf import load_gltf
 from rigs._npz import load_npz, save_npz
 from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError
@@ -171,6 +170,8 @@ def _reader(path: Path, kind: str) -> Callable[..., Rig]:
     if kind == "npz":
         return load_npz
     if kind == "gltf":
+        from rigs._gltf import load_gltf  # (scipy's graph and spatial modules: only for glTF)
+
         return load_gltf
     if kind == "usd":
         return load_usd
