@@ -1,5 +1,6 @@
 """Reports of runs: timing, overlap and expression-count tables, coverage and RMS figures, expression contact
-sheets, a self-contained HTML page with its Markdown twin, and run-to-run comparison for CI.
+sheets, a self-contained HTML page with its Markdown twin, run-to-run comparison for CI, and the history of CI
+runs' timings as ratios to a reference solver (`read_history`, `append_history`, `run_figures`).
 
 Everything here reads a run's records (`harness.read_records`); nothing is recomputed.
 
@@ -14,9 +15,10 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from harness._claims import claims_table
-    from reports._compare import Change, Comparison, compare, comparison_table
+    from reports._compare import Change, Comparison, compare, comparison_table, run_figures
     from reports._contact import contact_sheet
-    from reports._figures import coverage_figure, rms_figure
+    from reports._figures import coverage_figure, history_figure, rms_figure
+    from reports._history import HISTORY_COLUMNS, HistoryError, Spread, append_history, read_history
     from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
     from reports._png import png_bytes
     from reports._report import build_report
@@ -40,9 +42,16 @@ _MODULE_OF = {
     "Comparison": "reports._compare",
     "compare": "reports._compare",
     "comparison_table": "reports._compare",
+    "run_figures": "reports._compare",
     "contact_sheet": "reports._contact",
     "coverage_figure": "reports._figures",
     "rms_figure": "reports._figures",
+    "history_figure": "reports._figures",
+    "HISTORY_COLUMNS": "reports._history",
+    "HistoryError": "reports._history",
+    "Spread": "reports._history",
+    "append_history": "reports._history",
+    "read_history": "reports._history",
     "PAPER_OVERLAP": "reports._paper",
     "PAPER_TIMINGS": "reports._paper",
     "png_bytes": "reports._png",
@@ -61,11 +70,15 @@ _MODULE_OF = {
 
 __all__ = [
     "BASELINE_SOLVER",
+    "HISTORY_COLUMNS",
     "PAPER_OVERLAP",
     "PAPER_TIMINGS",
     "REFERENCE_TRANSFERS",
     "Change",
     "Comparison",
+    "HistoryError",
+    "Spread",
+    "append_history",
     "build_report",
     "cell_times",
     "claims_table",
@@ -74,11 +87,14 @@ __all__ = [
     "contact_sheet",
     "coverage_figure",
     "expression_count_table",
+    "history_figure",
     "overlap_table",
     "png_bytes",
     "problem_table",
+    "read_history",
     "rms_figure",
     "rms_table",
+    "run_figures",
     "separation_table",
     "timing_table",
     "worst_shapes_table",

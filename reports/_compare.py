@@ -3,6 +3,8 @@
 Quality figures (objective, coverage, expression count, transfer RMS, benchmark ``extra_info``) must not
 change beyond a relative tolerance; times may not grow by more than a threshold. Absolute times are noisy on
 shared machines, so run times are compared as ratios to `BASELINE_SOLVER`'s time measured in the same run.
+Given the history of earlier runs' ratios (`reports._history`), a ratio is judged against its own
+run-to-run spread there instead of against the one old run.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import pandas as pd
 from rich.table import Table
 
 import harness
+from reports._history import HISTORY_COLUMNS, RUN_COLUMNS, Spread, read_history, run_identity, spreads
 from reports._tables import (
     BASELINE_SOLVER,
     CASE_COLUMNS,
@@ -53,7 +56,8 @@ class Change:
     """How one metric moved from the old to the new run.
 
     ``old`` and ``new`` are shown values: for vectors (per expression, per J) the first element that differs,
-    named in ``where``. ``ratio`` is new / old for times.
+    named in ``where``. ``ratio`` is new / old for times. ``spread`` is the history's spread of the figure
+    when that judged the new value.
     """
 
     case: str
@@ -64,11 +68,13 @@ class Change:
     verdict: Verdict
     ratio: float | None = None
     where: str = ""
+    spread: Spread | None = None
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """All metric changes between two runs and the rules that judge them."""
+    """All metric changes between two runs and the rules that judge them (``history``: the rule for times
+    with a history, empty without one)."""
 
     old: str
     new: str
@@ -77,6 +83,7 @@ class Comparison:
     min_time: float
     time_basis: str
     changes: tuple[Change, ...]
+    history: str = ""
 
     def regressions(self, *, fail_on_time: bool = False) -> list[Change]:
         """Changes that fail: any quality change or loss, and slower times if ``fail_on_time``."""
@@ -128,7 +135,7 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
     """Metrics of a run keyed by case tuples; times as ratios to the baseline solver when ``ratios``.
 
     Quality comes from the first repetition (repetitions only differ in time); times are medians over
-    repetitions, each carrying its absolute seconds for the noise floor.
+    repetitions, each carrying its absolute seconds for the noise floor (`_time_metrics`).
     """
     cells = records[records["kind"] == "cell"].sort_values("repetition")
     metrics = [
@@ -153,6 +160,12 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
     for transfer, of_method in transfers.groupby("transfer", sort=True):
         for case, rows in zip(*_grouped(of_method), strict=True):
             metrics.append(Metric(case, f"RMS {transfer} per J", "quality", tuple(rows["rms"].astype(float))))
+    return metrics + _time_metrics(records, ratios)
+
+
+def _time_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
+    """Times of a run keyed by case tuples: medians over repetitions, ratios to the baseline solver when
+    ``ratios`` (the baseline's own cells left out), each with its absolute seconds."""
     times = cell_times(records)
     if ratios:
         times = times[times["solver"] != BASELINE_SOLVER]
@@ -165,6 +178,7 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
             ("first expression (s)", "first_time", "first_time"),
             ("sequence (s)", "sequence_time", "sequence_time"),
         )
+    metrics = []
     for case, rows in zip(*_grouped(times), strict=True):
         for name, column, seconds in timed:
             metrics.append(
@@ -226,7 +240,7 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
     if old.is_file():
         return _benchmark_metrics(old), _benchmark_metrics(new), "median seconds per benchmark"
     old_records, new_records = _read_run(old), _read_run(new)
-    ratios = all(cell_times(records)["first_ratio"].notna().any() for records in (old_records, new_records))
+    ratios = _has_ratios(old_records) and _has_ratios(new_records)
     old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
     labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
     old_metrics, new_metrics = (
@@ -237,6 +251,56 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         f"ratio to {BASELINE_SOLVER} in the same run" if ratios else f"seconds (no {BASELINE_SOLVER} in both)"
     )
     return old_metrics, new_metrics, basis
+
+
+def _has_ratios(records: pd.DataFrame) -> bool:
+    return bool(cell_times(records)["first_ratio"].notna().any())
+
+
+def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
+    """The history rows of one run: each case's times as ratios to `BASELINE_SOLVER` in the same run.
+
+    Parameters
+    ----------
+    run_dir : path
+        A run directory (``harness run --out``) with `BASELINE_SOLVER` cells.
+
+    Returns
+    -------
+    DataFrame with the `reports._history.HISTORY_COLUMNS`, one row per (case, figure), named as
+    `compare` names them (cases labelled by the settings that vary within this run).
+
+    Raises
+    ------
+    FileNotFoundError
+        When ``run_dir`` holds no run.
+    ValueError
+        When it is not a run directory or has no finished `BASELINE_SOLVER` cell to divide by.
+    """
+    run_dir = Path(run_dir)
+    records = _read_run(run_dir)
+    if not _has_ratios(records):
+        raise ValueError(f"{run_dir}: no finished {BASELINE_SOLVER} cell, so no ratios for the history")
+    metrics = _time_metrics(records, ratios=True)
+    labels = _case_labels(sorted({metric.case for metric in metrics}, key=repr))
+    identity = run_identity(harness.read_run(run_dir))
+    rows = [
+        {**identity, "case": labels[m.case], "figure": m.name, "ratio": m.value, "seconds": m.seconds}
+        for m in metrics
+    ]
+    return pd.DataFrame(rows, columns=list(HISTORY_COLUMNS))
+
+
+def _history_spreads(
+    path: Path, new: Path, *, window: int, k: float, tolerance: float, min_runs: int
+) -> dict[tuple[str, str], Spread]:
+    """Spreads of the figures in the history at ``path``, leaving out the rows of run ``new`` itself."""
+    if not (new / "records").is_dir():
+        raise ValueError(f"compare: a history applies to run directories, not to {new}")
+    history = read_history(path)
+    identity = run_identity(harness.read_run(new))
+    own = (history[list(RUN_COLUMNS)] == pd.Series({c: identity[c] for c in RUN_COLUMNS})).all(axis=1)
+    return spreads(history[~own], window=window, k=k, tolerance=tolerance, min_runs=min_runs)
 
 
 # -- judging changes ---------------------------------------------------------------------------------------
@@ -266,7 +330,11 @@ def _quality_change(old: Metric, new: Metric, tolerance: float) -> Change:
     return Change(old.case, old.name, "quality", old.value, new.value, verdict)
 
 
-def _time_change(old: Metric, new: Metric, threshold: float, min_time: float) -> Change:
+def _time_change(
+    old: Metric, new: Metric, threshold: float, min_time: float, spread: Spread | None = None
+) -> Change:
+    """Judge a time: under ``min_time`` seconds it is noise; with a ``spread`` from the history it is slower
+    above ``spread.high`` and faster below ``spread.low``; otherwise new / old against ``threshold``."""
     assert isinstance(old.value, float) and isinstance(new.value, float)
     ratio = new.value / old.value if old.value > 0 else math.inf if new.value > 0 else 1.0
     seconds = max(old.seconds or 0.0, new.seconds or 0.0)
@@ -276,6 +344,19 @@ def _time_change(old: Metric, new: Metric, threshold: float, min_time: float) ->
     verdict: Verdict = "same"
     if math.isnan(ratio):
         verdict = "changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
+    elif spread is not None:
+        verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
+        return Change(
+            old.case,
+            old.name,
+            "time",
+            old.value,
+            new.value,
+            verdict,
+            ratio=ratio,
+            where="(history)",
+            spread=spread,
+        )
     elif ratio > 1.0 + threshold:
         verdict = "slower"
     elif ratio < 1.0 / (1.0 + threshold):
@@ -290,6 +371,10 @@ def compare(
     threshold: float = 0.25,
     tolerance: float = 1e-9,
     min_time: float = 0.01,
+    history: str | os.PathLike | None = None,
+    window: int = 10,
+    spread: float = 3.0,
+    min_runs: int = 5,
 ) -> Comparison:
     """Compare two runs (record directories) or two pytest-benchmark JSON files metric by metric.
 
@@ -298,12 +383,24 @@ def compare(
     old, new : path
         Two run directories (``harness run --out``) or two ``--benchmark-json`` files.
     threshold : float
-        A time counts as slower when new / old > 1 + threshold (0.25 = 25 %).
+        A time counts as slower when new / old > 1 + threshold (0.25 = 25 %). With a history, the least
+        margin above a figure's median, relative to it.
     tolerance : float
         Quality values count as changed when they differ by more than this, relative to the larger.
     min_time : float
         Seconds below which a run's time (in both runs) is timer noise and never counts as slower or
         faster. Benchmark medians (many rounds each) are always judged.
+    history : path, optional
+        A history file (`reports.append_history`) of earlier runs' ratios. A ratio of ``new`` whose figure
+        has at least ``min_runs`` runs there (``new``'s own rows left out) is judged against their spread
+        (`reports._history.spreads`): slower above ``median + max(spread * 1.4826 MAD, threshold * median)``
+        of its last ``window`` runs, faster below the median by as much. Other times keep the rule above.
+    window : int
+        Latest runs of a figure in the history that give its spread.
+    spread : float
+        Robust standard deviations (1.4826 MAD) a ratio may move from its history's median.
+    min_runs : int
+        Fewest runs of a figure in the history for it to be judged by the history.
 
     Returns
     -------
@@ -313,13 +410,23 @@ def compare(
     Raises
     ------
     ValueError
-        When a path is neither kind, the two kinds differ, or a threshold or tolerance is negative.
+        When a path is neither kind, the two kinds differ, a threshold or tolerance is negative, a history
+        is given for benchmark files, or the history file is not one (`reports.HistoryError`).
+    FileNotFoundError
+        When ``history`` does not exist.
     """
-    if min(threshold, tolerance, min_time) < 0:
+    if min(threshold, tolerance, min_time, spread) < 0 or min(window, min_runs) < 1:
         raise ValueError(
-            f"compare: threshold, tolerance and min_time must be >= 0, "
-            f"got {threshold}, {tolerance} and {min_time}"
+            f"compare: threshold, tolerance, min_time and spread must be >= 0 and window and min_runs >= 1, "
+            f"got {threshold}, {tolerance}, {min_time}, {spread}, {window} and {min_runs}"
         )
+    judged = (
+        {}
+        if history is None
+        else _history_spreads(
+            Path(history), Path(new), window=window, k=spread, tolerance=threshold, min_runs=min_runs
+        )
+    )
     old_metrics, new_metrics, basis = read_metrics(Path(old), Path(new))
     by_key = {(m.case, m.name): m for m in new_metrics}
     changes = []
@@ -328,13 +435,20 @@ def compare(
         if other is None:
             changes.append(Change(metric.case, metric.name, metric.kind, metric.value, None, "missing"))
         elif metric.kind == "time":
-            changes.append(_time_change(metric, other, threshold, min_time))
+            key = (metric.case, metric.name)
+            changes.append(_time_change(metric, other, threshold, min_time, judged.get(key)))
         else:
             changes.append(_quality_change(metric, other, tolerance))
     changes += [Change(m.case, m.name, m.kind, None, m.value, "added") for m in by_key.values()]
     changes.sort(key=lambda change: change.case)
     floor = 0.0 if Path(old).is_file() else min_time  # benchmark medians are never floored
-    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes))
+    rule = (
+        ""
+        if history is None
+        else f"{history}: a ratio is slower above median + max({spread:g} x 1.4826 MAD, {threshold:.0%}) of "
+        f"its last {window} runs (at least {min_runs}; else the rule above)"
+    )
+    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes), rule)
 
 
 # -- showing changes ---------------------------------------------------------------------------------------
@@ -360,15 +474,18 @@ def _shown(value: Value | None) -> str:
 def comparison_table(
     comparison: Comparison, *, fail_on_time: bool = False, only_changes: bool = False
 ) -> Table:
-    """A rich table with one row per metric: case, metric, old, new, ratio and verdict (failures in red)."""
+    """A rich table with one row per metric: case, metric, old, new, ratio and verdict (failures in red);
+    with a history, also the spread that judged each time (median and limits over the runs counted)."""
     failing = set(comparison.regressions(fail_on_time=fail_on_time))
     floor = f" (times under {comparison.min_time:g} s are noise)" if comparison.min_time else ""
+    history = f"; history {comparison.history}" if comparison.history else ""
     table = Table(
         title=f"{comparison.old} -> {comparison.new}",
         caption=f"times: {comparison.time_basis}; slower means > +{comparison.threshold:.0%}{floor}; "
-        f"quality tolerance {comparison.tolerance:g} relative",
+        f"quality tolerance {comparison.tolerance:g} relative{history}",
     )
-    for column in ("case", "metric", "old", "new", "new/old", "verdict"):
+    columns = ["case", "metric", "old", "new", "new/old", "verdict"] + (["history"] if history else [])
+    for column in columns:
         table.add_column(column, justify="right" if column in ("old", "new", "new/old") else "left")
     for change in comparison.changes:
         if only_changes and change.verdict == "same":
@@ -376,7 +493,12 @@ def comparison_table(
         style = "bold red" if change in failing else _STYLES[change.verdict]
         verdict = f"{change.verdict} {change.where}".strip() + (" (fails)" if change in failing else "")
         ratio = "" if change.ratio is None else f"{change.ratio:.3f}"
-        table.add_row(
-            change.case, change.metric, _shown(change.old), _shown(change.new), ratio, verdict, style=style
-        )
+        cells = [change.case, change.metric, _shown(change.old), _shown(change.new), ratio, verdict]
+        table.add_row(*cells, *([_spread_text(change.spread)] if history else []), style=style)
     return table
+
+
+def _spread_text(spread: Spread | None) -> str:
+    if spread is None:
+        return ""
+    return f"median {spread.median:.4g} in [{spread.low:.4g}, {spread.high:.4g}] over {spread.runs} runs"

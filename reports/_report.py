@@ -12,7 +12,8 @@ import harness
 from harness import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
-from reports._figures import coverage_figure, rms_figure
+from reports._figures import coverage_figure, history_figure, rms_figure
+from reports._history import read_history
 from reports._layout import REPORT_DIR
 from reports._png import png_bytes
 from reports._tables import (
@@ -165,7 +166,30 @@ def _overlap_block(run_dir: Path) -> pd.DataFrame | str:
         return f"No overlap table: {error}."
 
 
-def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
+def _history_section(path: Path) -> Section:
+    """The ratios of every CI run in the history file at ``path``, plotted over the runs."""
+    history = read_history(path)
+    if history["ratio"].notna().sum() == 0:
+        return Section("Performance history", [f"The history {path} holds no ratio yet."])
+    runs = len(history.drop_duplicates(["date", "commit", "machine"]))
+    return Section(
+        "Performance history",
+        [
+            f"Times of the {runs} runs recorded in {path}, each as a ratio to {BASELINE_SOLVER} measured in "
+            "the same run, so that the machine's speed cancels out. `harness compare --history` flags a "
+            "ratio above its figure's run-to-run spread there: median + max(k x 1.4826 MAD, threshold x "
+            "median) over its last runs (`harness compare --help` gives the defaults).",
+            Image(
+                "history",
+                png_bytes(history_figure(history)),
+                f"Ratio to {BASELINE_SOLVER} of each case's first expression and whole sequence over the "
+                "runs of the history (log scale; + after a commit: uncommitted changes).",
+            ),
+        ],
+    )
+
+
+def report_sections(run_dir: Path, *, expressions: int = 5, history: Path | None = None) -> list[Section]:
     """The sections of the report of the run in ``run_dir`` (see `build_report`)."""
     run = harness.read_run(run_dir)
     records = harness.read_records(run_dir)
@@ -257,13 +281,17 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
         ),
         Section("Contact sheets", _contact_sheets(records, expressions) or ["No finished expressions."]),
     ]
+    if history is not None:
+        sections.insert(2, _history_section(history))
     problems = problem_table(records)
     if not problems.empty:
         sections.append(Section("Cells that did not finish", [problems]))
     return sections
 
 
-def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[Path, Path]:
+def build_report(
+    run_dir: str | os.PathLike, *, expressions: int = 5, history: str | os.PathLike | None = None
+) -> tuple[Path, Path]:
     """Write the report of a run to ``RUN_DIR/report/index.html`` and ``RUN_DIR/report/report.md``.
 
     Parameters
@@ -272,6 +300,9 @@ def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[P
         A run directory written by ``harness run`` (``run.json``, ``records/``, ``overlap.parquet``).
     expressions : int
         How many leading expressions each contact-sheet row shows.
+    history : path, optional
+        A history file of CI runs (`reports.append_history`): its ratios are plotted over the runs in a
+        "Performance history" section after the timings.
 
     Returns
     -------
@@ -281,10 +312,14 @@ def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[P
     Raises
     ------
     FileNotFoundError
-        When ``run_dir`` holds no run or no records.
+        When ``run_dir`` holds no run or no records, or ``history`` does not exist.
+    reports.HistoryError
+        When ``history`` is not a history file.
     """
     run_dir = Path(run_dir)
-    sections = report_sections(run_dir, expressions=expressions)
+    sections = report_sections(
+        run_dir, expressions=expressions, history=None if history is None else Path(history)
+    )
     return write_documents(
         f"Expression packing report: {run_dir.resolve().name}", sections, run_dir / REPORT_DIR
     )

@@ -7,10 +7,14 @@ commands import pandas, matplotlib and rich (through the reports modules) when t
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
-from reports._layout import REPORT_DIR
+from reports._layout import HISTORY_FILE, REPORT_DIR
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class InputError(click.ClickException):
@@ -31,13 +35,25 @@ class InputError(click.ClickException):
     show_default=True,
     help="Leading expressions drawn per solver on the contact sheets.",
 )
-def report(out: Path, expressions: int) -> None:
+@click.option(
+    "--history",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    show_default=f"{HISTORY_FILE} beside OUT, when there is one",
+    help="History file of CI runs (harness compare --history FILE --append) to plot in the report.",
+)
+def report(out: Path, expressions: int, history: Path | None) -> None:
     from reports._report import build_report
 
+    beside = out.parent / HISTORY_FILE
+    if history is None and beside.is_file():
+        history = beside
     try:
-        page, text = build_report(out, expressions=expressions)
+        page, text = build_report(out, expressions=expressions, history=history)
     except FileNotFoundError as error:
         raise InputError(f"{error}. Run `harness run --out {out}` first.") from None
+    except ValueError as error:  # a history file that is not one
+        raise InputError(str(error)) from None
     click.echo(f"report: {page}")
     click.echo(f"markdown: {text}")
 
@@ -45,6 +61,8 @@ def report(out: Path, expressions: int) -> None:
 @click.command(
     "compare",
     help="Compare two runs (record directories) or two pytest-benchmark JSON files, OLD then NEW. "
+    "With --history, NEW's times (as ratios to naive-pulp-cbc in the same run) are judged against their "
+    "run-to-run spread in earlier runs, and --append records them there. "
     "Exit code 1 when a quality figure changed (or, with --fail-on-time, a time regressed), 2 on unusable "
     "input, else 0.",
 )
@@ -55,7 +73,8 @@ def report(out: Path, expressions: int) -> None:
     type=click.FloatRange(min=0),
     default=0.25,
     show_default=True,
-    help="A time is slower when NEW/OLD exceeds 1 + threshold.",
+    help="A time is slower when NEW/OLD exceeds 1 + threshold; with a history, the least margin above a "
+    "figure's median, relative to it.",
 )
 @click.option(
     "--tolerance",
@@ -78,6 +97,42 @@ def report(out: Path, expressions: int) -> None:
     help="Fail on slower times too; by default they are printed as warnings (shared machines are noisy).",
 )
 @click.option("--only-changes", is_flag=True, help="Leave unchanged metrics out of the table.")
+@click.option(
+    "--history",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    show_default="none",
+    help="History file of earlier runs' ratios (e.g. benchmarks/history.csv): a time of NEW is slower when "
+    "above its figure's median + max(SPREAD x 1.4826 MAD, THRESHOLD x median) over the last WINDOW runs.",
+)
+@click.option(
+    "--append",
+    is_flag=True,
+    help="After comparing, append NEW's ratios to the --history file (created when missing; a run already "
+    "there is not added again).",
+)
+@click.option(
+    "--window",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="Latest runs of a figure in the history that give its spread.",
+)
+@click.option(
+    "--spread",
+    type=click.FloatRange(min=0),
+    default=3.0,
+    show_default=True,
+    help="Robust standard deviations (1.4826 MAD) a ratio may move from its history's median.",
+)
+@click.option(
+    "--min-runs",
+    type=click.IntRange(min=1),
+    default=5,
+    show_default=True,
+    help="Fewest runs of a figure in the history to judge it by its spread; with fewer, NEW/OLD and "
+    "--threshold judge it.",
+)
 def compare(
     old: Path,
     new: Path,
@@ -86,23 +141,61 @@ def compare(
     min_time: float,
     fail_on_time: bool,
     only_changes: bool,
+    history: Path | None,
+    append: bool,
+    window: int,
+    spread: float,
+    min_runs: int,
 ) -> None:
     from rich.console import Console
 
     from reports._compare import compare as compare_runs
-    from reports._compare import comparison_table
+    from reports._compare import comparison_table, run_figures
 
+    if append and history is None:
+        raise click.UsageError("--append needs --history FILE.")
+    if history is not None and not append and not history.exists():
+        raise InputError(f"{history}: no such history file (--append creates it)")
     try:
-        comparison = compare_runs(old, new, threshold=threshold, tolerance=tolerance, min_time=min_time)
+        figures = run_figures(new) if append else None
+        comparison = compare_runs(
+            old,
+            new,
+            threshold=threshold,
+            tolerance=tolerance,
+            min_time=min_time,
+            history=history if history is not None and history.exists() else None,
+            window=window,
+            spread=spread,
+            min_runs=min_runs,
+        )
     except (FileNotFoundError, ValueError) as error:
         raise InputError(str(error)) from None
     console = Console(width=160)
     console.print(comparison_table(comparison, fail_on_time=fail_on_time, only_changes=only_changes))
+    if figures is not None:
+        _append(history, figures, new)
     regressions = comparison.regressions(fail_on_time=fail_on_time)
     warnings = comparison.warnings(fail_on_time=fail_on_time)
     compared = sum(change.verdict != "added" for change in comparison.changes)
+    judged = sum(change.spread is not None for change in comparison.changes)
     summary = f"{compared} metrics compared: {len(regressions)} regressions, {len(warnings)} timing warnings"
+    summary += f" ({judged} times judged by the history)" if comparison.history else ""
     if regressions:
         console.print(f"[bold red]FAIL[/] {summary}")
         click.get_current_context().exit(1)
     console.print(f"[green]OK[/] {summary}")
+
+
+def _append(history: Path, figures: pd.DataFrame, new: Path) -> None:
+    """Append a run's figures to the history file and say what was done."""
+    from reports._history import append_history
+
+    try:
+        appended = append_history(history, figures)
+    except (OSError, ValueError) as error:
+        raise InputError(str(error)) from None
+    if appended:
+        click.echo(f"history: appended {appended} figures of {new} to {history}")
+    else:
+        click.echo(f"history: {new} is already in {history}")

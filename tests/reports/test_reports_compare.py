@@ -167,7 +167,7 @@ def test_unusable_inputs_exit_2_with_one_line(make_run, tmp_path):
     assert (
         result.exit_code == 2 and "must both be run directories or both benchmark JSON files" in result.output
     )
-    with pytest.raises(ValueError, match="threshold, tolerance and min_time must be >= 0"):
+    with pytest.raises(ValueError, match="threshold, tolerance, min_time and spread must be >= 0"):
         compare(run, run, threshold=-1)
 
 
