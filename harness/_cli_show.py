@@ -1,59 +1,19 @@
-"""``harness list`` (what is installed) and ``harness show OUT`` (a run's summary in the terminal)."""
+"""``harness show OUT``: a run's summary in the terminal."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from typing import Any
 
 import click
 import pandas as pd
 from rich.table import Table
 
-from harness import _plugins as plugins
 from harness._cli_types import terminal
 from harness._durations import format_duration
-from harness._grid import PRESETS as RUN_PRESETS
 from harness._grid import VARIATION_FIELDS
 
 #: Packing settings a run may vary; `harness show` labels rows by those that do.
 _SETTING_COLUMNS: tuple[str, ...] = VARIATION_FIELDS
-
-
-def catalogue() -> dict[str, Any]:
-    """Everything `harness list` reports, JSON-ready."""
-    import rigs
-
-    return {
-        "solvers": [plugins.solver_info(name).as_dict() for name in plugins.solver_names()],
-        "transfers": [plugins.transfer_info(name).as_dict() for name in plugins.transfer_names()],
-        "rig_presets": sorted(rigs.PRESETS),
-        "warps": sorted(rigs.WARPS),
-        "run_presets": sorted(RUN_PRESETS),
-    }
-
-
-@click.command("list")
-@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of tables.")
-def list_command(as_json: bool) -> None:
-    """Solvers and transfers (availability with the reason, capabilities, versions), rig presets, warps."""
-    found = catalogue()
-    if as_json:
-        click.echo(json.dumps(found, indent=2))
-        return
-    for kind in ("solvers", "transfers"):
-        table = Table(title=kind)
-        for column in ("name", "available", "version", "capabilities / reason"):
-            table.add_column(column)
-        for item in found[kind]:
-            flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
-            detail = flags if item["available"] else f"[yellow]{item['reason']}[/]"
-            mark = "[green]yes[/]" if item["available"] else "[red]no[/]"
-            table.add_row(item["name"], mark, item["version"] or "-", detail)
-        terminal().print(table)
-    terminal().print(f"rig presets: {', '.join(found['rig_presets'])}")
-    terminal().print(f"warps: {', '.join(found['warps'])}")
-    terminal().print(f"run presets: {', '.join(found['run_presets'])}")
 
 
 @click.command("show")

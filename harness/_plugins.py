@@ -6,6 +6,7 @@ lists the valid names.
 
 from __future__ import annotations
 
+import importlib.metadata
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -18,7 +19,14 @@ ALL = "all"
 
 @dataclass(frozen=True)
 class PluginInfo:
-    """What `harness list` shows about one solver or transfer plugin."""
+    """What `harness list` shows about one solver or transfer plugin.
+
+    Attributes
+    ----------
+    description : str
+        One line: what the plugin is (`describe`), then whether a solver may overlap shapes or whether a
+        transfer uses the training examples; empty for a plugin that does not load.
+    """
 
     kind: str
     name: str
@@ -26,6 +34,7 @@ class PluginInfo:
     reason: str
     version: str
     capabilities: dict[str, Any]
+    description: str = ""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -33,6 +42,7 @@ class PluginInfo:
             "available": self.available,
             "reason": self.reason,
             "version": self.version,
+            "description": self.description,
             "capabilities": self.capabilities,
         }
 
@@ -67,9 +77,12 @@ def solver_info(name: str) -> PluginInfo:
         found = solvers.info([name])[0]
     except Exception as error:  # noqa: BLE001 - a plugin that fails to load is listed as unavailable
         return PluginInfo("solver", name, False, f"{type(error).__name__}: {error}", "", {})
-    return PluginInfo(
-        "solver", name, found.available, found.reason, found.version, _as_dict(found.capabilities)
-    )
+    capabilities = _as_dict(found.capabilities)
+    description = ""
+    if found.capabilities is not None:  # (else the plugin did not load: the reason says why)
+        plugin = importlib.metadata.EntryPoint(name, found.entry_point, "").load()  # (imported by info)
+        description = f"{describe(plugin)} {_overlap_clause(found.capabilities.max_overlap)}".lstrip()
+    return PluginInfo("solver", name, found.available, found.reason, found.version, capabilities, description)
 
 
 def transfer_info(name: str) -> PluginInfo:
@@ -85,7 +98,30 @@ def transfer_info(name: str) -> PluginInfo:
         for trait in ("uses_examples", "binary_weights")
         if hasattr(method, trait)
     }
-    return PluginInfo("transfer", name, True, "", "", traits)
+    clause = _examples_clause(traits["uses_examples"]) if "uses_examples" in traits else ""
+    description = f"{describe(method)} {clause}".strip()
+    return PluginInfo("transfer", name, True, "", "", traits, description)
+
+
+def describe(plugin: Any) -> str:
+    """What a plugin is, in one line: its class's ``description`` attribute, else the first line of its
+    class's own docstring (not one inherited from a base class), else an empty string."""
+    cls = plugin if isinstance(plugin, type) else type(plugin)
+    text = getattr(cls, "description", None)
+    if not isinstance(text, str) or not text.strip():
+        text = cls.__dict__.get("__doc__") or ""
+    lines = text.strip().splitlines()
+    return " ".join(lines[0].split()) if lines else ""
+
+
+def _overlap_clause(max_overlap: float) -> str:
+    if max_overlap == 0:
+        return "Shapes in one expression never overlap."
+    return f"Shapes in one expression may overlap: up to {max_overlap:.0%} of a shape's active vertices."
+
+
+def _examples_clause(uses_examples: bool) -> str:
+    return "Uses the training examples." if uses_examples else "Ignores the training examples."
 
 
 def _as_dict(value: Any) -> dict[str, Any]:

@@ -2,9 +2,10 @@
 
 Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``, ``show``.
 Other distributions add commands through the entry-point group ``harness.commands``: each entry point names a
-`click.Command` (or a ``typer.Typer`` app) and is imported only when its command is used or listed in help.
-A built-in command's module is imported only when the command runs or shows its own help: ``harness --help``
-lists the built-ins from their summaries here (`BUILTIN`), so that it starts at once.
+`click.Command` (or a ``typer.Typer`` app) and is imported only when its command runs or shows its own help.
+A built-in command's module is imported the same way: ``harness --help`` lists the built-ins from their
+summaries here (`BUILTIN`) and a plugin command from its source when that says its help plainly
+(`harness._cli_summary`), else by importing it, so that it starts at once.
 
 User errors (unknown names, unreadable files, an occupied output directory) end as one line on stderr saying
 what to do, with exit code 2; Ctrl-C ends with exit code 130.
@@ -19,6 +20,7 @@ from typing import Any
 
 import click
 
+from harness._cli_summary import static_command
 from harness._cli_types import terminal
 
 #: Entry-point group through which other packages add ``harness`` subcommands.
@@ -44,9 +46,10 @@ BUILTIN = {
         "harness._cli_rigs", "rigs", "Generate, inspect, warp, convert and fetch blendshape rigs."
     ),
     "list": Builtin(
-        "harness._cli_show",
+        "harness._cli_list",
         "list_command",
-        "Solvers and transfers (availability with the reason, capabilities, versions), rig presets, warps.",
+        "Solvers and transfers (what each is, availability with the reason, capabilities, versions), rig "
+        "presets, warps.",
     ),
     "run": Builtin(
         "harness._cli_run",
@@ -133,15 +136,18 @@ class HarnessGroup(click.Group):
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         """The command list of ``harness --help``: built-ins by their summaries (not imported), plugins by
-        their own short help (imported, as click does)."""
+        their own short help (read from their source when it says it plainly, else imported)."""
         names = self.list_commands(ctx)
         limit = formatter.width - 6 - max(map(len, names), default=0)
         rows = []
+        plugins = _plugin_entry_points()
         for name in names:
             if name in BUILTIN:
                 rows.append((name, BUILTIN[name].short_help(limit)))
                 continue
-            command = self.get_command(ctx, name)
+            command = static_command(plugins[name])
+            if command is None:
+                command = self.get_command(ctx, name)
             if command is not None and not command.hidden:
                 rows.append((name, command.get_short_help_str(limit)))
         if rows:

@@ -1,0 +1,62 @@
+"""``harness list``: what is installed (solver and transfer plugins, rig presets, warps, run presets).
+
+It imports the plugins' modules (their classes say what they are and can do) but neither their backends nor
+the records store, so that it answers at once.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import click
+
+from harness import _plugins as plugins
+from harness._cli_types import terminal
+
+
+def catalogue() -> dict[str, Any]:
+    """Everything `harness list` reports, JSON-ready."""
+    import rigs
+    from harness._grid import PRESETS as RUN_PRESETS
+
+    return {
+        "solvers": [plugins.solver_info(name).as_dict() for name in plugins.solver_names()],
+        "transfers": [plugins.transfer_info(name).as_dict() for name in plugins.transfer_names()],
+        "rig_presets": sorted(rigs.PRESETS),
+        "warps": sorted(rigs.WARPS),
+        "run_presets": sorted(RUN_PRESETS),
+    }
+
+
+@click.command("list")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of tables.")
+def list_command(as_json: bool) -> None:
+    """Solvers and transfers (what each is, availability with the reason, capabilities, versions), rig
+    presets, warps."""
+    found = catalogue()
+    if as_json:
+        click.echo(json.dumps(found, indent=2))
+        return
+    for kind in ("solvers", "transfers"):
+        terminal().print(_plugin_table(kind, found[kind]))
+    terminal().print(f"rig presets: {', '.join(found['rig_presets'])}")
+    terminal().print(f"warps: {', '.join(found['warps'])}")
+    terminal().print(f"run presets: {', '.join(found['run_presets'])}")
+
+
+def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Any:
+    """One row per plugin: name, available, version, description, and its true capabilities or, when it
+    cannot run, the reason."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(title=kind)
+    for column in ("name", "available", "version", "description", "capabilities / reason"):
+        table.add_column(column)
+    for item in items:
+        flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
+        detail = flags if item["available"] else f"[yellow]{escape(item['reason'])}[/]"
+        mark = "[green]yes[/]" if item["available"] else "[red]no[/]"
+        table.add_row(item["name"], mark, item["version"] or "-", escape(item["description"]) or "-", detail)
+    return table
