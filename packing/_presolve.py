@@ -46,29 +46,6 @@ def maximal_conflict_sets(incidence: sp.spmatrix) -> tuple[tuple[np.ndarray, ...
     return sets.as_tuple(), n_vertex_rows
 
 
-def restrict_conflict_sets(
-    cliques: tuple[np.ndarray, ...], keep: np.ndarray, n_items: int
-) -> tuple[np.ndarray, ...]:
-    """The maximal conflict sets of the sub-problem over items ``keep`` (renumbered ascending).
-
-    Every vertex item set lies inside a maximal one and every maximal one is a vertex item set, so the
-    maximal sets of the restricted problem are the maximal ones among ``{C & keep}`` over the old
-    maximal sets ``C``: no vertex is visited again (`ConflictSets.restrict`).
-
-    Parameters
-    ----------
-    cliques : tuple of int arrays
-        Maximal conflict sets of the full problem, in the order of `maximal_conflict_sets`.
-    keep : (I',) int array
-        Indices of the items kept.
-    n_items : int
-        Number of items of the full problem.
-    """
-    kept = np.zeros(n_items, dtype=bool)
-    kept[keep] = True
-    return ConflictSets.from_cliques(cliques).restrict(kept).as_tuple()
-
-
 @dataclass(frozen=True)
 class ConflictSets:
     """Distinct maximal conflict sets in flat (CSR) form, in canonical order.

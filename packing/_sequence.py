@@ -83,11 +83,6 @@ class Expression:
     extra_time: float = 0.0
     message: str = ""
 
-    @property
-    def wall_time(self) -> float:
-        """Presolve, build and solve seconds of the primary problem."""
-        return self.presolve_time + self.build_time + self.solve_time
-
 
 def sequence(
     rig: Rig,

@@ -71,8 +71,3 @@ class Solution:
             if self.items or self.termination is Termination.COMPLETED
             else SolutionStatus.NONE
         )
-
-    @property
-    def wall_time(self) -> float:
-        """Build plus solve time in seconds."""
-        return self.build_time + self.solve_time

@@ -22,10 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing import PackingProblem, SolutionStatus, Termination
+from packing import PackingProblem, SolutionStatus, Termination, expression_lower_bound, first_fit_colouring
 from solvers import _registry as registry
 from solvers._base import Stopwatch, check_solve_arguments, distribution_version
-from solvers._model import conflict_graph
 from solvers.cpsat import cpsat_parameters, integer_weights
 
 
@@ -98,39 +97,6 @@ def _check_cap(problem: PackingProblem) -> None:
         )
 
 
-def _lower_bound(problem: PackingProblem) -> int:
-    if problem.n_items == 0:
-        return 0
-    largest = max((c.size for c in problem.cliques), default=1)
-    if problem.cap is None:
-        return int(largest)
-    return int(max(largest, -(-int(problem.item_shape_counts.sum()) // problem.cap)))
-
-
-def first_fit_colouring(problem: PackingProblem, adjacency: sp.csr_matrix | None = None) -> np.ndarray:
-    """Colour of every item by first fit in decreasing conflict degree (respecting the cap).
-
-    Returns
-    -------
-    (I,) int array of colours 0..H-1, a valid cover by H expressions.
-    """
-    adjacency = conflict_graph(problem) if adjacency is None else adjacency
-    degrees = np.diff(adjacency.indptr)
-    counts = problem.item_shape_counts
-    colour = np.full(problem.n_items, -1, dtype=np.int64)
-    load: list[int] = []
-    cap = np.inf if problem.cap is None else problem.cap
-    for item in np.argsort(-degrees, kind="stable").tolist():
-        taken = set(colour[adjacency.indices[adjacency.indptr[item] : adjacency.indptr[item + 1]]].tolist())
-        chosen = next((c for c in range(len(load)) if c not in taken and load[c] + counts[item] <= cap), None)
-        if chosen is None:
-            chosen = len(load)
-            load.append(0)
-        colour[item] = chosen
-        load[chosen] += int(counts[item])
-    return colour
-
-
 def _classes(problem: PackingProblem, colour: np.ndarray) -> tuple[tuple[int, ...], ...]:
     """Items per colour, heaviest expression first (ties by smallest item)."""
     groups = [tuple(np.flatnonzero(colour == c).tolist()) for c in np.unique(colour)]
@@ -174,7 +140,7 @@ def minimum_expressions(
     plugin = _covering_plugin(solver)
     _check_cap(problem)
     clock = Stopwatch()
-    lower = _lower_bound(problem)
+    lower = expression_lower_bound(problem).lower
     if problem.n_items == 0:
         return MinimumExpressions(0, 0, (), Termination.OPTIMAL, 0.0, solver, "")
     start = first_fit_colouring(problem)

@@ -87,31 +87,3 @@ class CliqueModel:
         from scipy.optimize import LinearConstraint
 
         return LinearConstraint(self.matrix(), -np.inf, self.upper())
-
-
-def clique_matrix(problem: PackingProblem) -> sp.csr_matrix:
-    """(R, I) 0/1 CSR matrix with one row per conflict set of the problem."""
-    model = CliqueModel.from_problem(problem)
-    data = np.ones(model.row_items.size, dtype=np.int32)
-    return sp.csr_matrix((data, model.row_items, model.row_starts), shape=(model.n_rows, model.n_items))
-
-
-def conflict_graph(problem: PackingProblem) -> sp.csr_matrix:
-    """(I, I) symmetric bool CSR adjacency of the item conflict graph, without self loops.
-
-    Two items conflict iff they share an active vertex, which holds iff they share a presolved conflict
-    set; the graph is built from the sets in O(sum |c|^2).
-    """
-    cliques = clique_matrix(problem)
-    shared = (cliques.T @ cliques).tocoo()
-    off_diagonal = shared.row != shared.col
-    n_items = problem.n_items
-    adjacency = sp.csr_matrix(
-        (
-            np.ones(np.count_nonzero(off_diagonal), dtype=bool),
-            (shared.row[off_diagonal], shared.col[off_diagonal]),
-        ),
-        shape=(n_items, n_items),
-    )
-    adjacency.sort_indices()
-    return adjacency

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from packing import PackingProblem, Solution, Termination
+from packing import PackingProblem, Solution, Termination, conflict_graph
 from solvers._base import Capabilities, check_solve_arguments, make_solution
 from solvers._loaded import load
-from solvers._model import conflict_graph
 
 
 @dataclass(frozen=True)

@@ -17,9 +17,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination
+from packing import PackingProblem, Termination, conflict_graph
 from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
-from solvers._model import conflict_graph
 from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_order
 
 #: An improvement smaller than this (relative to the total weight) is treated as none.

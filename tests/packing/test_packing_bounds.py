@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import networkx as nx
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import packing
 from packing import problem_from_incidence
@@ -65,3 +68,33 @@ def test_bound_brackets_the_sequence_on_a_face(face, exact_solver):
     count = len(packing.sequence(rig, exact_solver, analysis=analysis))
     assert bound.lower <= count
     assert bound.lower <= bound.upper
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_items=st.integers(2, 40),
+    density=st.floats(0.05, 0.6),
+    apart=st.integers(0, 5),
+)
+def test_the_clique_bound_is_the_clique_number_and_the_colouring_covers(seed, n_items, density, apart):
+    rng = np.random.default_rng(seed)
+    incidence = rng.random((n_items, 30)) < density / 4
+    incidence[np.arange(n_items), rng.integers(0, 30, n_items)] = True
+    pairs = {tuple(sorted(rng.choice(n_items, 2, replace=False).tolist())) for _ in range(apart)}
+    problem = problem_from_incidence(incidence, np.ones(n_items), apart=sorted(pairs))
+    graph = nx.Graph()
+    graph.add_nodes_from(range(n_items))
+    overlaps = (incidence.astype(int) @ incidence.T.astype(int)) > 0
+    graph.add_edges_from((a, b) for a in range(n_items) for b in range(a + 1, n_items) if overlaps[a, b])
+    graph.add_edges_from(pairs)
+    bound = packing.expression_lower_bound(problem)
+    assert bound.lower == max(len(c) for c in nx.find_cliques(graph))
+    labels = set(bound.clique)
+    members = [i for i in range(n_items) if problem.item_label(i) in labels]
+    assert len(members) == bound.lower and all(
+        graph.has_edge(a, b) for a in members for b in members if a < b
+    )
+    colour = packing.first_fit_colouring(problem)
+    assert colour.max() + 1 == bound.upper
+    assert all(colour[a] != colour[b] for a, b in graph.edges)

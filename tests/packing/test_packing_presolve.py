@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from packing import problem_from_incidence
-from packing._presolve import maximal_conflict_sets, restrict_conflict_sets
+from packing._presolve import ConflictSets, maximal_conflict_sets
 
 
 @st.composite
@@ -145,6 +145,13 @@ def test_a_chain_of_restrictions_equals_presolving_from_the_vertices(incidence, 
         assert problem.n_vertex_rows == fresh.n_vertex_rows
         assert (problem.incidence != fresh.incidence).nnz == 0
         assert problem.weights.tolist() == weights[alive].tolist()
+
+
+def restrict_conflict_sets(cliques, keep, n_items):
+    """The maximal conflict sets of the sub-problem over the items ``keep`` (`ConflictSets.restrict`)."""
+    kept = np.zeros(n_items, dtype=bool)
+    kept[keep] = True
+    return ConflictSets.from_cliques(cliques).restrict(kept).as_tuple()
 
 
 def test_restrict_keeps_one_of_equal_sets_and_drops_the_contained_ones():

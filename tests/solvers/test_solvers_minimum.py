@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 import solvers
-from packing import Termination, problem_from_incidence
-from solvers._minimum import first_fit_colouring
+from packing import Termination, first_fit_colouring, problem_from_incidence
 from solvers.testing import check_packing, random_problem
 
 
