@@ -187,6 +187,16 @@ def test_the_compare_command_creates_a_history_and_checks_its_options(make_run, 
     assert result.exit_code == 0 and path.is_file() and len(read_history(path)) == 6
 
 
+def test_a_history_applies_to_run_directories_only(make_run, tmp_path):
+    path = tmp_path / "history.csv"
+    _history(path, make_run("run"), STEADY)
+    (tmp_path / "bench.json").write_text('{"benchmarks": []}')
+    with pytest.raises(ValueError, match="a history applies to run directories"):
+        compare(tmp_path / "bench.json", tmp_path / "bench.json", history=path)
+    with pytest.raises(ValueError, match="window and min_runs >= 1"):
+        compare(tmp_path / "run", tmp_path / "run", history=path, window=0)
+
+
 def test_the_report_plots_the_history(make_run, tmp_path):
     run = make_run("run")
     _history(tmp_path / "history.csv", run, STEADY)
