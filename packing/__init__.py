@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from packing._analysis import Analysis, analyse, build_problem, tie_break_perturbation
     from packing._binary import binary_blendshapes, empty_shapes
-    from packing._bounds import ExpressionBound, conflict_graph, expression_lower_bound
+    from packing._bounds import ExpressionBound, conflict_graph, expression_lower_bound, first_fit_colouring
     from packing._cancel import CANCEL_RATIO, Cancellation, cancelling_twins, find_cancellations
     from packing._check import CheckError, check
     from packing._constraints import parse_pair, read_constraints
@@ -32,6 +32,7 @@ _MODULE_OF = {
     "binary_blendshapes": "packing._binary",
     "empty_shapes": "packing._binary",
     "ExpressionBound": "packing._bounds",
+    "first_fit_colouring": "packing._bounds",
     "conflict_graph": "packing._bounds",
     "expression_lower_bound": "packing._bounds",
     "CANCEL_RATIO": "packing._cancel",
@@ -84,6 +85,7 @@ __all__ = [
     "empty_shapes",
     "conflict_graph",
     "expression_lower_bound",
+    "first_fit_colouring",
     "find_cancellations",
     "find_symmetry_pairs",
     "importance",
