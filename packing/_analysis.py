@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import displacement_norms, empty_mask, lengths_matrix, masks_from_norms, sparse_masks
+from packing._binary import lengths_matrix, rig_masks, sparse_masks
 from packing._importance import (
     ImportanceTerms,
     importance_terms,
@@ -252,10 +252,8 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         clock = now
 
     target = target_neutral_of(rig, target_neutral)
-    norms = displacement_norms(rig.deltas)
-    empty = empty_mask(norms, settings.noise_floor, rig.diagonal())
+    norms, empty, masks = rig_masks(rig, settings.mu, settings.noise_floor)
     require_nonempty(rig, empty)
-    masks = masks_from_norms(norms, settings.mu, empty)
     active = sparse_masks(masks)
     norms = lengths_matrix(norms, active)  # all the later steps read; frees K N floats
     lap("binary")

@@ -145,6 +145,21 @@ def largest_lengths(norms: np.ndarray | sp.spmatrix) -> np.ndarray:
     return norms.max(axis=1)
 
 
+def rig_masks(rig: Rig, mu: float, noise_floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Displacement lengths, empty shapes and active-vertex masks of a rig (sec. 4.1, eq. 2).
+
+    A shape is empty when its largest displacement is at most ``noise_floor`` times the rig's bounding-box
+    diagonal; its mask row is all False.
+
+    Returns
+    -------
+    (K, N) float lengths, (K,) bool empty shapes, (K, N) bool masks.
+    """
+    norms = displacement_norms(rig.deltas)
+    empty = empty_mask(norms, noise_floor, rig.diagonal())
+    return norms, empty, masks_from_norms(norms, mu, empty)
+
+
 def masks_from_norms(norms: np.ndarray, mu: float, empty: np.ndarray) -> np.ndarray:
     """Eq. 2 on precomputed displacement lengths; rows of ``empty`` shapes are all False."""
     masks = norms >= mu * norms.max(axis=1, initial=0.0)[:, None]

@@ -13,10 +13,8 @@ import scipy.sparse as sp
 
 from packing._binary import (
     active_lengths,
-    displacement_norms,
-    empty_mask,
     entries,
-    masks_from_norms,
+    rig_masks,
     sparse_masks,
 )
 from packing._params import params_from
@@ -348,10 +346,8 @@ def importance(
     """
     params = params_from(mu=mu, alpha=alpha, beta=beta, noise_floor=noise_floor)
     target = target_neutral_of(rig, target_neutral)
-    norms = displacement_norms(rig.deltas)
-    empty = empty_mask(norms, params.noise_floor, rig.diagonal())
+    norms, empty, masks = rig_masks(rig, params.mu, params.noise_floor)
     require_nonempty(rig, empty)
-    masks = masks_from_norms(norms, params.mu, empty)
     if target is None:
         warn_missing_target(params.alpha)
     used_shapes = used_mask(rig, used)

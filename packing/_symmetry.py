@@ -11,11 +11,9 @@ import scipy.sparse as sp
 
 from packing._binary import (
     active_lengths,
-    displacement_norms,
-    empty_mask,
     entries,
     largest_lengths,
-    masks_from_norms,
+    rig_masks,
     sparse_masks,
 )
 from packing._constraints import check_consistent, resolve_pairs
@@ -843,8 +841,6 @@ def find_symmetry_pairs(
         For parameters out of range or region names the rig (or regions file) does not have.
     """
     settings = params_from(mu=mu, shape_symmetry=shape, motion_symmetry=motion, **params)
-    norms = displacement_norms(rig.deltas)
-    empty = empty_mask(norms, settings.noise_floor, rig.diagonal())
-    masks = masks_from_norms(norms, settings.mu, empty)
+    norms, empty, masks = rig_masks(rig, settings.mu, settings.noise_floor)
     result = detect_pairs(rig, norms, masks, empty, settings)
     return [(rig.names[a], rig.names[b]) for a, b in result.pairs]
