@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import resolve_rig
     from harness._run import RunDirectoryError, RunSummary, read_overlap, read_run, run_grid
+    from harness._session_render import active_vertices, render_mesh, shape_colours, triangle_colours
 
 #: The module that defines each public name.
 _MODULE_OF = {
@@ -47,6 +48,10 @@ _MODULE_OF = {
     "read_overlap": "harness._run",
     "read_run": "harness._run",
     "run_grid": "harness._run",
+    "active_vertices": "harness._session_render",
+    "render_mesh": "harness._session_render",
+    "shape_colours": "harness._session_render",
+    "triangle_colours": "harness._session_render",
 }
 
 __all__ = [
@@ -63,6 +68,7 @@ __all__ = [
     "RunConfig",
     "RunDirectoryError",
     "RunSummary",
+    "active_vertices",
     "claims_table",
     "format_duration",
     "overlap_table",
@@ -70,8 +76,11 @@ __all__ = [
     "read_overlap",
     "read_records",
     "read_run",
+    "render_mesh",
     "resolve_rig",
     "run_grid",
+    "shape_colours",
+    "triangle_colours",
 ]
 
 

@@ -21,7 +21,15 @@ from typing import Any
 import numpy as np
 
 from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
-from harness._session_render import FACE_SHARE, SIZE, TITLE_SHARE, render, shape_colours, triangle_labels
+from harness._session_render import (
+    FACE_SHARE,
+    SIZE,
+    TITLE_SHARE,
+    active_vertices,
+    picture,
+    shape_colours,
+    triangle_colours,
+)
 from harness._session_sheet import scan_sheet
 from harness._session_words import plain_words
 
@@ -114,9 +122,8 @@ def _pictures(
 ) -> dict[str, bytes]:
     """The two pictures of every expression; records them in each expression's ``files``."""
     import rigs
-    from packing import binary_blendshapes
 
-    active = np.asarray(binary_blendshapes(rig.deltas, mu))
+    active = active_vertices(rig, mu)
     front = rigs.frontal_camera(rig)
     cameras = {
         view: rigs.three_quarter_camera(front, degrees) if degrees else front
@@ -128,15 +135,14 @@ def _pictures(
         zip(expressions, legends, poses, strict=True), start=1
     ):
         name = expression_name(index, len(expressions))
-        names = [entry[1] for entry in legend]
-        labels = triangle_labels(rig.triangles, active[rig.indices(names)] if names else active[:0])
-        words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
         colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
+        fills = triangle_colours(rig.triangles, active[rig.indices([entry[1] for entry in legend])], colours)
+        words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
         for view, camera in cameras.items():
             path = f"{PICTURES}/{name}_{view}.png"
             title = f"{index}. {view.replace('_', '-')}"
-            pictures[path] = render(
-                rig.neutral + delta, rig.triangles, camera, labels, words, colours, title=title
+            pictures[path] = picture(
+                rig.neutral + delta, rig.triangles, camera, fills, words, colours, title=title
             )
             expression["files"][view] = path
     return pictures

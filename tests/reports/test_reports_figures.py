@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from PIL import Image
 import harness
 import rigs
 from reports import contact_sheet, coverage_figure, png_bytes, rms_figure
-from reports._contact import camera_basis, distinct_sequences, draw_expression, rasterize, shaded_colours
+from reports._contact import distinct_sequences, draw_expression
 
 
 def _lines(ax) -> dict[str, tuple[list[float], list[float]]]:
@@ -89,49 +90,41 @@ def test_png_bytes_are_deterministic(make_run, face_rig_file):
     assert first.startswith(b"\x89PNG") and b"Software" not in first
 
 
-def test_camera_looks_at_the_front_of_the_face(face):
-    right, up, towards_viewer = camera_basis(face)
-    assert towards_viewer == pytest.approx([0, 0, 1], abs=1e-9)
-    assert up == pytest.approx([0, 1, 0], abs=1e-9)
-    assert right == pytest.approx([1, 0, 0], abs=1e-9)
-
-
-def test_triangles_touching_active_vertices_take_the_shape_colour(face):
-    active = np.zeros((face.n_shapes, face.n_vertices), dtype=bool)
-    active[face.index("jawOpen"), :3] = True  # only the first vertices are active
-    view = face.neutral @ camera_basis(face).T
-    triangle_colours, colours = shaded_colours(face, view, face.indices(["browUp_L", "jawOpen"]), active)
-    hue = triangle_colours / triangle_colours.max(axis=1, keepdims=True)
-    tinted = np.isclose(hue, colours[1] / colours[1].max(), atol=1e-6).all(axis=1)
-    assert np.array_equal(
-        np.flatnonzero(tinted), np.flatnonzero(np.isin(face.triangles, [0, 1, 2]).any(axis=1))
-    )
-    assert not np.isclose(hue, colours[0] / colours[0].max(), atol=1e-6).all(axis=1).any()  # no active vertex
-
-
-def test_rasterize_fills_triangles_without_holes_and_keeps_the_nearest():
-    far = [[0.0, 0.0, 0.0], [40.0, 0.0, 0.0], [0.0, 40.0, 0.0]]
-    near = [[10.0, 10.0, 1.0], [30.0, 10.0, 1.0], [10.0, 30.0, 1.0]]
-    red, blue = [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]
-    for corners, colours in (([far, near], [red, blue]), ([near, far], [blue, red])):
-        image = rasterize(np.array(corners), np.array(colours), 50, 60)
-        covered = image[..., 3] == 1
-        assert abs(covered.sum() - 40 * 40 / 2) <= 45  # the far triangle's area, up to its diagonal edge
-        assert covered[:40, :40][np.add.outer(np.arange(40), np.arange(40)) < 38].all()  # no hole inside
-        assert not covered[45:, :].any() and not covered[:, 45:].any()
-        assert (image[12:27, 12, :3] == blue).all()  # inside the near triangle: blue, in either order
-        assert (image[2, 2:35, :3] == red).all()
-
-
-def test_draw_expression_shows_an_image_of_the_face(face):
+def test_draw_expression_shows_the_face_from_the_front_in_the_shape_colours(face):
     ax = Figure().add_subplot()
-    draw_expression(
-        ax, face, ["jawOpen"], np.zeros((face.n_shapes, face.n_vertices), bool), camera_basis(face)
+    active = harness.active_vertices(face)
+    colours = draw_expression(
+        ax, face, ["jawOpen", "browUp_L"], active, rigs.frontal_camera(face), size=(200, 260)
     )
+    assert colours.tolist() == harness.shape_colours([1, 1]).tolist()
     (image,) = ax.get_images()
-    pixels = image.get_array()
-    assert pixels.shape[1] == 320 and pixels.shape[0] > 320  # the face is taller than wide
-    assert pixels[..., 3].mean() > 0.9  # the dome fills its bounding box except at the corners
+    pixels = np.asarray(image.get_array())
+    assert pixels.shape == (260, 200, 4)
+    rows, columns = np.nonzero(pixels[..., 3] > 0)
+    assert (
+        abs((columns.min() + columns.max()) / 2 - 100) <= 2 and abs((rows.min() + rows.max()) / 2 - 130) <= 2
+    )
+    assert np.ptp(rows) > np.ptp(columns)  # the dome is taller than wide: seen from the front
+    rgb = pixels[..., :3].reshape(-1, 3).astype(float) / 255
+    hue = rgb / np.maximum(rgb.max(axis=1, keepdims=True), 1e-9)
+    for colour in colours:
+        assert np.isclose(hue, colour / colour.max(), atol=0.03).all(axis=1).sum() > 20  # each shape shows
+
+
+@pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
+def test_contact_sheet_colours_the_masks_packing_used(face, monkeypatch):
+    import packing
+
+    faint = replace(face, deltas=np.concatenate([face.deltas[:-1], face.deltas[-1:] * 1e-5]))
+    assert packing.analyse(faint).empty[-1]  # below packing's noise floor (relative to the diagonal)
+    seen = []
+    original = harness.active_vertices
+    monkeypatch.setattr(
+        harness, "active_vertices", lambda rig, mu=0.3: seen.append(original(rig, mu)) or seen[-1]
+    )
+    contact_sheet(faint, {"cpsat": [[faint.names[-1], "jawOpen"]]}, mu=0.25)
+    (masks,) = seen
+    assert np.array_equal(masks, packing.analyse(faint, mu=0.25).masks) and not masks[-1].any()
 
 
 def test_identical_sequences_share_a_row(fabric):

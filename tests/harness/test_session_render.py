@@ -1,0 +1,135 @@
+"""`harness.render_mesh` and the session pictures: depth-buffered, fitted, deterministic, coloured by the
+masks packing used."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import harness
+import packing
+import rigs
+from harness._session_render import FACE_SHARE, SIZE, TITLE_SHARE, picture
+
+FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
+RED, BLUE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
+
+
+def crossing_triangles() -> tuple[np.ndarray, np.ndarray]:
+    """Two triangles that pierce each other: red is nearer on the left, blue on the right."""
+    vertices = np.array(
+        [
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, -1.0],
+            [0.0, 1.0, 0.0],  # red: z falls from left to right
+            [-1.0, -1.0, -1.0],
+            [1.0, -1.0, 1.0],
+            [0.0, 1.0, 0.0],  # blue: z rises from left to right
+        ]
+    )
+    return vertices, np.array([[0, 1, 2], [3, 4, 5]])
+
+
+@pytest.mark.parametrize("order", [[0, 1], [1, 0]])
+def test_the_nearest_surface_wins_even_where_triangles_cross(order) -> None:
+    vertices, triangles = crossing_triangles()
+    colours = np.array([RED, BLUE])
+    image = harness.render_mesh(vertices, triangles[order], FRONT, colours[order], width=80, height=80)
+    rgb, alpha = image[..., :3].astype(int), image[..., 3]
+    row = 60  # low in the picture, where the triangles are wide
+    covered = np.flatnonzero(alpha[row] == 255)
+    left, right = rgb[row, covered[2]], rgb[row, covered[-3]]
+    assert left[0] > 3 * left[2] and right[2] > 3 * right[0]  # red on the left, blue on the right
+
+
+def test_rendering_in_chunks_gives_the_same_image(monkeypatch) -> None:
+    from harness import _session_render
+
+    rig = rigs.generate("tiny")
+    camera = rigs.three_quarter_camera(rigs.frontal_camera(rig))
+    fills = np.random.default_rng(0).uniform(0.2, 1.0, (rig.n_triangles, 3))
+    whole = harness.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110)
+    monkeypatch.setattr(_session_render, "_CHUNK_SAMPLES", 500)  # many chunks, merged into the buffers
+    assert np.array_equal(
+        harness.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110), whole
+    )
+
+
+def test_the_mesh_is_fitted_centred_and_antialiased() -> None:
+    square = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]]) + 5.0
+    image = harness.render_mesh(
+        square, np.array([[0, 1, 2], [0, 2, 3]]), FRONT, np.ones((2, 3)) * 0.5, width=100, height=100
+    )
+    alpha = image[..., 3]
+    rows, columns = np.nonzero(alpha)
+    assert (columns.min(), columns.max()) == (3, 96)  # 3% margin of the larger side, left and right
+    assert abs((rows.min() + rows.max()) / 2 - 49.5) <= 0.5  # centred vertically
+    assert (alpha[30:70, 10:90] == 255).all()  # solid inside, no crack along the shared diagonal
+    assert set(np.unique(alpha)) - {0, 255}  # partly covered pixels on the edges
+    assert (image[..., :3][alpha > 0] > 0).all()  # lit, not black
+
+
+def test_pictures_are_the_same_bytes_for_the_same_input() -> None:
+    rig = rigs.generate("tiny")
+    camera = rigs.frontal_camera(rig)
+    colours = harness.shape_colours([2, 1])
+    fills = harness.triangle_colours(rig.triangles, harness.active_vertices(rig)[:3], colours)
+    words = ["left brow up", "right brow up", "jaw open"]
+    first = picture(rig.neutral, rig.triangles, camera, fills, words, colours, title="1. front")
+    assert first == picture(rig.neutral, rig.triangles, camera, fills, words, colours, title="1. front")
+    image = Image.open(io.BytesIO(first))
+    assert image.size == SIZE and not image.info  # no text chunks: no software tag, no time stamp
+    pixels = np.asarray(image.convert("RGB")).astype(int)
+    top, face_width = SIZE[1] - round(TITLE_SHARE * SIZE[1]), round(FACE_SHARE * SIZE[0])
+    legend = pixels[:, face_width:]
+    for colour in np.round(255 * colours).astype(int):  # every legend swatch is drawn right of the face
+        assert (np.abs(legend - colour).sum(axis=2) <= 3).sum() >= 25
+    face = np.abs(pixels[top:, :face_width] - 255).sum(axis=2) > 10
+    rows, columns = np.nonzero(face)
+    assert abs((columns.min() + columns.max()) / 2 - face_width / 2) <= 2
+
+
+def test_triangles_take_the_shape_most_of_their_corners_are_active_in() -> None:
+    triangles = np.array([[0, 1, 2], [1, 2, 3], [4, 5, 0], [4, 5, 6], [0, 1, 4]])
+    active = np.zeros((2, 7), dtype=bool)
+    active[0, 0] = True
+    active[1, [1, 2, 3]] = True
+    fills = harness.triangle_colours(triangles, active, np.array([RED, BLUE]))
+    skin = fills[3]
+    assert [fill.tolist() for fill in fills] == [
+        BLUE.tolist(),
+        BLUE.tolist(),
+        RED.tolist(),
+        skin.tolist(),
+        RED.tolist(),
+    ]
+    assert skin.tolist() not in (
+        RED.tolist(),
+        BLUE.tolist(),
+    )  # no corner active: skin; a tie: the first shape
+    assert np.array_equal(
+        harness.triangle_colours(triangles, active[:0], np.zeros((0, 3))), np.tile(skin, (5, 1))
+    )
+
+
+def test_shape_colours_never_repeat_within_an_expression() -> None:
+    for groups in ([1] * 8, [2] * 10, [2, 1, 2], [1] * 30):
+        colours = harness.shape_colours(groups)
+        assert len(colours) == sum(groups) and len({tuple(c) for c in colours.round(6)}) == sum(groups)
+
+
+@pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
+def test_active_vertices_are_the_masks_packing_uses() -> None:
+    rig = rigs.generate("tiny")
+    faint = replace(
+        rig, deltas=np.concatenate([rig.deltas, rig.deltas[:1] * 1e-5]), names=(*rig.names, "faint")
+    )
+    for mu in (0.3, 0.5):
+        analysis = packing.analyse(faint, mu=mu)
+        masks = harness.active_vertices(faint, mu)
+        assert np.array_equal(masks, analysis.masks)
+    assert analysis.empty[-1] and not masks[-1].any()  # packing's noise floor: the faint shape is empty
