@@ -1,7 +1,7 @@
 """The files of a scanning session folder, besides ``expressions.json``.
 
 * ``neutral.obj`` and ``expression_XX.obj`` (`harness._session_mesh`), and with a target
-  ``on_target/expression_XX.obj``;
+  ``on_target/expression_XX.obj``; ``materials.mtl`` beside them for a glTF rig with materials;
 * ``expressions.glb`` (``glb``): the template with one morph target per expression (its summed
   deltas), named ``expression_XX``, for tools that take glTF;
 * ``pictures/expression_XX_front.png`` and ``pictures/expression_XX_three_quarter.png``: the template

@@ -4,8 +4,12 @@ own lines.
 An expression is the template neutral plus the sum of its shapes (primary and extra examples; Carrigan et
 al. 2020, eq. 1 with 0/1 weights). When the rig came from an OBJ (a folder of OBJs, or the Face Units base
 mesh), every file is that OBJ with only its ``v`` lines replaced (`rigs.rig_surface`): texture
-coordinates, normals, groups, material references and face corners pass through as written. Otherwise the
-files hold what the rig has: vertices and its polygons (or triangles).
+coordinates, normals, groups, material references and face corners pass through as written. When it came
+from glTF, the files carry what the glTF mesh holds besides positions (`rigs._gltf.GltfSurface`): its
+``TEXCOORD_0`` as ``vt`` lines (v flipped: glTF's texture origin is the top left, OBJ's the bottom left),
+the neutral's ``NORMAL`` as ``vn`` lines, and a ``usemtl`` line per primitive material with the library
+``materials.mtl`` beside them (each material's name and base colour); faces are ``f v/vt/vn``. Otherwise
+the files hold what the rig has: vertices and its polygons (or triangles).
 
 Coordinates are written at the source's precision (`precision`). On a target character (``--target``), an
 expression is the target's neutral plus the template's deltas, roughly what the actor's scan should look
@@ -23,6 +27,9 @@ import numpy as np
 
 NEUTRAL_FILE = "neutral.obj"
 ON_TARGET = "on_target"
+MATERIALS_FILE = "materials.mtl"
+#: The material of triangles whose glTF primitive names none (glTF's default material).
+DEFAULT_MATERIAL = "gltf_default"
 
 
 @dataclass(frozen=True)
@@ -114,17 +121,24 @@ def session_meshes(
     rig: Any, expressions: Sequence[Mapping[str, Any]], target: TargetMesh | None = None
 ) -> dict[str, str]:
     """File name -> OBJ text: ``neutral.obj``, ``expression_XX.obj`` and, with a target,
-    ``on_target/expression_XX.obj``."""
+    ``on_target/expression_XX.obj``; ``materials.mtl`` (also in ``on_target/`` when those files use it)
+    for a glTF rig with materials."""
     import rigs
 
-    surface = rigs.rig_surface(rig) or rigs.plain_surface(rig)
+    surface, library = rigs.rig_surface(rig), None
+    if surface is None:
+        surface, library = gltf_surface(rig) or (rigs.plain_surface(rig), None)
     exact = precision(rig.neutral, rig.deltas)
     source = rig.meta.get("source", "rig")
     texts = {NEUTRAL_FILE: _text(surface, rig.neutral, exact, f"neutral of {source}")}
+    if library is not None:
+        texts[MATERIALS_FILE] = library
     deltas = expression_poses(rig, expressions)
     if target is not None:
         on_target = target.surface if target.surface is not None else surface
         target_precision = exact.combine(precision(target.vertices))
+        if library is not None and target.surface is None:
+            texts[f"{ON_TARGET}/{MATERIALS_FILE}"] = library
     for index, (delta, expression) in enumerate(zip(deltas, expressions, strict=True), start=1):
         name = expression_name(index, len(expressions))
         shapes = " ".join(expression["shapes"])
@@ -139,3 +153,99 @@ def session_meshes(
 
 def _text(surface: Any, vertices: np.ndarray, precision: Precision, comment: str) -> str:
     return surface.text(vertices, step=precision.step, single=precision.single, comment=comment)
+
+
+def gltf_surface(rig: Any) -> tuple[Any, str | None] | None:
+    """The OBJ lines of a rig read from glTF with its texture coordinates, normals and materials, and the
+    text of its material library (None without materials); None when the rig has no such data or its
+    triangles are no longer those the data describes.
+
+    Triangles of a primitive without a material take glTF's default material (white), named
+    ``DEFAULT_MATERIAL`` when the mesh has other materials.
+
+    Returns
+    -------
+    (rigs.ObjSurface, str or None) or None
+    """
+    import rigs
+
+    surface = rig.meta.get("gltf_surface")
+    if surface is None or not _describes(surface, rig):
+        return None
+    materials = list(surface.materials)
+    if materials and (surface.material < 0).any():
+        materials.append((DEFAULT_MATERIAL, (1.0, 1.0, 1.0)))  # index -1: the last
+    uv_rows = np.flatnonzero(~np.isnan(surface.uvs[:, 0]))
+    normal_rows = np.flatnonzero(~np.isnan(surface.normals[:, 0]))
+    lines = [f"mtllib {MATERIALS_FILE}"] if materials else []
+    first_vertex = len(lines)
+    lines += ["v 0 0 0"] * rig.n_vertices
+    u, v = surface.uvs[uv_rows].astype(np.float32).T  # (str of a float32: its shortest text)
+    lines += [f"vt {a} {b}" for a, b in zip(map(str, u), map(str, np.float32(1.0) - v), strict=True)]
+    normals = surface.normals[normal_rows]
+    lines += ("vn %.6f %.6f %.6f\n" * len(normals) % tuple(normals.ravel().tolist())).splitlines()
+    numbers = (_numbering(rows, len(surface.uvs)) for rows in (uv_rows, normal_rows))
+    lines += _face_lines(surface, *numbers, [name for name, _ in materials])
+    source = str(rig.meta.get("source", "rig"))
+    rows = np.arange(first_vertex, first_vertex + rig.n_vertices)
+    obj = rigs.ObjSurface(tuple(lines), rows, ("",) * rig.n_vertices, source)
+    return obj, (_library(materials, source) if materials else None)
+
+
+def _describes(surface: Any, rig: Any) -> bool:
+    """Whether ``surface``'s triangles are ``rig``'s (the rig was not cut or re-triangulated since)."""
+    corners, vertex_map = surface.corners, surface.vertex_map
+    return (
+        corners.shape == rig.triangles.shape
+        and len(vertex_map) > 0
+        and int(vertex_map.max()) < rig.n_vertices
+        and bool(np.array_equal(vertex_map[corners], rig.triangles))
+    )
+
+
+def _numbering(rows: np.ndarray, count: int) -> np.ndarray:
+    """(count,) 1-based line number among ``rows`` of each glTF vertex, 0 for those not in ``rows``."""
+    numbers = np.zeros(count, dtype=np.int64)
+    numbers[rows] = np.arange(1, len(rows) + 1)
+    return numbers
+
+
+#: Corner formats of ``f`` lines by what a triangle has: 2 * (texture coordinates) + (normals).
+_CORNERS = {0: "%d", 1: "%d//%d", 2: "%d/%d", 3: "%d/%d/%d"}
+
+
+def _face_lines(
+    surface: Any, uv_number: np.ndarray, normal_number: np.ndarray, names: Sequence[str]
+) -> list[str]:
+    """``usemtl`` and ``f v/vt/vn`` lines, a ``usemtl`` before each run of triangles of one material
+    (when there are ``names``); a triangle has ``vt`` (``vn``) indices when all its corners have texture
+    coordinates (normals)."""
+    corners = surface.corners
+    vertex = surface.vertex_map[corners] + 1
+    uv, normal = uv_number[corners], normal_number[corners]
+    kind = 2 * (uv > 0).all(axis=1) + (normal > 0).all(axis=1)
+    key = surface.material * 4 + kind
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]).tolist()
+    lines: list[str] = []
+    for start, stop in zip(starts, [*starts[1:], len(key)], strict=True):
+        material = int(surface.material[start])
+        if names and (start == 0 or material != surface.material[start - 1]):
+            lines.append(f"usemtl {names[material]}")
+        columns = [vertex[start:stop], uv[start:stop], normal[start:stop]]
+        chosen = [
+            columns[0],
+            *([columns[1]] if kind[start] >= 2 else []),
+            *([columns[2]] if kind[start] % 2 else []),
+        ]
+        values = np.stack(chosen, axis=2).reshape(stop - start, -1)
+        line = "f " + " ".join([_CORNERS[int(kind[start])]] * 3) + "\n"
+        lines += (line * (stop - start) % tuple(values.ravel().tolist())).splitlines()
+    return lines
+
+
+def _library(materials: Sequence[tuple[str, tuple[float, float, float]]], source: str) -> str:
+    """The MTL text of ``materials``: per material its name and diffuse colour (the glTF base colour)."""
+    lines = [f"# materials of {source}"]
+    for name, (red, green, blue) in materials:
+        lines += [f"newmtl {name}", f"Kd {red:.6g} {green:.6g} {blue:.6g}"]
+    return "\n".join(lines) + "\n"

@@ -195,6 +195,121 @@ def test_an_obj_rig_keeps_every_line_but_the_positions_also_on_the_target(tmp_pa
     assert not (out / "pictures").exists() and (out / "session.html").is_file()
 
 
+def dressed_gltf(path: Path) -> dict[str, np.ndarray]:
+    """A glTF of two primitives with the same two morph targets: the skin (texture coordinates, normals,
+    material "Skin") and the teeth (texture coordinates only, no material). Returns its arrays."""
+    import base64
+    import json as json_module
+
+    skin = np.array([[x, y, 0.1 * x * x] for y in (0.0, 1.0) for x in (-1.0, 0.0, 1.0)], dtype=np.float32)
+    teeth = np.array([[-0.3, -0.2, -0.1], [0.3, -0.2, -0.1], [0.0, 0.1, -0.1]], dtype=np.float32)
+    arrays = {
+        "skin": skin,
+        "skin_uv": np.array(
+            [[0.1, 0.9], [0.5, 0.9], [0.9, 0.9], [0.1, 0.1], [0.5, 0.1], [0.9, 0.125]], np.float32
+        ),
+        "skin_normal": np.tile(np.array([0.0, 0.0, 1.0], np.float32), (6, 1)),
+        "skin_jaw": np.array([[0, -0.2, 0]] * 3 + [[0, 0, 0]] * 3, np.float32),
+        "skin_smile": np.array([[0, 0, 0]] * 3 + [[-0.1, 0.1, 0], [0, 0, 0], [0.1, 0.1, 0]], np.float32),
+        "skin_faces": np.array([0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4], np.uint32),
+        "teeth": teeth,
+        "teeth_uv": np.array([[0.0, 1.0], [0.25, 1.0], [0.125, 0.75]], np.float32),
+        "teeth_jaw": np.array([[0, -0.2, 0]] * 3, np.float32),
+        "teeth_smile": np.zeros((3, 3), np.float32),
+        "teeth_faces": np.array([0, 1, 2], np.uint32),
+    }
+    blob, views, accessors = b"", [], []
+    for array in arrays.values():
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": array.nbytes})
+        kind = "SCALAR" if array.ndim == 1 else f"VEC{array.shape[1]}"
+        accessor = {"bufferView": len(views) - 1, "componentType": 5125 if array.ndim == 1 else 5126}
+        accessor |= {"count": len(array), "type": kind}
+        if array.ndim == 2 and array.shape[1] == 3:
+            accessor |= {"min": array.min(axis=0).tolist(), "max": array.max(axis=0).tolist()}
+        accessors.append(accessor)
+        blob += array.tobytes()
+    index = {name: i for i, name in enumerate(arrays)}
+
+    def primitive(part: str, attributes: dict[str, int], **extra: object) -> dict:
+        targets = [{"POSITION": index[f"{part}_{target}"]} for target in ("jaw", "smile")]
+        return {"attributes": attributes, "indices": index[f"{part}_faces"], "targets": targets, **extra}
+
+    document = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "materials": [{"name": "Skin", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.5, 0.4, 1.0]}}],
+        "meshes": [
+            {
+                "name": "Face",
+                "extras": {"targetNames": ["jawOpen", "mouthSmile"]},
+                "primitives": [
+                    primitive(
+                        "skin",
+                        {"POSITION": 0, "TEXCOORD_0": 1, "NORMAL": 2},
+                        material=0,
+                    ),
+                    primitive("teeth", {"POSITION": index["teeth"], "TEXCOORD_0": index["teeth_uv"]}),
+                ],
+            }
+        ],
+        "buffers": [{"byteLength": len(blob), "uri": "data:;base64," + base64.b64encode(blob).decode()}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+    path.write_text(json_module.dumps(document))
+    return arrays
+
+
+def test_a_gltf_rig_keeps_its_texture_coordinates_normals_and_materials(tmp_path) -> None:
+    (tmp_path / "rig").mkdir()
+    arrays = dressed_gltf(tmp_path / "rig" / "face.gltf")
+    document, _ = pack(tmp_path / "rig" / "face.gltf", tmp_path / "out", "--no-pictures")
+    neutral = np.vstack([arrays["skin"], arrays["teeth"]])
+    uvs = np.vstack([arrays["skin_uv"], arrays["teeth_uv"]])
+    deltas = {
+        name: np.vstack([arrays[f"skin_{part}"], arrays[f"teeth_{part}"]])
+        for name, part in (("jawOpen", "jaw"), ("mouthSmile", "smile"))
+    }
+    for index, expression in enumerate(document["expressions"], start=1):
+        for name in ("neutral.obj", f"expression_{index:02d}.obj"):
+            obj = tmp_path / "out" / name
+            assert lines_of(obj, "mtllib") == ["mtllib materials.mtl"]
+            assert lines_of(obj, "usemtl") == ["usemtl Skin", "usemtl gltf_default"]
+            texture = np.array([line.split()[1:] for line in lines_of(obj, "vt")], dtype=float)
+            np.testing.assert_allclose(texture, uvs * [1, -1] + [0, 1], atol=1e-7)  # OBJ's v grows upwards
+            assert lines_of(obj, "vn") == ["vn 0.000000 0.000000 1.000000"] * 6
+            faces = lines_of(obj, "f")
+            assert faces[:4] == [
+                "f 1/1/1 2/2/2 5/5/5",
+                "f 1/1/1 5/5/5 4/4/4",
+                "f 2/2/2 3/3/3 6/6/6",
+                "f 2/2/2 6/6/6 5/5/5",
+            ]
+            assert faces[4:] == ["f 7/7 8/8 9/9"]  # the teeth have texture coordinates, no normals
+        posed = neutral + sum(deltas[name] for name in expression["shapes"])
+        np.testing.assert_allclose(positions(obj), posed, atol=1e-6)
+    written = positions(tmp_path / "out" / "neutral.obj")
+    np.testing.assert_array_equal(written.astype(np.float32), neutral)  # the shortest text of each float32
+    library = (tmp_path / "out" / "materials.mtl").read_text().splitlines()
+    assert library[1:] == ["newmtl Skin", "Kd 0.8 0.5 0.4", "newmtl gltf_default", "Kd 1 1 1"]
+    reread = rigs.load(tmp_path / "out" / "neutral.obj", format="obj-folder")
+    assert reread.n_vertices == 9 and reread.n_triangles == 5
+    pack(
+        tmp_path / "rig" / "face.gltf",
+        tmp_path / "on",
+        "--no-pictures",
+        "--target",
+        tmp_path / "rig" / "face.gltf",
+    )
+    on_target = tmp_path / "on" / "on_target"
+    assert (on_target / "materials.mtl").read_text() == (tmp_path / "out" / "materials.mtl").read_text()
+    assert (on_target / "expression_01.obj").read_text().split("\n", 1)[1] == (
+        tmp_path / "out" / "expression_01.obj"
+    ).read_text().split("\n", 1)[1]  # the same lines (the target is the template itself), the comment apart
+
+
 def test_glb_holds_the_expressions_as_morph_targets(tmp_path) -> None:
     pytest.importorskip("pygltflib")
     document, _ = pack("tiny", tmp_path / "out", "--glb", "--no-pictures")

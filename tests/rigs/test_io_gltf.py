@@ -15,19 +15,22 @@ from pygltflib import (
     Attributes,
     Buffer,
     BufferView,
+    Material,
     Mesh,
     Node,
+    PbrMetallicRoughness,
     Primitive,
     Scene,
     Sparse,
 )
+from scipy.spatial.transform import Rotation
 
 import rigs
 from rigs import RigError
 from rigs._gltf import _dequantise, weld_seams
 from rigs._rig import RigWarning
 
-FLOAT, UINT, SHORT = 5126, 5125, 5122
+FLOAT, UINT, SHORT, USHORT = 5126, 5125, 5122, 5123
 
 NEUTRAL = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], dtype=np.float32)
 TRIANGLES = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]], dtype=np.uint32)
@@ -263,6 +266,97 @@ def test_triangle_strip(tmp_path):
     primitive.indices = builder.accessor(np.array([0, 1, 3, 2], dtype=np.uint32), "SCALAR", UINT)
     rig = rigs.load(builder.save(tmp_path / "strip.glb"))
     np.testing.assert_array_equal(rig.triangles, [[0, 1, 3], [3, 1, 2]])
+
+
+UV = np.array([[0.0, 0.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5], [1.0, 0.25], [1.0, 0.75]], dtype=np.float32)
+NORMALS = np.array(
+    [[0, 0, 1], [0, 0.6, 0.8], [0, 0, 1], [0.6, 0, 0.8], [0, 0, 1], [0, 0, 1]], dtype=np.float32
+)
+
+
+def dressed(builder: Builder) -> None:
+    """Texture coordinates, normals and a material on the first mesh's primitive, and a second
+    primitive (the teeth: normalised 16-bit texture coordinates, no normals, its own material)."""
+    skin = builder.gltf.meshes[0].primitives[0]
+    skin.attributes.TEXCOORD_0 = builder.accessor(UV, "VEC2", FLOAT)
+    skin.attributes.NORMAL = builder.accessor(NORMALS, "VEC3", FLOAT)
+    skin.material = 0
+    names = builder.gltf.meshes[0].extras["targetNames"]
+    builder.mesh("Teeth", NEUTRAL[:3] - [0, 0, 1], target_deltas()[:, :3], TRIANGLES[:1], names=names)
+    teeth = builder.gltf.meshes.pop().primitives[0]
+    teeth.attributes.TEXCOORD_0 = builder.accessor(
+        np.round(UV[:3] * 65535).astype(np.uint16), "VEC2", USHORT, normalized=True
+    )
+    teeth.material = 1
+    builder.gltf.meshes[0].primitives.append(teeth)
+    builder.gltf.materials = [
+        Material(
+            name="Skin Mat", pbrMetallicRoughness=PbrMetallicRoughness(baseColorFactor=[0.9, 0.7, 0.6, 1])
+        ),
+        Material(name="teeth"),
+    ]
+
+
+def test_texture_coordinates_normals_and_materials_are_kept(tmp_path):
+    builder = Builder()
+    builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES, names=["jawOpen", "smile", "idle"])
+    dressed(builder)
+    rig = rigs.load(builder.save(tmp_path / "dressed.glb"))
+    surface = rig.meta["gltf_surface"]
+    assert rig.n_vertices == 9 and rig.n_triangles == 5
+    np.testing.assert_array_equal(surface.corners, rig.triangles)
+    np.testing.assert_array_equal(surface.vertex_map, np.arange(9))
+    np.testing.assert_array_equal(surface.uvs[:6], UV)
+    np.testing.assert_allclose(surface.uvs[6:], UV[:3], atol=1 / 65535)
+    np.testing.assert_allclose(surface.normals[:6], NORMALS, atol=1e-7)
+    assert np.isnan(surface.normals[6:]).all()  # the teeth have none
+    np.testing.assert_array_equal(surface.material, [0, 0, 0, 0, 1])
+    assert surface.materials == (("Skin_Mat", pytest.approx((0.9, 0.7, 0.6))), ("teeth", (1.0, 1.0, 1.0)))
+
+
+def test_normals_follow_the_node_transform_and_survive_welding(tmp_path):
+    builder = Builder()
+    neutral = np.vstack([NEUTRAL, NEUTRAL[[1]]])  # vertex 6 is a seam copy of vertex 1
+    deltas = np.concatenate([target_deltas(), target_deltas()[:, [1]]], axis=1)
+    triangles = np.array([[0, 1, 2], [0, 2, 3], [6, 4, 5], [6, 5, 2]], dtype=np.uint32)
+    builder.mesh("Face", neutral, deltas, triangles)
+    primitive = builder.gltf.meshes[0].primitives[0]
+    primitive.attributes.NORMAL = builder.accessor(np.vstack([NORMALS, NORMALS[[1]]]), "VEC3", FLOAT)
+    primitive.attributes.TEXCOORD_0 = builder.accessor(
+        np.vstack([UV, [[0.9, 0.9]]]).astype(np.float32), "VEC2", FLOAT
+    )
+    turn = Rotation.from_euler("xyz", [30, -50, 10], degrees=True)
+    builder.gltf.nodes = [Node(mesh=0, rotation=turn.as_quat().tolist(), scale=[1.0, 3.0, 0.5])]
+    rig = rigs.load(builder.save(tmp_path / "turned.glb"), weld=True)
+    surface = rig.meta["gltf_surface"]
+    linear = turn.as_matrix() * [1.0, 3.0, 0.5]
+    expected = np.vstack([NORMALS, NORMALS[[1]]]) @ np.linalg.inv(linear)
+    np.testing.assert_allclose(
+        surface.normals, expected / np.linalg.norm(expected, axis=1, keepdims=True), atol=1e-6
+    )
+    assert rig.n_vertices == 6 and surface.vertex_map.tolist() == [0, 1, 2, 3, 4, 5, 1]
+    np.testing.assert_array_equal(surface.vertex_map[surface.corners], rig.triangles)
+    assert surface.corners[2].tolist() == [6, 4, 5]  # the seam copy keeps its own texture coordinates
+    np.testing.assert_allclose(surface.uvs[6], [0.9, 0.9])
+    assert surface.materials == () and (surface.material == -1).all()
+
+
+def test_malformed_texture_coordinates_and_materials_are_left_out_with_a_warning(tmp_path):
+    builder = Builder()
+    builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES)
+    primitive = builder.gltf.meshes[0].primitives[0]
+    primitive.attributes.TEXCOORD_0 = builder.accessor(UV[:4], "VEC2", FLOAT)  # 4 for 6 vertices
+    primitive.attributes.NORMAL = builder.accessor(NORMALS[:, :2].copy(), "VEC2", FLOAT)  # not VEC3
+    builder.gltf.accessors[primitive.attributes.NORMAL].count = 2**40  # and huge: never allocated
+    primitive.material = 3
+    with pytest.warns(RigWarning) as caught:
+        rig = rigs.load(builder.save(tmp_path / "odd.glb"))
+    messages = " | ".join(str(warning.message) for warning in caught)
+    assert "TEXCOORD_0: accessor 5 has 4 elements, expected 6; TEXCOORD_0 left out" in messages
+    assert "NORMAL: accessor 6 is 'VEC2'" in messages and "NORMAL left out" in messages
+    assert "material 3 does not exist (the file has 0); left out" in messages
+    assert "gltf_surface" not in rig.meta
+    np.testing.assert_array_equal(rig.neutral, NEUTRAL)
 
 
 def test_missing_file_and_not_gltf(tmp_path):
