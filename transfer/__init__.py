@@ -9,6 +9,10 @@ Methods are plugins in the ``harness.transfers`` entry-point group, each a calla
 - ``ebfr-full``: the same alternating with weight re-estimation (Li et al. 2010, steps A and B);
 - ``plbs``: patchwise linear blendshapes plus deformation transfer of the residual (Wagner et al. 2024).
 
+``method.prefixes(template, target_neutral, weights, examples)`` gives the method trained on the first J
+expressions as a function of J (Carrigan et al. 2020, sec. 5.2 evaluate sequences by their first J);
+``ebfr`` then fits each expression once, and ``dt`` and ``ebfr`` share one prepared set-up per rig pair.
+
 Training expressions come ideal (`training_expressions`, the linear sum of the target's ground truth, as in
 the paper) or scan-like (`scan_expressions` with a `ScanModel`: correctives, scanner noise, head motion
 removed by rigid alignment).

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
 
-from transfer._inputs import TransferInputs, check_inputs
+from transfer._inputs import TransferInputs, check_count, check_inputs
 
 
 class Transfer(ABC):
@@ -64,6 +65,49 @@ class Transfer(ABC):
             template, target_neutral, weights, examples, method=self.name, binary=self.binary_weights
         )
         return self.transfer(inputs)
+
+    def prefixes(
+        self,
+        template: object,
+        target_neutral: object,
+        weights: object = None,
+        examples: object = None,
+    ) -> Callable[[int], np.ndarray]:
+        """The method trained on the first J training expressions, as a function of J.
+
+        Carrigan et al. (2020, sec. 5.2) evaluate a sequence of expressions by its first J for several J;
+        ``prefixes(...)(j)`` equals calling the method with ``weights[:j]`` and ``examples[:j]``, with the
+        arguments checked once, and a method may reuse work between calls (`transfer.ebfr` fits each
+        expression once for a rising J).
+
+        Parameters
+        ----------
+        template, target_neutral, weights, examples
+            As for calling the method, with every expression of the sequence.
+
+        Returns
+        -------
+        Callable ``j -> (K, N, 3)`` deltas for ``0 <= j <= J``; each call returns a new array.
+
+        Raises
+        ------
+        ValueError or RigError
+            As for calling the method; the returned function raises a `ValueError` for a j out of range.
+        """
+        inputs = check_inputs(
+            template, target_neutral, weights, examples, method=self.name, binary=self.binary_weights
+        )
+        estimate = self._prefixes(inputs)
+
+        def first(count: int) -> np.ndarray:
+            check_count(count, inputs.weights.shape[0])
+            return estimate(count)
+
+        return first
+
+    def _prefixes(self, inputs: TransferInputs) -> Callable[[int], np.ndarray]:
+        """`prefixes` on checked inputs; by default one independent `transfer` per call."""
+        return lambda count: self.transfer(inputs.first(count))
 
     @abstractmethod
     def transfer(self, inputs: TransferInputs) -> np.ndarray:

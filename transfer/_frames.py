@@ -1,9 +1,10 @@
 """Triangle frames and deformation gradients (Sumner & Popovic 2004; Li et al. 2010, sec. 3A).
 
-Shape data is kept *vertex-major*, ``(N, 3, K)``, and edge data *triangle-major*, ``(T, 2, 3, K)``
-(triangle, edge ``v2 - v1`` or ``v3 - v1``, coordinate, shape): every per-triangle operation then runs
-over contiguous blocks, batched over all shapes, and the vertex solve reads the edges as a ``(2T, 3K)``
-matrix without copying.
+Shapes are ``(K, N, 3)`` arrays (a shape's vertices are contiguous, so gathering the corners of the
+triangles one shape moves is cheap), and edge data is *triangle-major*, ``(F, 2, 3, S)`` (triangle, edge
+``v2 - v1`` or ``v3 - v1``, coordinate, shape): every per-triangle operation then runs over contiguous
+blocks, batched over shapes, and the vertex solve reads the edges as a ``(2F, 3S)`` matrix without
+copying.
 """
 
 from __future__ import annotations
@@ -20,11 +21,6 @@ CHUNK_ENTRIES = 1 << 20
 def vertex_major(deltas: np.ndarray) -> np.ndarray:
     """``(K, N, 3)`` shapes as a contiguous ``(N, 3, K)`` array."""
     return np.ascontiguousarray(np.moveaxis(deltas, 0, -1))
-
-
-def shape_major(values: np.ndarray) -> np.ndarray:
-    """``(N, 3, K)`` shapes back to a contiguous ``(K, N, 3)`` array."""
-    return np.ascontiguousarray(np.moveaxis(values, -1, 0))
 
 
 def triangle_chunks(n_triangles: int, n_columns: int) -> list[slice]:
@@ -83,51 +79,70 @@ def degenerate(neutral: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return doubled_area <= DEGENERATE_TOLERANCE * max(scale, np.finfo(float).tiny) ** 2
 
 
-def transferred_edges(
-    template_neutral: np.ndarray,
-    template_deltas: np.ndarray,
-    target_neutral: np.ndarray,
-    triangles: np.ndarray,
-) -> np.ndarray:
-    """Deformation-transfer targets for the edges of the target's blendshapes.
+class TransferredEdges:
+    """Deformation-transfer targets for the edges of the target's blendshapes, evaluated on demand.
 
     For template shape k and triangle t the deformation gradient ``G = M(A0 + A_k) M(A0)^-1`` (frames
-    with the scaled normal) is applied to the target neutral's frame ``M_0^B``; the first two columns
-    minus the neutral's are returned. These are Li et al.'s ``M_k^{A*} = G M_0^B - M_0^B`` (2010,
-    sec. 3A) and the right-hand sides of deformation transfer. They are evaluated as
-    ``(M(A0 + A_k) - M(A0)) C`` with ``C = M(A0)^-1 E_B`` computed once per triangle.
+    with the scaled normal) is applied to the target neutral's frame ``M_0^B``; its first two columns
+    minus the neutral's are Li et al.'s ``M_k^{A*} = G M_0^B - M_0^B`` (2010, sec. 3A), the right-hand
+    sides of deformation transfer. They are evaluated as ``(M(A0 + A_k) - M(A0)) C`` with
+    ``C = M(A0)^-1 E_B`` computed once per triangle, and only for the triangles and shapes asked for: a
+    vertex solve needs the triangles around the vertices a shape moves, a small part of the face.
 
     Parameters
     ----------
     template_neutral : (N, 3) array
-    template_deltas : (N, 3, K) array, vertex-major
+    template_deltas : (K, N, 3) array
     target_neutral : (N, 3) array
     triangles : (T, 3) int array
 
-    Returns
-    -------
-    (T, 2, 3, K) array of edge displacements. Triangles degenerate in the template get zero.
-
     Notes
     -----
-    O(T K) time, in chunks of triangles so temporaries stay small.
+    O(T) to build; O(F S) for F triangles and S shapes. Triangles degenerate in the template get zero.
     """
-    neutral_frames = frames(template_neutral, triangles)
-    flat = degenerate(template_neutral, triangles)
-    neutral_frames[flat] = np.eye(3)
-    target_edges = edge_vectors(target_neutral, triangles).transpose(0, 2, 1)  # (T, 3, 2) columns
-    coefficients = np.linalg.solve(neutral_frames, target_edges)  # (T, 3 frame columns, 2 target edges)
-    coefficients[flat] = 0.0
-    neutral_edges = edge_vectors(template_neutral, triangles)
-    n_shapes = template_deltas.shape[-1]
-    result = np.empty((triangles.shape[0], 2, 3, n_shapes))
-    for part in triangle_chunks(triangles.shape[0], n_shapes):
-        base = neutral_edges[part][..., None]
-        moved = edge_vectors(template_deltas, triangles[part])  # (c, 2, 3, K)
-        turned = scaled_normals(base + moved) - scaled_normals(base)  # (c, 3, K)
-        c = coefficients[part][:, :, :, None, None]  # (c, 3, 2, 1, 1)
-        result[part] = c[:, 0] * moved[:, None, 0] + c[:, 1] * moved[:, None, 1] + c[:, 2] * turned[:, None]
-    return result
+
+    def __init__(
+        self,
+        template_neutral: np.ndarray,
+        template_deltas: np.ndarray,
+        target_neutral: np.ndarray,
+        triangles: np.ndarray,
+    ) -> None:
+        self.triangles = triangles
+        self.deltas = template_deltas
+        neutral_frames = frames(template_neutral, triangles)
+        flat = degenerate(template_neutral, triangles)
+        neutral_frames[flat] = np.eye(3)
+        target_edges = edge_vectors(target_neutral, triangles).transpose(0, 2, 1)  # (T, 3, 2) columns
+        #: (T, 3 frame columns, 2 target edges)
+        self.coefficients = np.linalg.solve(neutral_frames, target_edges)
+        self.coefficients[flat] = 0.0
+        self.neutral_edges = edge_vectors(template_neutral, triangles)
+        self.neutral_normals = scaled_normals(self.neutral_edges)
+
+    def moved(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+        """``(S, F, 2, 3)`` edge displacements of every template shape in ``shapes`` on every triangle in
+        ``faces``."""
+        corners = self.deltas[shapes][:, self.triangles[faces]]  # (S, F, 3 corners, 3)
+        return corners[:, :, 1:] - corners[:, :, :1]
+
+    def block(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+        """``(F, 2, 3, S)`` targets ``M_k^{A*}`` of every shape in ``shapes`` on every triangle in ``faces``.
+
+        Evaluated in chunks of triangles, so temporaries stay O(chunk S).
+        """
+        result = np.empty((faces.size, 2, 3, shapes.size))
+        for part in triangle_chunks(faces.size, 6 * shapes.size):
+            chunk = faces[part]
+            moved = self.moved(chunk, shapes)
+            bent = (self.neutral_edges[chunk] + moved).reshape(-1, 2, 3)
+            turned = scaled_normals(bent).reshape(shapes.size, chunk.size, 3) - self.neutral_normals[chunk]
+            c = self.coefficients[chunk][..., None]  # (F, 3 frame columns, 2 target edges, 1)
+            values = (
+                c[:, 0] * moved[:, :, None, 0] + c[:, 1] * moved[:, :, None, 1] + c[:, 2] * turned[:, :, None]
+            )
+            result[part] = values.transpose(1, 2, 3, 0)
+        return result
 
 
 def rigid_rotation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -153,11 +168,11 @@ def rigid_rotation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 def aligned_template(
     template_neutral: np.ndarray, template_deltas: np.ndarray, target_neutral: np.ndarray, align: bool
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The template's neutral and vertex-major ``(N, 3, K)`` deltas, rotated to face like the target.
+    """The template's neutral and ``(K, N, 3)`` deltas, rotated to face like the target.
 
-    Unchanged when ``align`` is false.
+    Unchanged (the same arrays) when ``align`` is false.
     """
     if not align:
         return template_neutral, template_deltas
     rotation = rigid_rotation(template_neutral, target_neutral)
-    return template_neutral @ rotation.T, np.matmul(rotation, template_deltas)
+    return template_neutral @ rotation.T, template_deltas @ rotation.T

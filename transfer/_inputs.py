@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigs import Rig, RigError
+if TYPE_CHECKING:
+    from rigs import Rig
 
 
 @dataclass(frozen=True)
@@ -29,6 +31,19 @@ class TransferInputs:
     target_neutral: np.ndarray
     weights: np.ndarray
     examples: np.ndarray
+
+    def first(self, count: int) -> TransferInputs:
+        """The same inputs with only the first ``count`` training expressions (see `check_count`)."""
+        check_count(count, self.weights.shape[0])
+        return replace(self, weights=self.weights[:count], examples=self.examples[:count])
+
+
+def check_count(count: object, n_expressions: int) -> None:
+    """Raise a `ValueError` unless ``count`` is an integer in ``[0, n_expressions]``."""
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or not 0 <= count <= n_expressions:
+        raise ValueError(
+            f"the number of expressions must be an integer in [0, {n_expressions}], got {count!r}"
+        )
 
 
 def _first_non_finite(array: np.ndarray) -> str:
@@ -121,6 +136,8 @@ def check_inputs(
     RigError
         ``target_neutral`` is a rig with other triangles than the template.
     """
+    from rigs import Rig, RigError
+
     if not isinstance(template, Rig):
         raise ValueError(f"template must be a rigs.Rig, got {type(template).__name__}")
     n_vertices = template.n_vertices

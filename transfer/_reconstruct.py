@@ -8,16 +8,23 @@ displacement field ``x`` minimises the gradient energy of the target neutral
 where ``E_t(x)`` are the edges of ``x`` and ``F_t`` those of the neutral: the squared difference of the
 piecewise-linear gradients, whose normal matrix is the cotangent Laplacian. Vertices that are static in the
 template shape are held at given values (Li et al. 2010, sec. 3A: "to prevent undesirable drifting").
+
+Only the free vertices are unknowns, and their normal equations read only the triangles that touch one of
+them: a facial shape moves a small part of the face, so each constraint set is solved as a `FreeBlock` on
+its own triangles, factorised once and reused for every right-hand side with the same constraints.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import splu
 
 from transfer._frames import degenerate, edge_vectors
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 
 def static_vertices(deltas: np.ndarray, tolerance: float) -> np.ndarray:
@@ -25,7 +32,7 @@ def static_vertices(deltas: np.ndarray, tolerance: float) -> np.ndarray:
 
     Parameters
     ----------
-    deltas : (N, 3, K) array, vertex-major
+    deltas : (K, N, 3) array
     tolerance : float
         A vertex is static when its displacement is at most ``tolerance`` times the shape's largest.
 
@@ -33,8 +40,64 @@ def static_vertices(deltas: np.ndarray, tolerance: float) -> np.ndarray:
     -------
     (K, N) bool array. Every vertex of an empty shape is static.
     """
-    length = np.sqrt(np.sum(deltas**2, axis=1)).T
+    length = displacement_lengths(deltas)
     return length <= tolerance * length.max(axis=1, keepdims=True)
+
+
+def displacement_lengths(deltas: np.ndarray) -> np.ndarray:
+    """``(K, N)`` lengths of the displacements of ``(K, N, 3)`` shapes."""
+    return np.sqrt(np.einsum("knc,knc->kn", deltas, deltas))
+
+
+@dataclass(frozen=True)
+class FreeBlock:
+    """The normal equations of the free vertices of one constraint set, factorised.
+
+    Attributes
+    ----------
+    free : (F,) int array
+        The free vertices, sorted.
+    faces : (S,) int array
+        The triangles touching a free vertex, sorted: the only edges the solve reads.
+    near : (H,) int array
+        The held vertices coupled to a free one, sorted.
+    operator : (F, 2S) sparse matrix
+        Rows of ``G^T W`` of the free vertices; column ``2s + e`` is edge e of triangle ``faces[s]``.
+    coupling : (F, H) sparse matrix
+        The Laplacian's free rows on the ``near`` columns.
+    factor : SuperLU
+        The Laplacian's free block, factorised.
+    """
+
+    free: np.ndarray
+    faces: np.ndarray
+    near: np.ndarray
+    operator: sp.csr_matrix
+    coupling: sp.csr_matrix
+    factor: Any
+
+    @property
+    def entries(self) -> int:
+        """Stored entries of the factor and the two sparse blocks."""
+        return int(self.factor.nnz + self.operator.nnz + self.coupling.nnz)
+
+    def solve(self, edges: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Free-vertex displacements whose edges best match ``edges``, the near vertices held.
+
+        Parameters
+        ----------
+        edges : (S, 2, 3, M) array
+            Desired edge displacements on ``faces`` for M right-hand sides.
+        held : (H, 3, M) array
+            Displacements of the ``near`` vertices.
+
+        Returns
+        -------
+        (F, 3, M) array.
+        """
+        columns = 3 * edges.shape[-1]
+        rhs = self.operator @ edges.reshape(-1, columns) - self.coupling @ held.reshape(-1, columns)
+        return self.factor.solve(rhs).reshape(self.free.size, 3, -1)
 
 
 class FrameReconstruction:
@@ -46,21 +109,27 @@ class FrameReconstruction:
         The target neutral whose triangle metric weighs the energy.
     triangles : (T, 3) int array
     factor_budget : int
-        Factorisations are kept for later `solve` calls while their summed number of stored entries
-        stays within this budget (0 keeps none); repeated solves with the same constraints (the
-        alternating optimisation of `transfer.ebfr_full`) then skip the factorisation.
+        Factorised blocks are kept for later solves while their summed entries (`FreeBlock.entries`) stay
+        within this budget (0 keeps none); deformation transfer and every later fit of example-based
+        rigging (over all J and, in `transfer.ebfr_full`, every iteration) then share one factorisation
+        per constraint set.
 
     Notes
     -----
     Building costs O(T). Each distinct set of fixed vertices costs one sparse LU factorisation of the
     free block (SuperLU with a minimum-degree ordering of ``A + A^T``), reused for all three
-    coordinates and for every shape sharing that set.
+    coordinates and for every shape sharing that set; a solve costs O(S) for the S triangles around the
+    free vertices plus the triangular solves.
     """
 
     def __init__(self, neutral: np.ndarray, triangles: np.ndarray, factor_budget: int = 0) -> None:
+        import scipy.sparse as sp
+        from scipy.sparse.csgraph import connected_components
+
+        self.triangles = triangles
         self.factor_budget = factor_budget
-        self._factors: dict[bytes, tuple[np.ndarray, np.ndarray, sp.csr_matrix, object]] = {}
-        self._factor_entries = 0
+        self._blocks: dict[bytes, FreeBlock] = {}
+        self._entries = 0
         n_vertices = neutral.shape[0]
         n_triangles = triangles.shape[0]
         edges = edge_vectors(neutral, triangles)
@@ -121,8 +190,8 @@ class FrameReconstruction:
 
         Parameters
         ----------
-        deltas : (N, 3, K) array
-            The template shapes, vertex-major, in the target's orientation.
+        deltas : (K, N, 3) array
+            The template shapes in the target's orientation.
         tolerance : float
             Relative static threshold, see `static_vertices`.
 
@@ -130,58 +199,84 @@ class FrameReconstruction:
         -------
         (K, N) bool array.
         """
-        return self.anchored(static_vertices(deltas, tolerance), np.sqrt(np.sum(deltas**2, axis=1)).T)
+        return self.anchored(static_vertices(deltas, tolerance), displacement_lengths(deltas))
 
-    def solve(self, edge_targets: np.ndarray, fixed: np.ndarray, fixed_values: np.ndarray) -> np.ndarray:
-        """Displacements whose edges best match ``edge_targets``, with ``fixed`` vertices held.
+    def faces(self, mask: np.ndarray) -> np.ndarray:
+        """Sorted triangles touching a vertex left free by ``mask``, the ``(N,)`` held vertices."""
+        return np.flatnonzero(~mask[self.triangles].all(axis=1))
 
-        Parameters
-        ----------
-        edge_targets : (T, 2, 3, K) array
-            Desired edge displacements ``v2 - v1``, ``v3 - v1`` of each triangle and shape.
-        fixed : (K, N) bool array
-            Vertices held at ``fixed_values``; every connected component needs at least one
-            (see `constraints`).
-        fixed_values : (N, 3, K) array
+    def block(self, mask: np.ndarray) -> FreeBlock | None:
+        """The factorised `FreeBlock` of the vertices ``mask`` holds; None when it holds every vertex.
 
-        Returns
-        -------
-        (N, 3, K) array of displacements, vertex-major.
+        Kept for later calls while the factor budget allows.
         """
-        n_shapes = edge_targets.shape[-1]
-        rhs = (self.weighted_transpose @ edge_targets.reshape(-1, 3 * n_shapes)).reshape(-1, 3, n_shapes)
-        result = np.where(fixed.T[:, None, :], fixed_values, 0.0)
-        groups: dict[bytes, list[int]] = {}
-        for shape, mask in enumerate(np.packbits(fixed, axis=1)):
-            groups.setdefault(mask.tobytes(), []).append(shape)
-        for members in groups.values():
-            mask = fixed[members[0]]
-            if mask.all():
-                continue
-            free, held, coupling, factor = self._factorised(mask)
-            coordinates = np.arange(3)
-            known = result[np.ix_(held, coordinates, members)].reshape(held.size, -1)
-            b = rhs[np.ix_(free, coordinates, members)].reshape(free.size, -1) - coupling @ known
-            result[np.ix_(free, coordinates, members)] = factor.solve(b).reshape(free.size, 3, len(members))
-        return result
+        key = np.packbits(mask).tobytes()
+        found = self._blocks.get(key)
+        if found is not None or mask.all():
+            return found
+        found = self._factorised(mask)
+        if self._entries + found.entries <= self.factor_budget:
+            self._blocks[key] = found
+            self._entries += found.entries
+        return found
 
-    def _factorised(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix, object]:
-        """Free and held vertices, their coupling block and the factorised free block for ``mask``."""
-        key = mask.tobytes()
-        if key in self._factors:
-            return self._factors[key]
+    def _factorised(self, mask: np.ndarray) -> FreeBlock:
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import splu
+
+        n_vertices = mask.size
         free = np.flatnonzero(~mask)
-        held = np.flatnonzero(mask)
-        block = self.laplacian[free]
-        factor = splu(
-            block[:, free].tocsc(),
-            permc_spec="MMD_AT_PLUS_A",
-            diag_pivot_thresh=0.0,
-            options={"SymmetricMode": True},
+        faces = self.faces(mask)
+        indptr, columns, values = _rows(self.laplacian, free)
+        # Renumber the columns: free vertices to their place in `free`, held ones to their place in `near`.
+        held = mask[columns]
+        near = np.unique(columns[held])
+        place = np.empty(n_vertices, dtype=np.intp)
+        place[free] = np.arange(free.size)
+        place[near] = np.arange(near.size)
+        inside = _select(indptr, ~held)
+        matrix = sp.csr_matrix(
+            (values[~held], place[columns[~held]], inside), shape=(free.size, free.size)
+        ).tocsc()
+        coupling = sp.csr_matrix(
+            (values[held], place[columns[held]], _select(indptr, held)), shape=(free.size, near.size)
         )
-        entry = (free, held, block[:, held], factor)
-        size = factor.nnz
-        if self._factor_entries + size <= self.factor_budget:
-            self._factors[key] = entry
-            self._factor_entries += size
-        return entry
+        factor = splu(
+            matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
+        # Every nonzero of a free vertex's row of G^T W is an edge of a triangle touching it: renumber the
+        # columns to the edges of `faces` (a monotone map, so each row keeps its order and its sums).
+        indptr, columns, values = _rows(self.weighted_transpose, free)
+        local = 2 * np.searchsorted(faces, columns // 2) + columns % 2
+        operator = sp.csr_matrix((values, local, indptr), shape=(free.size, 2 * faces.size))
+        return FreeBlock(free, faces, near, operator, coupling, factor)
+
+
+def _rows(matrix: sp.csr_matrix, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``indptr, indices, data`` of the given rows of a CSR matrix, in order."""
+    counts = matrix.indptr[rows + 1] - matrix.indptr[rows]
+    indptr = np.concatenate(([0], np.cumsum(counts)))
+    positions = np.repeat(matrix.indptr[rows] - indptr[:-1], counts) + np.arange(indptr[-1])
+    return indptr, matrix.indices[positions], matrix.data[positions]
+
+
+def _select(indptr: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """The ``indptr`` of the CSR rows of ``indptr`` with only the entries where ``keep`` holds."""
+    return np.concatenate(([0], np.cumsum(keep)))[indptr]
+
+
+def constraint_groups(fixed: np.ndarray) -> list[np.ndarray]:
+    """Shapes sharing one set of fixed vertices, as sorted index arrays in order of first appearance.
+
+    Parameters
+    ----------
+    fixed : (K, N) bool array
+
+    Returns
+    -------
+    list of int arrays partitioning ``range(K)``.
+    """
+    groups: dict[bytes, list[int]] = {}
+    for shape, mask in enumerate(np.packbits(fixed, axis=1)):
+        groups.setdefault(mask.tobytes(), []).append(shape)
+    return [np.array(members) for members in groups.values()]

@@ -8,9 +8,8 @@ from typing import ClassVar
 import numpy as np
 
 from transfer._base import Transfer, check_positive
-from transfer._frames import aligned_template, shape_major, transferred_edges, vertex_major
 from transfer._inputs import TransferInputs
-from transfer._reconstruct import FrameReconstruction
+from transfer._setup import TransferSetup, transfer_setup
 
 
 def deformation_transfer(
@@ -47,14 +46,20 @@ def deformation_transfer(
 
     Notes
     -----
-    O(K T) for the gradients plus one sparse factorisation per distinct set of static vertices,
-    each reused for all three coordinates and every shape sharing it.
+    O(T + K N) plus, per distinct set of static vertices, the gradients of the triangles around its
+    free vertices and one sparse factorisation, reused for all three coordinates and every shape
+    sharing it (see `TransferSetup`).
     """
-    neutral, deltas = aligned_template(template_neutral, vertex_major(template_deltas), target_neutral, align)
-    reconstruction = FrameReconstruction(target_neutral, triangles)
-    edges = transferred_edges(neutral, deltas, target_neutral, triangles)
-    fixed = reconstruction.constraints(deltas, static_tolerance)
-    return shape_major(reconstruction.solve(edges, fixed, deltas))
+    setup = TransferSetup(
+        template_neutral,
+        template_deltas,
+        triangles,
+        target_neutral,
+        static_tolerance=static_tolerance,
+        align=align,
+        factor_budget=0,
+    )
+    return setup.transfer_all()
 
 
 @dataclass(frozen=True)
@@ -88,13 +93,12 @@ class DeformationTransfer(Transfer):
         check_positive(self.static_tolerance, "static_tolerance", allow_zero=True)
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
-        """Transfer every template shape; see `deformation_transfer`."""
-        template = inputs.template
-        return deformation_transfer(
-            template.neutral,
-            template.deltas,
-            inputs.target_neutral,
-            template.triangles,
-            static_tolerance=self.static_tolerance,
-            align=self.align,
+        """Transfer every template shape; see `deformation_transfer`.
+
+        The result comes from the memoised `transfer_setup` of the rig pair, which `transfer.ebfr`
+        shares: shapes in no training expression are exactly this transfer.
+        """
+        setup = transfer_setup(
+            inputs.template, inputs.target_neutral, static_tolerance=self.static_tolerance, align=self.align
         )
+        return setup.transferred.copy()

@@ -5,41 +5,36 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from transfer._base import Transfer, check_positive
-from transfer._frames import (
-    aligned_template,
-    edge_vectors,
-    shape_major,
-    transferred_edges,
-    triangle_chunks,
-    vertex_major,
-)
+from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
 from transfer._inputs import TransferInputs
-from transfer._reconstruct import FrameReconstruction
+from transfer._reconstruct import displacement_lengths
+from transfer._setup import TransferSetup, transfer_setup
+
+#: Fitted expressions a set-up keeps (the free-vertex displacements of each of its shapes).
+_EXPRESSION_CACHE_SIZE = 512
+#: Fitted shapes of one expression: (shapes, free vertices, (V, 3, len(shapes)) displacements) per
+#: constraint set, as `TransferSetup.solve` yields them.
+Fitted = list[tuple[np.ndarray, np.ndarray, np.ndarray]]
 
 
-def regularisation_weights(
-    template_deltas: np.ndarray,
-    triangles: np.ndarray,
-    *,
-    kappa: float = 0.1,
-    theta: float = 2.0,
-    motion_scale: str = "peak",
-) -> np.ndarray:
+class Regularisation:
     """Per-triangle weights ``w_i = ((1 + |M_i^A|) / (kappa + |M_i^A|))^theta`` (Li et al. 2010, sec. 3A).
 
     Triangles that barely move in template shape i get the largest weight ``kappa^-theta``, so the
     target shape keeps the template's (lack of) motion there; strongly moving triangles may deviate.
+    Weights are evaluated on demand for the triangles and shapes a fit needs (`block`).
 
     Parameters
     ----------
-    template_deltas : (N, 3, K) array, vertex-major
-    triangles : (T, 3) int array
+    setup : TransferSetup
+        The aligned template and its constraint sets.
     kappa, theta : float
         Li et al. use ``kappa = 0.1`` and ``theta = 2``.
     motion_scale : {"peak", "absolute"}
@@ -49,21 +44,58 @@ def regularisation_weights(
         (Carrigan et al. 2020, sec. 5.2 aim for scale-free parameters). ``"absolute"`` follows Li et
         al. literally in the rig's units.
 
+    Notes
+    -----
+    Weights lie between ``(2 / (kappa + 1))^theta`` and ``kappa^-theta`` for ``"peak"``; empty shapes get
+    ``kappa^-theta`` everywhere. The peaks cost O(P) for the P (triangle, shape) pairs around moving
+    vertices (see `motion_peaks`).
+    """
+
+    def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
+        if motion_scale not in ("peak", "absolute"):
+            raise ValueError(f"motion_scale must be 'peak' or 'absolute', got {motion_scale!r}")
+        self.prior = setup.prior
+        self.kappa = kappa
+        self.theta = theta
+        n_shapes = setup.fixed.shape[0]
+        self.scale = motion_peaks(setup) if motion_scale == "peak" else np.ones(n_shapes)
+
+    def block(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+        """``(F, S)`` weights of every shape in ``shapes`` on every triangle in ``faces``."""
+        motion = edge_motion(self.prior, faces, shapes) / self.scale[shapes]
+        return ((1.0 + motion) / (self.kappa + motion)) ** self.theta
+
+
+def edge_motion(prior: TransferredEdges, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """``(F, S)`` values of ``|M_i^A|``, the Frobenius norm of the edge displacements of every shape in
+    ``shapes`` on every triangle in ``faces``, in chunks of triangles."""
+    motion = np.empty((faces.size, shapes.size))
+    for part in triangle_chunks(faces.size, 6 * shapes.size):
+        motion[part] = np.sqrt(np.sum(prior.moved(faces[part], shapes) ** 2, axis=(2, 3))).T
+    return motion
+
+
+def motion_peaks(setup: TransferSetup) -> np.ndarray:
+    """Largest ``|M_i^A|`` over all triangles of each template shape; 1 where a shape does not move.
+
+    A triangle away from every free vertex of shape i has all three corners held, and each held corner
+    moves at most ``h_i``, the largest held displacement, so its edge motion is at most ``2 sqrt(2) h_i``.
+    When the triangles around the free vertices (`TransferSetup.faces`) move more than that, the peak is
+    theirs; otherwise (a shape that barely moves, or a held anchor that moves) every triangle is measured.
+
     Returns
     -------
-    (T, K) array of weights; for ``"peak"`` between ``(2 / (kappa + 1))^theta`` and ``kappa^-theta``.
-    Empty shapes get ``kappa^-theta`` everywhere.
+    (K,) array of positive scales.
     """
-    if motion_scale not in ("peak", "absolute"):
-        raise ValueError(f"motion_scale must be 'peak' or 'absolute', got {motion_scale!r}")
-    n_shapes = template_deltas.shape[-1]
-    motion = np.empty((triangles.shape[0], n_shapes))
-    for part in triangle_chunks(triangles.shape[0], 2 * n_shapes):
-        motion[part] = np.sqrt(np.sum(edge_vectors(template_deltas, triangles[part]) ** 2, axis=(1, 2)))
-    if motion_scale == "peak" and motion.size:
-        peak = motion.max(axis=0)
-        motion /= np.where(peak > 0, peak, 1.0)
-    return ((1.0 + motion) / (kappa + motion)) ** theta
+    n_triangles = setup.triangles.shape[0]
+    lengths = displacement_lengths(setup.template_deltas)
+    bound = 2.0 * np.sqrt(2.0) * np.where(setup.fixed, lengths, 0.0).max(axis=1, initial=0.0)
+    peaks = np.zeros(setup.fixed.shape[0])
+    for members in setup.groups:
+        peaks[members] = edge_motion(setup.prior, setup.faces(members), members).max(axis=0, initial=0.0)
+    for shape in np.flatnonzero(peaks <= bound * (1.0 + 1e-9)):
+        peaks[shape] = edge_motion(setup.prior, np.arange(n_triangles), np.array([shape])).max(initial=0.0)
+    return np.where(peaks > 0, peaks, 1.0)
 
 
 def fit_edge_frames(
@@ -136,119 +168,39 @@ def fit_edge_frames(
     return result.reshape(prior.shape)
 
 
-#: Prepared rigging set-ups kept per process (each holds a few (T, 6, K) arrays of one rig pair).
-_SETUP_CACHE_SIZE = 2
-_setups: OrderedDict[tuple[Any, ...], RiggingSetup] = OrderedDict()
-_setups_lock = threading.Lock()
-#: Sparse-factor entries a cached set-up keeps, so later calls skip the factorisations.
-SETUP_FACTOR_BUDGET = 20_000_000
-#: Fitted expressions a set-up keeps (each a few of its shapes as (N, 3, k) arrays).
-_EXPRESSION_CACHE_SIZE = 512
-
-
-class RiggingSetup:
-    """Everything of step A that depends on neither the expression weights nor the training expressions.
+class RiggingState:
+    """What step A keeps per set-up and regularisation parameters: the weights and the fitted expressions.
 
     Parameters
     ----------
-    template : Rig
-        The template rig A.
-    target_neutral : (N, 3) array
-    kappa, theta, motion_scale, static_tolerance, align
-        See `ExampleBasedRigging`.
-    factor_budget : int
-        Entries of sparse factorisations kept between solves (see `FrameReconstruction`).
-
-    Attributes
-    ----------
-    template_deltas : (N, 3, K) array
-        The template's shapes, vertex-major, rotated to face like the target.
-    prior : (T, 2, 3, K) array
-        Deformation-transfer edges of the target shapes, ``M_i^{A*}``.
-    regularisation : (T, K) array
-        Weights ``w_i`` of ``E_reg``.
-    reconstruction : FrameReconstruction
-    fixed : (K, N) bool array
-        Vertices held in each shape.
+    setup : TransferSetup
+    kappa, theta, motion_scale
+        See `Regularisation`.
     """
 
-    def __init__(
-        self,
-        template: Any,
-        target_neutral: np.ndarray,
-        *,
-        kappa: float,
-        theta: float,
-        motion_scale: str,
-        static_tolerance: float,
-        align: bool,
-        factor_budget: int,
-    ) -> None:
-        triangles = template.triangles
-        self.triangles = triangles
-        self.target_neutral = target_neutral
-        neutral, self.template_deltas = aligned_template(
-            template.neutral, vertex_major(template.deltas), target_neutral, align
-        )
-        self.prior = transferred_edges(neutral, self.template_deltas, target_neutral, triangles)
-        self.regularisation = regularisation_weights(
-            self.template_deltas, triangles, kappa=kappa, theta=theta, motion_scale=motion_scale
-        )
-        self.reconstruction = FrameReconstruction(target_neutral, triangles, factor_budget)
-        self.fixed = self.reconstruction.constraints(self.template_deltas, static_tolerance)
-        self._transferred: np.ndarray | None = None
+    def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
+        self.regularisation = Regularisation(setup, kappa, theta, motion_scale)
         #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`), most recent last.
-        self.expressions: OrderedDict[tuple[str, float], np.ndarray] = OrderedDict()
+        self.expressions: OrderedDict[tuple[str, float], Fitted] = OrderedDict()
         self._lock = threading.Lock()
 
-    def remember(self, key: tuple[str, float], fitted: np.ndarray) -> None:
+    def remember(self, key: tuple[str, float], fitted: Fitted) -> None:
         """Keep the fitted shapes of one expression, the last `_EXPRESSION_CACHE_SIZE` of them."""
         with self._lock:
             self.expressions[key] = fitted
             while len(self.expressions) > _EXPRESSION_CACHE_SIZE:
                 self.expressions.popitem(last=False)
 
-    @property
-    def transferred(self) -> np.ndarray:
-        """(N, 3, K) vertex-major prior reconstructed as vertices: the estimate of a shape in no
-        training expression (deformation transfer), computed on first use."""
-        if self._transferred is None:
-            self._transferred = self.reconstruction.solve(self.prior, self.fixed, self.template_deltas)
-        return self._transferred
-
-
-def rigging_setup(template: Any, target_neutral: np.ndarray, **params: Any) -> RiggingSetup:
-    """The `RiggingSetup` of a template, target neutral and parameters, memoised per process.
-
-    The key is the content of the arrays (a BLAKE2 digest of their bytes), so an equal rig built again
-    shares the set-up; the last `_SETUP_CACHE_SIZE` set-ups are kept. A harness evaluating many
-    packings of one rig pair then pays the deformation-transfer prior and the factorisations once.
-    """
-    digest = hashlib.blake2b(digest_size=16)
-    for array in (template.neutral, template.deltas, template.triangles, target_neutral):
-        contiguous = np.ascontiguousarray(array)
-        digest.update(f"{contiguous.dtype}{contiguous.shape}".encode())
-        digest.update(contiguous.data)
-    key = (digest.hexdigest(), tuple(sorted(params.items())))
-    with _setups_lock:
-        if key in _setups:
-            _setups.move_to_end(key)
-            return _setups[key]
-    setup = RiggingSetup(template, target_neutral, **params, factor_budget=SETUP_FACTOR_BUDGET)
-    with _setups_lock:
-        _setups[key] = setup
-        while len(_setups) > _SETUP_CACHE_SIZE:
-            _setups.popitem(last=False)
-    return setup
-
 
 class GradientSpaceRigging:
     """Step A of example-based rigging prepared for one template, target neutral and set of examples.
 
     Everything that does not depend on the expression weights or the examples comes from the memoised
-    `rigging_setup`: the aligned template, the deformation-transfer prior, the regularisation weights,
-    the vertex solver and its constraints. `blendshapes` may then be called with any weights and
-    ``beta`` (`transfer.ebfr_full` calls it once per iteration).
+    `transfer_setup` (shared with deformation transfer): the aligned template, the deformation-transfer
+    prior, the vertex solve and its constraints; the regularisation weights and the fitted expressions
+    are kept with it (`RiggingState`). `blendshapes` may then be called with any weights and ``beta``
+    (`transfer.ebfr_full` calls it once per iteration), and `prefixes` evaluates the first J expressions
+    for a rising J at the cost of one fit per expression.
 
     Parameters
     ----------
@@ -258,11 +210,12 @@ class GradientSpaceRigging:
 
     Attributes
     ----------
-    setup : RiggingSetup
+    setup : TransferSetup
+    state : RiggingState
     examples : (J, N, 3) array
         The training expressions.
-    observed : (T, 2, 3, J) array
-        Edges of the training expressions minus the target neutral's.
+    offsets : (N, 3, J) array
+        The training expressions minus the target neutral, vertex-major.
     """
 
     def __init__(
@@ -276,17 +229,13 @@ class GradientSpaceRigging:
         align: bool = True,
     ) -> None:
         target = inputs.target_neutral
-        self.setup = rigging_setup(
-            inputs.template,
-            target,
-            kappa=kappa,
-            theta=theta,
-            motion_scale=motion_scale,
-            static_tolerance=static_tolerance,
-            align=align,
+        self.setup = transfer_setup(inputs.template, target, static_tolerance=static_tolerance, align=align)
+        self.state = self.setup.derived(
+            ("ebfr", float(kappa), float(theta), motion_scale),
+            lambda: RiggingState(self.setup, kappa, theta, motion_scale),
         )
         self.examples = inputs.examples
-        self.observed = edge_vectors(vertex_major(inputs.examples - target), inputs.template.triangles)
+        self.offsets = vertex_major(inputs.examples - target)
 
     def blendshapes(self, weights: np.ndarray, beta: float) -> np.ndarray:
         """Target deltas ``(K, N, 3)`` for expression ``weights (J, K)`` and balance ``beta``.
@@ -295,48 +244,106 @@ class GradientSpaceRigging:
         of the others keeps the prior exactly (see `fit_edge_frames`), so they are the set-up's
         deformation transfer. When no shape is in two expressions (a packing), the fit splits into one
         independent problem per expression, each depending only on that expression's weights and
-        example; those are memoised on the set-up, so the sequences of J = 2, 4, 7, ... expressions of
-        one packing fit each expression once.
+        example; those are memoised, so the sequences of J = 2, 4, 7, ... expressions of one packing fit
+        each expression once.
         """
-        setup = self.setup
-        result = setup.transferred.copy()
-        if np.all(np.count_nonzero(weights, axis=0) <= 1):
-            for j, row in enumerate(weights):
-                shapes = np.flatnonzero(row)
+        result = self.setup.transferred.copy()
+        self.apply(result, weights, beta)
+        return result
+
+    def prefixes(self, weights: np.ndarray, beta: float) -> Callable[[int], np.ndarray]:
+        """``blendshapes(weights[:j], beta)`` as a function of j (see `RisingPrefixes`)."""
+        return RisingPrefixes(self, weights, beta)
+
+    def apply(self, result: np.ndarray, weights: np.ndarray, beta: float, start: int = 0) -> None:
+        """Write the fitted shapes of expressions ``start`` onward of ``weights`` into ``result``.
+
+        ``result`` must hold the fit of the first ``start`` expressions already, which a packing's
+        expressions (no shape in two) leave alone; otherwise every covered shape is fitted jointly and
+        ``start`` is ignored.
+        """
+        if _disjoint(weights):
+            for j in range(start, weights.shape[0]):
+                shapes = np.flatnonzero(weights[j])
                 if shapes.size:
-                    result[..., shapes] = self._expression(j, row, shapes, beta)
+                    _write(result, self._expression(j, weights[j], shapes, beta))
         else:
             covered = np.flatnonzero(np.any(weights != 0, axis=0))
-            result[..., covered] = self._fitted(weights[:, covered], covered, self.observed, beta)
-        return shape_major(result)
+            expressions = np.arange(weights.shape[0])
+            _write(result, self._fitted(weights[:, covered], covered, expressions, beta))
 
     def _fitted(
-        self, weights: np.ndarray, shapes: np.ndarray, observed: np.ndarray, beta: float
-    ) -> np.ndarray:
-        """(N, 3, len(shapes)) displacements of ``shapes`` fitted to expressions of ``weights`` (their
-        columns of ``shapes``) whose edges are ``observed``."""
+        self, weights: np.ndarray, shapes: np.ndarray, expressions: np.ndarray, beta: float
+    ) -> Fitted:
+        """Free-vertex displacements of ``shapes`` fitted to ``expressions`` whose weights on ``shapes``
+        are the columns of ``weights``; only the triangles around their free vertices are evaluated."""
         setup = self.setup
+        faces = setup.faces(shapes)
+        observed = edge_vectors(self.offsets[..., expressions], setup.triangles[faces])
         edges = fit_edge_frames(
-            np.ascontiguousarray(setup.prior[..., shapes]),
-            setup.regularisation[:, shapes],
+            setup.prior.block(faces, shapes),
+            self.state.regularisation.block(faces, shapes),
             weights,
             observed,
             beta,
         )
-        return setup.reconstruction.solve(
-            edges, setup.fixed[shapes], np.ascontiguousarray(setup.template_deltas[..., shapes])
-        )
+        return list(setup.solve(shapes, faces, edges))
 
-    def _expression(self, j: int, row: np.ndarray, shapes: np.ndarray, beta: float) -> np.ndarray:
-        """The shapes of expression ``j`` alone (no other expression holds them), memoised on the set-up."""
+    def _expression(self, j: int, row: np.ndarray, shapes: np.ndarray, beta: float) -> Fitted:
+        """The shapes of expression ``j`` alone (no other expression holds them), memoised."""
         digest = hashlib.blake2b(row.tobytes(), digest_size=16)
         digest.update(np.ascontiguousarray(self.examples[j]).data)
         key = (digest.hexdigest(), float(beta))
-        found = self.setup.expressions.get(key)
+        found = self.state.expressions.get(key)
         if found is None:
-            found = self._fitted(row[None, shapes], shapes, self.observed[..., j : j + 1], beta)
-            self.setup.remember(key, found)
+            found = self._fitted(row[None, shapes], shapes, np.array([j]), beta)
+            self.state.remember(key, found)
         return found
+
+
+class RisingPrefixes:
+    """Step A with the first j expressions of ``weights``, for any j, updated in place while j rises.
+
+    For a packing the estimate of J + 1 expressions is the estimate of J with the shapes of expression
+    J + 1 replaced (they are in no other expression), so a rising sequence of J values costs one fit per
+    expression and one copy per J. A falling j starts again from deformation transfer; expressions
+    that share shapes are fitted jointly (`GradientSpaceRigging.blendshapes`).
+
+    Parameters
+    ----------
+    rigging : GradientSpaceRigging
+    weights : (J, K) array
+    beta : float
+    """
+
+    def __init__(self, rigging: GradientSpaceRigging, weights: np.ndarray, beta: float) -> None:
+        self.rigging = rigging
+        self.weights = weights
+        self.beta = beta
+        self._result: np.ndarray | None = None
+        self._applied = 0
+
+    def __call__(self, count: int) -> np.ndarray:
+        """``(K, N, 3)`` deltas from the first ``count`` expressions, a new array."""
+        head = self.weights[:count]
+        if not _disjoint(head):
+            return self.rigging.blendshapes(head, self.beta)
+        if self._result is None or count < self._applied:
+            self._result, self._applied = self.rigging.setup.transferred.copy(), 0
+        self.rigging.apply(self._result, head, self.beta, self._applied)
+        self._applied = count
+        return self._result.copy()
+
+
+def _disjoint(weights: np.ndarray) -> bool:
+    """Whether every shape is in at most one expression (a packing without extra examples)."""
+    return bool(np.all(np.count_nonzero(weights, axis=0) <= 1))
+
+
+def _write(result: np.ndarray, fitted: Fitted) -> None:
+    """Put fitted free-vertex displacements into ``(K, N, 3)`` deltas."""
+    for members, free, values in fitted:
+        result[np.ix_(members, free)] = np.moveaxis(values, -1, 0)
 
 
 def check_regularisation(kappa: float, theta: float, motion_scale: str, static_tolerance: float) -> None:
@@ -382,9 +389,12 @@ class ExampleBasedRigging(Transfer):
     Notes
     -----
     The data term ``W^T W`` is the same for every triangle and has rank <= J, so the per-triangle systems
-    are solved in one batched Woodbury step, O(T (K J^2 + J^3)) (see `fit_edge_frames`); the vertex
-    solve costs one sparse factorisation per distinct set of static vertices. Shapes in no training
-    expression come out as deformation transfer; with J = 0 the method is deformation transfer.
+    are solved in one batched Woodbury step, O(T (K J^2 + J^3)) (see `fit_edge_frames`), and only on the
+    triangles around the vertices the fitted shapes move. The vertex solve costs one sparse factorisation
+    per distinct set of static vertices, shared with `transfer.deformation` and kept for every later
+    J and call on the same rig pair (`transfer._setup.transfer_setup`). Shapes in no training expression
+    come out as deformation transfer; with J = 0 the method is deformation transfer. `prefixes` fits each
+    expression of a packing once for all J (`RisingPrefixes`).
     """
 
     name: ClassVar[str] = "ebfr"
@@ -402,7 +412,14 @@ class ExampleBasedRigging(Transfer):
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
         """Step A with the given weights."""
-        rigging = GradientSpaceRigging(
+        return self._rigging(inputs).blendshapes(inputs.weights, self.beta)
+
+    def _prefixes(self, inputs: TransferInputs) -> Callable[[int], np.ndarray]:
+        """Step A with the first J expressions, each fitted once (`GradientSpaceRigging.prefixes`)."""
+        return self._rigging(inputs).prefixes(inputs.weights, self.beta)
+
+    def _rigging(self, inputs: TransferInputs) -> GradientSpaceRigging:
+        return GradientSpaceRigging(
             inputs,
             kappa=self.kappa,
             theta=self.theta,
@@ -410,4 +427,3 @@ class ExampleBasedRigging(Transfer):
             static_tolerance=self.static_tolerance,
             align=self.align,
         )
-        return rigging.blendshapes(inputs.weights, self.beta)

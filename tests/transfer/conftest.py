@@ -73,25 +73,25 @@ def _packing(rig: Rig, n_expressions: int | None = None, mu: float = 0.3) -> np.
     return np.array(rows).reshape(-1, rig.n_shapes)
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def sheet() -> Callable[..., Rig]:
     """Factory of sheet rigs: ``sheet(n_columns, n_rows, n_shapes, seed)``."""
     return _sheet
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def bulge() -> Callable[[np.ndarray], np.ndarray]:
     """The sheet's nonlinear warp of positions."""
     return _bulge
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def deform() -> Callable[[Rig, Callable[[np.ndarray], np.ndarray]], Rig]:
     """Apply a position map to a rig's neutral and every shape."""
     return _deform
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def packing() -> Callable[..., np.ndarray]:
     """Greedy packing-like expression weights: ``packing(rig, n_expressions=None, mu=0.3)``."""
     return _packing
@@ -115,3 +115,121 @@ def female_pair() -> tuple[Rig, Rig]:
     """The ``female`` preset and its ``alien`` warp (Carrigan et al. 2020, sec. 5.1)."""
     template = rigs.generate("female")
     return template, rigs.warp(template, "alien")
+
+
+def _edges_of(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(T, 3, 2)`` edges ``[v2 - v1, v3 - v1]`` (columns) of an ``(N, 3)`` field."""
+    first = points[triangles[:, 1]] - points[triangles[:, 0]]
+    return np.stack((first, points[triangles[:, 2]] - points[triangles[:, 0]]), axis=2)
+
+
+def _frames_of(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(T, 3, 3)`` frames ``[v2 - v1, v3 - v1, n / sqrt(|n|)]`` (columns), written out plainly."""
+    edges = _edges_of(points, triangles)
+    normal = np.cross(edges[:, :, 0], edges[:, :, 1])
+    normal /= np.sqrt(np.linalg.norm(normal, axis=1, keepdims=True))
+    return np.concatenate((edges, normal[:, :, None]), axis=2)
+
+
+def _dense_reconstruction(
+    neutral: np.ndarray, triangles: np.ndarray, edges: np.ndarray, fixed: np.ndarray, values: np.ndarray
+) -> np.ndarray:
+    """Minimise ``sum_t area_t tr((E_t(x) - D_t) (F_t^T F_t)^-1 (E_t(x) - D_t)^T)`` with dense algebra.
+
+    ``edges`` is ``(T, 2, 3)`` (edge, coordinate), ``fixed`` an ``(N,)`` mask whose vertices keep ``values``
+    ``(N, 3)``; the free block of the normal matrix is solved with `numpy.linalg.solve`.
+    """
+    n_vertices, n_triangles = neutral.shape[0], triangles.shape[0]
+    operator = np.zeros((2 * n_triangles, n_vertices))
+    rows = np.arange(n_triangles)
+    for edge, corner in ((0, 1), (1, 2)):
+        operator[2 * rows + edge, triangles[:, corner]] += 1.0
+        operator[2 * rows + edge, triangles[:, 0]] -= 1.0
+    weight = np.zeros((2 * n_triangles, 2 * n_triangles))
+    for t in range(n_triangles):
+        sides = _edges_of(neutral, triangles[[t]])[0]
+        area = 0.5 * np.linalg.norm(np.cross(sides[:, 0], sides[:, 1]))
+        weight[2 * t : 2 * t + 2, 2 * t : 2 * t + 2] = area * np.linalg.inv(sides.T @ sides)
+    normal = operator.T @ weight @ operator
+    rhs = operator.T @ weight @ edges.reshape(2 * n_triangles, 3)
+    free = ~fixed
+    result = np.where(fixed[:, None], values, 0.0)
+    system = rhs[free] - normal[np.ix_(free, fixed)] @ values[fixed]
+    result[free] = np.linalg.solve(normal[np.ix_(free, free)], system)
+    return result
+
+
+def _reference_step_a(
+    template: Rig,
+    target_neutral: np.ndarray,
+    weights: np.ndarray,
+    examples: np.ndarray,
+    *,
+    beta: float = 0.1,
+    kappa: float = 0.1,
+    theta: float = 2.0,
+    motion_scale: str = "peak",
+    static_tolerance: float = 1e-6,
+) -> np.ndarray:
+    """Li et al.'s step A (2010, sec. 3A) solved plainly: every triangle and shape, dense algebra.
+
+    The template is rotated onto the target (Kabsch), the prior is ``(M(A0 + A_k) M(A0)^-1 - I) E_B``,
+    each triangle's ``K x K`` normal equations are solved directly, and each shape's vertices are
+    reconstructed with its static vertices held (`_dense_reconstruction`). Every shape needs a static
+    vertex (no anchors here).
+    """
+    triangles = template.triangles
+    centred = template.neutral - template.neutral.mean(axis=0)
+    left, _, right = np.linalg.svd((target_neutral - target_neutral.mean(axis=0)).T @ centred)
+    rotation = left @ np.diag([1.0, 1.0, np.sign(np.linalg.det(left @ right))]) @ right
+    neutral, deltas = template.neutral @ rotation.T, template.deltas @ rotation.T
+    inverse = np.linalg.inv(_frames_of(neutral, triangles))
+    target_edges = _edges_of(target_neutral, triangles)
+    n_shapes, n_triangles = deltas.shape[0], triangles.shape[0]
+    prior = np.empty((n_triangles, n_shapes, 6))
+    motion = np.empty((n_triangles, n_shapes))
+    for k in range(n_shapes):
+        gradient = _frames_of(neutral + deltas[k], triangles) @ inverse
+        prior[:, k] = ((gradient - np.eye(3)) @ target_edges).transpose(0, 2, 1).reshape(-1, 6)
+        motion[:, k] = np.linalg.norm(_edges_of(deltas[k], triangles).reshape(n_triangles, -1), axis=1)
+    if motion_scale == "peak":
+        peak = motion.max(axis=0)
+        motion = motion / np.where(peak > 0, peak, 1.0)
+    regularisation = ((1.0 + motion) / (kappa + motion)) ** theta
+    observed = np.zeros((n_triangles, len(examples), 6))  # (T, J, edge * coordinate)
+    for j, offset in enumerate(examples - target_neutral):
+        observed[:, j] = _edges_of(offset, triangles).transpose(0, 2, 1).reshape(-1, 6)
+    fitted = np.empty((n_triangles, n_shapes, 6))
+    for t in range(n_triangles):
+        damping = beta * np.diag(regularisation[t])
+        rhs = weights.T @ observed[t] + damping @ prior[t]
+        fitted[t] = np.linalg.solve(weights.T @ weights + damping, rhs)
+    lengths = np.linalg.norm(deltas, axis=-1)
+    static = lengths <= static_tolerance * lengths.max(axis=1, keepdims=True)
+    assert static.any(axis=1).all(), "the reference needs a static vertex in every shape"
+    return np.stack(
+        [
+            _dense_reconstruction(
+                target_neutral, triangles, fitted[:, k].reshape(-1, 2, 3), static[k], deltas[k]
+            )
+            for k in range(n_shapes)
+        ]
+    )
+
+
+@pytest.fixture(scope="session")
+def dense_reconstruction() -> Callable[..., np.ndarray]:
+    """The vertex solve in dense algebra: ``(neutral, triangles, edges, fixed, values) -> (N, 3)``."""
+    return _dense_reconstruction
+
+
+@pytest.fixture(scope="session")
+def reference_step_a() -> Callable[..., np.ndarray]:
+    """Example-based rigging's step A solved plainly (no set-up, memo, Woodbury or local blocks)."""
+    return _reference_step_a
+
+
+@pytest.fixture(scope="session")
+def plain_frames() -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Triangle frames with the scaled normal, written out plainly."""
+    return _frames_of

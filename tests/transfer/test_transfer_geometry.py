@@ -6,10 +6,12 @@ from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.sparse.csgraph import connected_components
 
 import transfer
-from transfer._frames import edge_vectors, frames, rigid_rotation, vertex_major
+from transfer._frames import TransferredEdges, edge_vectors, frames, rigid_rotation
 from transfer._patches import blend_weights, edge_graph, partition
 from transfer._reconstruct import FrameReconstruction
 
@@ -53,13 +55,24 @@ def test_normal_matrix_is_the_cotangent_laplacian(sheet, bulge):
     )
 
 
+def reconstructed(solver: FrameReconstruction, edges: np.ndarray, fixed: np.ndarray, field: np.ndarray):
+    """``(K, N, 3)`` shapes from ``(T, 2, 3, K)`` edge targets, each solved on its own free block."""
+    result = field.copy()
+    for k, mask in enumerate(fixed):
+        block = solver.block(mask)
+        if block is not None:
+            held = field[k, block.near][..., None]
+            result[k, block.free] = block.solve(edges[block.faces][..., [k]], held)[..., 0]
+    return result
+
+
 def test_reconstruction_recovers_a_field_from_its_own_edges(sheet):
     rig = sheet(12, 14, 3)
-    field = vertex_major(rig.deltas)
+    field = rig.deltas
     solver = FrameReconstruction(rig.neutral * [1.0, 2.0, 0.5], rig.triangles)
     fixed = solver.constraints(field, 1e-6)
-    result = solver.solve(edge_vectors(field, rig.triangles), fixed, field)
-    np.testing.assert_allclose(result, field, atol=1e-12)
+    edges = np.moveaxis(np.stack([edge_vectors(shape, rig.triangles) for shape in field]), 0, -1)
+    np.testing.assert_allclose(reconstructed(solver, edges, fixed, field), field, atol=1e-12)
 
 
 def test_reconstruction_anchors_every_separate_part(sheet):
@@ -67,12 +80,66 @@ def test_reconstruction_anchors_every_separate_part(sheet):
     n_vertices = rig.n_vertices
     neutral = np.r_[rig.neutral, rig.neutral + [3.0, 0.0, 0.0]]
     triangles = np.r_[rig.triangles, rig.triangles + n_vertices]
-    field = np.r_[rig.neutral**2, rig.neutral**2 + [1.0, -2.0, 0.5]][..., None]  # no static vertex at all
+    field = np.r_[rig.neutral**2, rig.neutral**2 + [1.0, -2.0, 0.5]][None]  # no static vertex at all
     solver = FrameReconstruction(neutral, triangles)
     fixed = solver.constraints(field, 0.0)
     assert fixed[0, :n_vertices].sum() == 1 and fixed[0, n_vertices:].sum() == 1
-    result = solver.solve(edge_vectors(field, triangles), fixed, field)
-    np.testing.assert_allclose(result, field, atol=1e-12)
+    edges = edge_vectors(field[0], triangles)[..., None]
+    np.testing.assert_allclose(reconstructed(solver, edges, fixed, field), field, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    n_columns=st.integers(3, 9),
+    n_rows=st.integers(3, 9),
+    held_share=st.floats(0.05, 0.95),
+    seed=st.integers(0, 2**16),
+)
+def test_a_free_block_solves_the_dense_least_squares(
+    sheet, bulge, dense_reconstruction, n_columns, n_rows, held_share, seed
+):
+    """Only the triangles around the free vertices are read, and the answer is the whole mesh's."""
+    rig = sheet(n_columns, n_rows, 1, seed)
+    neutral = bulge(rig.neutral)
+    rng = np.random.default_rng(seed)
+    fixed = rng.random(rig.n_vertices) < held_share
+    fixed[rng.integers(rig.n_vertices)] = True
+    values = rng.normal(size=(rig.n_vertices, 3))
+    edges = rng.normal(size=(rig.triangles.shape[0], 2, 3))
+    solver = FrameReconstruction(neutral, rig.triangles, factor_budget=10**6)
+    block = solver.block(fixed)
+    if fixed.all():
+        assert block is None
+        return
+    touching = np.isin(rig.triangles, block.free).any(axis=1)
+    assert np.array_equal(block.faces, np.flatnonzero(touching))
+    assert solver.block(fixed) is block  # kept within the budget
+    expected = dense_reconstruction(neutral, rig.triangles, edges, fixed, values)
+    found = block.solve(edges[block.faces][..., None], values[block.near][..., None])[..., 0]
+    np.testing.assert_allclose(found, expected[~fixed], rtol=0, atol=1e-10 * np.abs(expected).max())
+
+
+@settings(max_examples=20, deadline=None)
+@given(n_shapes=st.integers(1, 4), seed=st.integers(0, 2**16))
+def test_transferred_edges_apply_each_deformation_gradient_to_the_target(
+    sheet, bulge, plain_frames, n_shapes, seed
+):
+    """``M_k^{A*} = (M(A0 + A_k) M(A0)^-1 - I) E_B`` (Li et al. 2010, sec. 3A) on any triangles and shapes."""
+    rig = sheet(7, 8, n_shapes, seed)
+    target = bulge(rig.neutral)
+    prior = TransferredEdges(rig.neutral, rig.deltas, target, rig.triangles)
+    rng = np.random.default_rng(seed)
+    faces = np.sort(rng.choice(rig.triangles.shape[0], 20, replace=False))
+    shapes = rng.permutation(n_shapes)
+    found = prior.block(faces, shapes)
+    inverse = np.linalg.inv(plain_frames(rig.neutral, rig.triangles[faces]))
+    target_edges = plain_frames(target, rig.triangles[faces])[:, :, :2]
+    for column, k in enumerate(shapes):
+        gradient = plain_frames(rig.neutral + rig.deltas[k], rig.triangles[faces]) @ inverse
+        expected = ((gradient - np.eye(3)) @ target_edges).transpose(0, 2, 1)
+        np.testing.assert_allclose(
+            found[..., column], expected, rtol=0, atol=1e-12 * np.abs(target_edges).max()
+        )
 
 
 def test_degenerate_triangles_do_not_break_the_transfer(sheet):
