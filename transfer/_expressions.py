@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from rigs import Rig
 from transfer._inputs import check_weights
+
+if TYPE_CHECKING:
+    from rigs import Rig
 
 
 def _check_rig(rig: object, argument: str) -> Rig:
+    from rigs import Rig
+
     if not isinstance(rig, Rig):
         raise ValueError(f"{argument} must be a rigs.Rig, got {type(rig).__name__}")
     return rig

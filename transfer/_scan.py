@@ -24,18 +24,28 @@ noise and head motion belong to the capture session (seeded by ``seed`` and the 
 
 from __future__ import annotations
 
+import hashlib
+import threading
 import zlib
+from collections import OrderedDict
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.spatial.transform import Rotation
 
-from rigs import Rig
 from transfer._inputs import check_weights
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+
+    from rigs import Rig
 
 #: Fewest vertices a rigid alignment can use.
 _MIN_STABLE = 3
+#: Scanners (widened shapes and neighbourhoods of one target) kept per process.
+_SCANNER_CACHE_SIZE = 2
+_scanners: OrderedDict[tuple[str, ScanModel], _Scanner] = OrderedDict()
+_scanners_lock = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -123,6 +133,8 @@ def scan_expressions(
     O(K N R) once to widen the shapes over R rings, then per expression O(P N) for its P touching pairs and
     O(N noise_smoothing) for the noise.
     """
+    from rigs import Rig
+
     if not isinstance(target, Rig):
         raise ValueError(f"target must be a rigs.Rig, got {type(target).__name__}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
@@ -134,7 +146,7 @@ def scan_expressions(
     linear = target.neutral + np.tensordot(weight_array, target.deltas, axes=1)
     if model.ideal or not len(weight_array):
         return linear
-    scanner = _Scanner(target, model)
+    scanner = _scanner(target, model)
     return np.stack(
         [
             scanner.capture(row, expression, np.random.default_rng([int(seed), j]))
@@ -143,10 +155,34 @@ def scan_expressions(
     )
 
 
+def _scanner(target: Rig, model: ScanModel) -> _Scanner:
+    """The `_Scanner` of a target and model, memoised per process on the target's content (a BLAKE2
+    digest), so the capture sessions of every packing of one rig widen its shapes once."""
+    digest = hashlib.blake2b(digest_size=16)
+    for array in (target.neutral, target.deltas, target.triangles):
+        contiguous = np.ascontiguousarray(array)
+        digest.update(f"{contiguous.dtype}{contiguous.shape}".encode())
+        digest.update(contiguous.data)
+    digest.update(repr(target.names).encode())
+    key = (digest.hexdigest(), model)
+    with _scanners_lock:
+        if key in _scanners:
+            _scanners.move_to_end(key)
+            return _scanners[key]
+    scanner = _Scanner(target, model)
+    with _scanners_lock:
+        _scanners[key] = scanner
+        while len(_scanners) > _SCANNER_CACHE_SIZE:
+            _scanners.popitem(last=False)
+    return scanner
+
+
 class _Scanner:
     """What is shared by every scan of one target: widened shapes, touching pairs, normals, stable set."""
 
     def __init__(self, target: Rig, model: ScanModel) -> None:
+        import scipy.sparse as sp
+
         self.model = model
         self.neutral = target.neutral
         self.names = target.names
@@ -215,6 +251,8 @@ class _Scanner:
 
     def moved(self, scan: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The scan turned about the neutral's centre and shifted, as the head moved between scans."""
+        from scipy.spatial.transform import Rotation
+
         axis = rng.standard_normal(3)
         angle = np.radians(self.model.rotation) * rng.uniform()
         turn = Rotation.from_rotvec(angle * axis / np.linalg.norm(axis))
@@ -230,6 +268,8 @@ class _Scanner:
 
     def aligned(self, scan: np.ndarray, stable: np.ndarray) -> np.ndarray:
         """Kabsch alignment of the scan's ``stable`` vertices onto the neutral's (rotation, translation)."""
+        from scipy.spatial.transform import Rotation
+
         reference = self.neutral[stable]
         moving = scan[stable]
         reference_centre, moving_centre = reference.mean(axis=0), moving.mean(axis=0)
@@ -255,6 +295,8 @@ def _rings(distance: float, neutral: np.ndarray, triangles: np.ndarray) -> int:
 
 def _neighbour_average(n_vertices: int, triangles: np.ndarray) -> sp.csr_matrix:
     """Row-stochastic averaging over each vertex and its mesh neighbours."""
+    import scipy.sparse as sp
+
     rows = np.concatenate([triangles.ravel(), np.roll(triangles, 1, axis=1).ravel(), np.arange(n_vertices)])
     cols = np.concatenate([np.roll(triangles, 1, axis=1).ravel(), triangles.ravel(), np.arange(n_vertices)])
     adjacency = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n_vertices, n_vertices))

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
 from transfer._base import Transfer, check_positive
 from transfer._frames import vertex_major
 from transfer._inputs import TransferInputs
-from transfer._patches import blend_weights, partition
 from transfer.deformation import deformation_transfer
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: Shapes handled at once; bounds the ``(N, J, chunk)`` coefficient arrays.
 _SHAPE_CHUNK = 32
@@ -136,6 +137,8 @@ class PatchwiseBlendshapes(Transfer):
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
         """Data-driven patch blend plus transferred residual."""
+        from transfer._patches import blend_weights, partition
+
         template = inputs.template
         target = inputs.target_neutral
         residual = template.deltas

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from importlib.metadata import entry_points
 
 import pytest
@@ -68,3 +70,14 @@ def test_unknown_parameter_lists_accepted_ones():
 def test_bad_parameter_values_are_refused(name, params, message):
     with pytest.raises(ValueError, match=message):
         transfer.get(name, **params)
+
+
+def test_importing_the_package_and_its_plugins_leaves_scipy_and_rigs_unloaded():
+    """``import transfer`` and `transfer.get` stay cheap: what needs scipy or the rigs imports it on use."""
+    script = (
+        "import sys, transfer\n"
+        "[transfer.get(name) for name in transfer.names()]\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'rigs', 'pandas'}))\n"
+    )
+    found = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    assert found.stdout.strip() == "[]"

@@ -80,7 +80,8 @@ def test_a_corrective_needs_two_shapes_that_meet(actor):
 
 
 def test_correctives_scale_with_both_weights(actor):
-    model = only(corrective=0.5, stable_share=0.02)  # aligned on vertices no shape moves: no change
+    # Aligned on vertices no shape moves, which no corrective reaches without widening: no change.
+    model = only(corrective=0.5, reach=0.0, stable_share=0.02)
     full = np.ones((1, actor.n_shapes))
     linear = transfer.training_expressions(actor, full)
     half = transfer.training_expressions(actor, 0.5 * full)
@@ -141,3 +142,14 @@ def test_bad_arguments_are_refused(actor, weights):
         transfer.scan_expressions(actor, weights[:, :3])
     with pytest.raises(ValueError, match="model must be a transfer.ScanModel"):
         transfer.scan_expressions(actor, weights, model={"noise": 0})
+
+
+def test_the_widened_shapes_are_prepared_once_per_target_content(actor, weights):
+    from transfer import _scan
+
+    rebuilt = rigs.warp(rigs.generate("tiny", seed=2), "big-eyes+character")  # equal content, new object
+    assert _scan._scanner(rebuilt, ScanModel()) is _scan._scanner(actor, ScanModel())
+    assert _scan._scanner(actor, only(noise=1e-3)) is not _scan._scanner(actor, ScanModel())
+    np.testing.assert_array_equal(
+        transfer.scan_expressions(rebuilt, weights, seed=4), transfer.scan_expressions(actor, weights, seed=4)
+    )
