@@ -15,6 +15,7 @@ the objective is rejected, and an expression of a solver that ran to its end mus
 from __future__ import annotations
 
 import datetime
+import functools
 import os
 import socket
 import threading
@@ -294,6 +295,7 @@ def _transfer_rows(
     j_values = sorted({min(j, len(expressions)) for j in spec.j_values if expressions})
     examples: list[np.ndarray] = []
     for name in spec.transfers:
+        first = _FirstExpressions(transfer, name, template, target, expressions, examples)
         for j in j_values:
             row: dict[str, Any] = {
                 **base,
@@ -308,15 +310,42 @@ def _transfer_rows(
                 weights = _training_weights(template, expressions[:j])
                 if not examples:  # every J trains on the first J of the same expressions
                     examples.append(_examples(spec, target, _training_weights(template, expressions)))
-                row.update(
-                    _transfer_metrics(transfer, name, spec, template, target, weights, examples[0][:j])
-                )
+                estimate = functools.partial(first, j)
+                row.update(_transfer_metrics(transfer, name, spec, template, target, weights, estimate))
             except Exception as error:  # noqa: BLE001 - recorded, the other J values still run
                 row.update(
                     status="error", message=_describe(error), transfer_time=time.perf_counter() - clock
                 )
             rows.append(row)
     return rows
+
+
+class _FirstExpressions:
+    """A transfer method's estimates from the first J expressions of a cell's sequence, for any J.
+
+    One `transfer.Transfer.prefixes` is made on first use (after the cell's examples exist), so the method
+    reuses its work across the J values instead of starting over for each.
+    """
+
+    def __init__(
+        self,
+        transfer: Any,
+        name: str,
+        template: Any,
+        target: Any,
+        expressions: list[Any],
+        examples: list[Any],
+    ) -> None:
+        self.transfer, self.name, self.template, self.target = transfer, name, template, target
+        self.expressions, self.examples = expressions, examples
+        self.prefixes: Callable[[int], np.ndarray] | None = None
+
+    def __call__(self, j: int) -> np.ndarray:
+        if self.prefixes is None:
+            whole = _training_weights(self.template, self.expressions)
+            method = self.transfer.get(self.name)
+            self.prefixes = method.prefixes(self.template, self.target.neutral, whole, self.examples[0])
+        return self.prefixes(j)
 
 
 def _examples(spec: CellSpec, target: Any, weights: np.ndarray) -> np.ndarray:
@@ -336,11 +365,12 @@ def _transfer_metrics(
     template: Any,
     target: Any,
     weights: np.ndarray,
-    examples: np.ndarray,
+    estimate_first: Callable[[], np.ndarray],
 ) -> dict[str, Any]:
-    """Errors of one transfer, memoised per process: on (rig, warp, method, examples mode and seed,
-    weights), so that solvers that agree on a sequence share one computation, and for a method that ignores
-    the training expressions (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
+    """Errors of one transfer (``estimate_first`` computes it from the first J expressions), memoised per
+    process: on (rig, warp, method, examples mode and seed, weights), so that solvers that agree on a
+    sequence share one computation, and for a method that ignores the training expressions
+    (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
     clock = time.perf_counter()
     method = transfer.get(name)
     rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name)
@@ -352,7 +382,7 @@ def _transfer_metrics(
     if known is not None:
         return {**known, "transfer_reused": True, "transfer_time": time.perf_counter() - clock}
     if estimate is None:
-        estimate = method(template, target.neutral, weights, examples)
+        estimate = estimate_first()
         reused = False
         if not getattr(method, "uses_examples", True):
             with _cache_lock:
