@@ -14,6 +14,8 @@ report's contact sheets (`reports.contact_sheet`) both use it.
 
 from __future__ import annotations
 
+import colorsys
+import importlib.util
 import io
 from collections.abc import Sequence
 from functools import lru_cache
@@ -22,6 +24,17 @@ from typing import Any
 
 import numpy as np
 
+#: matplotlib's ``tab20`` colours (ten hues, a dark and a light tone each), without importing matplotlib.
+_TAB20 = (
+    np.array(
+        [
+            [int(code[i : i + 2], 16) for i in (0, 2, 4)]
+            for code in "1f77b4 aec7e8 ff7f0e ffbb78 2ca02c 98df8a d62728 ff9896 9467bd c5b0d5 8c564b c49c94 "
+            "e377c2 f7b6d2 7f7f7f c7c7c7 bcbd22 dbdb8d 17becf 9edae5".split()
+        ]
+    )
+    / 255.0
+)
 #: Picture size in pixels (width, height).
 SIZE = (420, 400)
 SKIN = np.array([0.86, 0.84, 0.82])
@@ -48,9 +61,9 @@ _TITLE_PX, _LEGEND_PX, _SMALLEST_PX = 13, 11, 6
 def shape_colours(groups: Sequence[int]) -> np.ndarray:
     """Distinct RGB colours for the shapes of an expression, given as groups of 1 or 2 (symmetry pairs).
 
-    Up to ten groups take the hues of ``tab20``: the dark and the light tone of one hue for the two
-    shapes of a pair, the dark tone for a shape alone, so a pair looks related and no colour repeats.
-    More shapes take evenly spaced hues.
+    Up to ten groups take the hues of matplotlib's ``tab20``: the dark and the light tone of one hue for
+    the two shapes of a pair, the dark tone for a shape alone, so a pair looks related and no colour
+    repeats. More shapes take evenly spaced hues.
 
     Parameters
     ----------
@@ -61,13 +74,11 @@ def shape_colours(groups: Sequence[int]) -> np.ndarray:
     -------
     (sum(groups), 3) array.
     """
-    from matplotlib import colormaps
-
-    table = np.asarray(colormaps["tab20"].colors)[:, :3]
-    if len(groups) <= len(table) // 2 and all(size in (1, 2) for size in groups):
-        return np.asarray([table[2 * hue + tone] for hue, size in enumerate(groups) for tone in range(size)])
+    if len(groups) <= len(_TAB20) // 2 and all(size in (1, 2) for size in groups):
+        return np.asarray([_TAB20[2 * hue + tone] for hue, size in enumerate(groups) for tone in range(size)])
     count = int(sum(groups))
-    return 0.85 * colormaps["hsv"](np.linspace(0.0, 1.0, count, endpoint=False))[:, :3].reshape(count, 3)
+    hues = np.arange(count) / max(count, 1)
+    return np.asarray([colorsys.hsv_to_rgb(hue, 1.0, 0.85) for hue in hues]).reshape(count, 3)
 
 
 def active_vertices(rig: Any, mu: float = 0.3) -> np.ndarray:
@@ -455,10 +466,9 @@ def _fitted(draw: Any, words: str, font: Any, room: int) -> str:
 
 @lru_cache(maxsize=8)
 def _font(pixels: int) -> Any:
-    """DejaVu Sans (shipped with matplotlib, so every machine draws the same glyphs) at ``pixels``."""
-    import matplotlib
+    """DejaVu Sans at ``pixels``: the font matplotlib ships (so every machine draws the same glyphs), found
+    in its package data without importing it."""
     from PIL import ImageFont
 
-    return ImageFont.truetype(
-        str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"), pixels
-    )
+    package = Path(str(importlib.util.find_spec("matplotlib").origin)).parent
+    return ImageFont.truetype(str(package / "mpl-data" / "fonts" / "ttf" / "DejaVuSans.ttf"), pixels)

@@ -117,9 +117,13 @@ def test_triangles_take_the_shape_most_of_their_corners_are_active_in() -> None:
 
 
 def test_shape_colours_never_repeat_within_an_expression() -> None:
+    from matplotlib import colormaps
+
     for groups in ([1] * 8, [2] * 10, [2, 1, 2], [1] * 30):
         colours = harness.shape_colours(groups)
         assert len(colours) == sum(groups) and len({tuple(c) for c in colours.round(6)}) == sum(groups)
+    tab20 = np.asarray(colormaps["tab20"].colors)
+    assert np.allclose(harness.shape_colours([2, 1]), tab20[[0, 1, 2]])  # a pair's two tones, then a hue
 
 
 @pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
@@ -133,3 +137,18 @@ def test_active_vertices_are_the_masks_packing_uses() -> None:
         masks = harness.active_vertices(faint, mu)
         assert np.array_equal(masks, analysis.masks)
     assert analysis.empty[-1] and not masks[-1].any()  # packing's noise floor: the faint shape is empty
+
+
+def test_a_long_legend_shrinks_and_cuts_its_words_to_fit_the_picture() -> None:
+    rig = rigs.generate("tiny")
+    colours = harness.shape_colours([1] * 40)
+    words = [f"left upper eyelid squeeze and raise number {k}" for k in range(40)]
+    fills = harness.triangle_colours(rig.triangles, np.zeros((40, rig.n_vertices), bool), colours)
+    image = Image.open(
+        io.BytesIO(picture(rig.neutral, rig.triangles, rigs.frontal_camera(rig), fills, words, colours))
+    )
+    pixels = np.asarray(image.convert("RGB")).astype(int)
+    legend = pixels[:, round(FACE_SHARE * SIZE[0]) :]
+    for colour in np.round(255 * colours).astype(int):  # all forty swatches fit the height
+        assert (np.abs(legend - colour).sum(axis=2) <= 3).sum() >= 9
+    assert (pixels[:, -2:] == 255).all()  # no word runs off the right edge
