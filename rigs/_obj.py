@@ -7,7 +7,6 @@ the same vertices and faces; the blendshape's name is its file stem. The folder 
 
 from __future__ import annotations
 
-import io
 import json
 import math
 import os
@@ -16,10 +15,11 @@ import warnings
 from array import array
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from itertools import compress
+from operator import itemgetter
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from rigs._rig import LARGEST_COORDINATE, Rig, RigError, RigWarning
 from rigs._safe import UnreadableFile, check_budget, named_path, read_text, regular_file, rig_entries
@@ -40,8 +40,6 @@ _STEP_SAMPLE = 3000
 _UNSAFE_NAME = re.compile(r'[\\/:*?"<>|\x00-\x1f]')
 #: Group names one ``g`` line may give.
 _MAX_GROUPS = 256
-#: ``v`` lines longer than this are left to the line-by-line reader, which reads only their first values.
-_LONG_ROW = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,8 +57,12 @@ class ObjMesh:
     face_lines : tuple of str
         The corners of each ``f`` line as written, for a fast identical-connectivity check.
     face_text : str
-        The file's text from its first ``f`` line on (line ends normalised; set by a full read), so that
-        blendshape files written with the same face section are recognised without splitting it.
+        The file's text from its first ``f`` line on (line ends normalised; set by a full read of a file
+        whose faces follow all its vertices), so that blendshape files written with the same face section
+        are recognised without splitting it.
+    vertex_lines : (N,) object array of str
+        Each ``v`` line as written (set by a full read), so that the lines of a blendshape file written
+        the same way are known to hold the same positions without reading them.
     """
 
     vertices: np.ndarray
@@ -68,6 +70,7 @@ class ObjMesh:
     groups: dict[str, np.ndarray] = field(default_factory=dict)
     face_lines: tuple[str, ...] = ()
     face_text: str = ""
+    vertex_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
 
     def group_vertices(self, name: str) -> np.ndarray:
         """Sorted vertex indices used by the faces of group ``name``."""
@@ -101,44 +104,92 @@ def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None
     """Fast path for blendshape files: positions and face corner lists without per-line dispatch.
 
     When the file ends with the face section of ``faces_of`` (the neutral) and has no face line before
-    it, its face lines are those of ``faces_of`` and are not split again.
+    it, its face lines are those of ``faces_of`` and are not split again. A ``v`` line written exactly as
+    the neutral's line of the same vertex has the neutral's position (the same text reads the same); only
+    the other lines, the vertices the blendshape moves, are read, as the line-by-line reader reads them.
 
-    Returns None when the file is unusual (indented lines, no vertices, extra values, comments after
-    coordinates, a malformed number), leaving the line-by-line reader to handle it and name the line.
+    Returns None when the file is unusual (any whitespace but spaces and line ends, a line continuation,
+    an indented line, a ``v`` or ``f`` keyword alone or glued to a comment), has no vertices, or has a
+    vertex line that does not read (too few values, a malformed or non-finite number), leaving the
+    line-by-line reader to handle it and name the line.
     """
-    if text[:1] in (" ", "\t") or "\n " in text or "\n\t" in text or "\\" in text:
+    if not text.isascii() or any(character in text for character in _UNPLAIN_CHARACTERS):
         return None
-    rows = _VERTEX_LINE.findall(text)
-    if not rows or max(map(len, rows)) > _LONG_ROW:
+    lines, starts, face_lines = _lines_to_read(text, faces_of)
+    kinds = set(starts)
+    if kinds & _UNPLAIN_STARTS or any(kind[:1] == " " for kind in kinds):
         return None
-    values = _single_spaced_rows(rows)
-    if values is None:
-        try:
-            values = np.array(" ".join(rows).split(), dtype=np.float64)
-        except ValueError:
-            return None
-    if values.size != 3 * len(rows) or not np.isfinite(values).all():
+    rows = list(compress(lines, map("v ".__eq__, starts)))
+    vertices = _vertex_positions(rows, faces_of) if rows else None
+    if vertices is None:
         return None
+    return ObjMesh(vertices=vertices, faces=(), face_lines=face_lines)
+
+
+#: Characters that send a file to the line-by-line reader: line continuations, and whitespace other than
+#: spaces and line ends (``str.split`` splits at it, so a keyword could hide behind it).
+_UNPLAIN_CHARACTERS = ("\\", "\t", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x1f")
+#: Line beginnings that do too (besides indentation): ``v`` or ``f`` alone or glued to a comment.
+_UNPLAIN_STARTS = frozenset({"v", "v#", "f", "f#"})
+_FIRST_TWO = itemgetter(slice(0, 2))
+
+
+def _lines_to_read(text: str, faces_of: ObjMesh | None) -> tuple[list[str], list[str], tuple[str, ...]]:
+    """The lines that may hold vertices with their first two characters, and the face lines: the lines
+    before the neutral's (``faces_of``) face section and its face lines when the file ends with that
+    section and has no face line before it; else every line and the file's own face lines (corners only,
+    comments and trailing blanks dropped)."""
     tail = faces_of.face_text if faces_of is not None else ""
-    if tail and text.endswith(tail) and not _FACE_LINE.search(text, 0, len(text) - len(tail)):
-        return ObjMesh(vertices=values.reshape(-1, 3), faces=(), face_lines=faces_of.face_lines)
-    face_lines = _FACE_LINE.findall(text)
-    joined = "\n".join(face_lines) + "\n"
-    if "#" in joined or "\t" in joined or " \n" in joined:
+    if tail and text.endswith(tail):
+        lines = text[: len(text) - len(tail)].split("\n")
+        starts = list(map(_FIRST_TWO, lines))
+        if "f " not in starts:
+            return lines, starts, faces_of.face_lines
+    lines = text.split("\n")
+    starts = list(map(_FIRST_TWO, lines))
+    face_lines = [line[2:] for line in compress(lines, map("f ".__eq__, starts))]
+    joined = "\n" + "\n".join(face_lines) + "\n"
+    if "#" in joined or " \n" in joined or "\n " in joined:
         face_lines = [line.split("#", 1)[0].strip() for line in face_lines]
-    return ObjMesh(vertices=values.reshape(-1, 3), faces=(), face_lines=tuple(face_lines))
+    return lines, starts, tuple(face_lines)
 
 
-def _single_spaced_rows(rows: list[str]) -> np.ndarray | None:
-    """``x y z`` rows with single spaces as floats, by pandas' C parser (3-4 times numpy's speed on the
-    tens of thousands of rows of each blendshape file); None for any other layout."""
-    import pandas as pd
-
-    try:
-        table = pd.read_csv(io.StringIO("\n".join(rows)), sep=" ", header=None, dtype=np.float64)
-    except (ValueError, pd.errors.ParserError):
+def _vertex_positions(lines: list[str], faces_of: ObjMesh | None) -> np.ndarray | None:
+    """(N, 3) positions of ``v`` lines: a line equal to the neutral's (``faces_of``) line of its vertex
+    takes the neutral's position, the others are read. None when a line read does not give three finite
+    coordinates."""
+    known = faces_of.vertex_lines if faces_of is not None else ()
+    if len(known) == len(lines):
+        moved = np.flatnonzero(np.array(lines, dtype=object) != known).tolist()
+        vertices = faces_of.vertices.copy()
+    else:
+        moved, vertices = list(range(len(lines))), np.empty((len(lines), 3))
+    read = _read_rows([lines[index] for index in moved])
+    if read is None or not np.isfinite(read).all():
         return None
-    return table.to_numpy() if table.shape == (len(rows), 3) else None
+    vertices[moved] = read
+    return vertices
+
+
+def _read_rows(lines: list[str]) -> np.ndarray | None:
+    """(len(lines), 3) coordinates of ``v`` lines as the line-by-line reader takes them (the first three
+    values after the keyword, comments dropped), or None when a line has fewer or a value is not a number.
+
+    Lines of exactly ``v x y z`` are read in one go: every fourth word is then ``v`` and the others are
+    the values (a line of another length would leave a ``v`` among them, which does not read as a
+    number)."""
+    joined = " ".join(lines)
+    words = joined.split()
+    try:
+        if "#" not in joined and len(words) == 4 * len(lines) and words[::4].count("v") == len(lines):
+            del words[::4]
+            return np.array(list(map(float, words))).reshape(-1, 3)
+        fields = [line.split("#", 1)[0].split(None, 4)[1:4] for line in lines]
+        if any(len(values) < 3 for values in fields):
+            return None
+        return np.array([float(value) for values in fields for value in values]).reshape(-1, 3)
+    except ValueError:
+        return None
 
 
 def parse_obj(text: str, source: str, *, with_faces: bool = True, faces_of: ObjMesh | None = None) -> ObjMesh:
@@ -170,26 +221,28 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True, faces_of: ObjM
         beyond `rigs._rig.LARGEST_COORDINATE`, a ``g`` line naming more than 256 groups, or a file
         without vertices.
     """
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     if not with_faces:
         fast = _vertices_only(text, faces_of)
         if fast is not None:
             return fast
     coordinates = array("d")
     vertex_line_numbers = array("q")
+    vertex_lines: list[str] = []
     face_lines: list[str] = []
     face_line_numbers = array("q")
     face_vertex_counts = array("q")
     group_faces: dict[str, list[int]] = {}
     current_groups: list[str] = []
-    for number, line in _numbered_lines(text):
-        if "#" in line:
-            line = line.split("#", 1)[0]
+    for number, written in _numbered_lines(text):
+        line = written.split("#", 1)[0] if "#" in written else written
         parts = line.split(None, 1)  # (never splits a whole long line: only its keyword off)
         if not parts:
             continue
         keyword = parts[0]
         if keyword == "v":
+            vertex_lines.append(written)
             values = parts[1].split(None, 3)[:3] if len(parts) > 1 else []
             if len(values) < 3:
                 raise RigError(f"{source}:{number}: vertex needs x y z, got {line.strip()[:80]!r}")
@@ -216,13 +269,15 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True, faces_of: ObjM
     if with_faces and face_lines:
         faces = _faces(face_lines, face_line_numbers, face_vertex_counts, len(vertices), source)
     groups = {name: np.asarray(indices, dtype=np.int64) for name, indices in group_faces.items()}
-    first_face = _FACE_LINE.search(text)
+    vertices_first = bool(face_lines) and face_vertex_counts[0] == len(vertices)
+    first_face = _FACE_LINE.search(text) if with_faces and vertices_first else None
     return ObjMesh(
         vertices=vertices,
         faces=faces,
         groups=groups,
         face_lines=tuple(face_lines),
-        face_text=text[first_face.start() :] if first_face and with_faces else "",
+        face_text=text[first_face.start() :] if first_face else "",
+        vertex_lines=np.array(vertex_lines if with_faces else [], dtype=object),
     )
 
 
@@ -314,7 +369,8 @@ def _faces(
             f"{source}:{line_numbers[i]}: face indexes a vertex outside 1..{n_vertices} "
             f"(or before any vertex is defined): 'f {lines[i][:80]}'"
         )
-    return tuple(np.split(flat, np.cumsum(counts)[:-1]))
+    ends = np.cumsum(counts).tolist()
+    return tuple(flat[start:end] for start, end in zip([0, *ends[:-1]], ends, strict=True))
 
 
 # -- triangulation -----------------------------------------------------------------------------------------
@@ -473,6 +529,8 @@ class _Reflex:
         self._index(np.flatnonzero(reflex))
 
     def _index(self, indices: np.ndarray) -> None:
+        from scipy.spatial import cKDTree  # (only concave n-gons need it)
+
         self.indices = indices
         self.tree = cKDTree(self.plane[indices]) if len(indices) > self.DIRECT else None
         self.count = len(indices)
@@ -664,7 +722,8 @@ class _VertexOrder:
 
     def __init__(self, neutral: np.ndarray, triangles: np.ndarray, neutral_path: Path) -> None:
         pairs = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        edges = np.unique(pairs, axis=0) if len(pairs) else pairs
+        keys = np.unique(pairs[:, 0] * len(neutral) + pairs[:, 1])  # (sorted as the pairs are)
+        edges = np.stack([keys // len(neutral), keys % len(neutral)], axis=1)
         rest = np.linalg.norm(neutral[edges[:, 0]] - neutral[edges[:, 1]], axis=1)
         self.edges, self.rest = edges[rest > 0], rest[rest > 0]
         self.neutral = neutral
@@ -672,20 +731,26 @@ class _VertexOrder:
         self.neutral_path = neutral_path
 
     def check(self, shape: np.ndarray, path: Path) -> None:
+        """Raise or warn as the class says; only the edges and vertices the shape moves are measured (the
+        others keep their length and place exactly)."""
         if not len(self.edges):
             return
-        length = np.linalg.norm(shape[self.edges[:, 0]] - shape[self.edges[:, 1]], axis=1)
+        moved = (shape != self.neutral).any(axis=1)
+        touched = moved[self.edges[:, 0]] | moved[self.edges[:, 1]]
+        edges = self.edges[touched]
+        length = np.linalg.norm(shape[edges[:, 0]] - shape[edges[:, 1]], axis=1)
         with np.errstate(divide="ignore"):
-            change = np.abs(np.log(length / self.rest))
-        permuted = float(np.mean(change > np.log(self.PERMUTED)))
+            change = np.abs(np.log(length / self.rest[touched]))
+        permuted = np.count_nonzero(change > np.log(self.PERMUTED)) / len(self.edges)
         if permuted > 0.5:
             raise RigError(
                 f"{path}: its vertices are not in the order of the neutral {self.neutral_path.name} "
                 f"({permuted:.0%} of the mesh's edges change length more than {self.PERMUTED:g} times); "
                 "a blendshape must list the neutral's vertices in the same order"
             )
-        doubtful = float(np.mean(change > np.log(self.DOUBTFUL)))
-        far = float(np.mean(np.linalg.norm(shape - self.neutral, axis=1) > self.far))
+        doubtful = np.count_nonzero(change > np.log(self.DOUBTFUL)) / len(self.edges)
+        distance = np.linalg.norm(shape[moved] - self.neutral[moved], axis=1)
+        far = np.count_nonzero(distance > self.far) / len(shape)
         if far > 0.5:
             warnings.warn(
                 f"{path}: {far:.0%} of its vertices move further than {self.FAR:g} of the neutral's size "
@@ -945,6 +1010,10 @@ class ObjSurface:
     vertex_rows: np.ndarray
     vertex_tails: tuple[str, ...]
     source: str
+    #: (step, single) -> the first positions written with those settings and their ``v`` lines.
+    _written: dict[tuple[float, bool], tuple[np.ndarray, list[str]]] = field(
+        default_factory=dict, init=False, repr=False
+    )
 
     @property
     def n_vertices(self) -> int:
@@ -971,13 +1040,31 @@ class ObjSurface:
                 f"{self.source}: {self.n_vertices} 'v' lines, got positions of shape {vertices.shape}"
             )
         lines = np.array(self.lines, dtype=object)
-        rows = coordinate_lines(vertices, step=step, single=single)
+        rows = self._coordinate_rows(vertices, step, single)
         if any(self.vertex_tails):
             rows = [row + tail for row, tail in zip(rows, self.vertex_tails, strict=True)]
         lines[self.vertex_rows] = rows
         header = "".join(f"# {line}\n" for line in comment.splitlines())
         body = "\n".join(lines.tolist())
         return header + body + ("" if body.endswith("\n") else "\n")
+
+    def _coordinate_rows(self, vertices: np.ndarray, step: float, single: bool) -> list[str]:
+        """`coordinate_lines` of ``vertices``, formatting only the rows whose values differ (bit for bit)
+        from the first positions written with the same settings: an expression moves part of the face,
+        and a row's text depends on its three values alone."""
+        written = self._written.get((step, single))
+        if written is None:
+            rows = coordinate_lines(vertices, step=step, single=single)
+            self._written[step, single] = (vertices.copy(), rows)
+            return rows
+        reference, rows = written
+        changed = np.flatnonzero((vertices.view(np.int64) != reference.view(np.int64)).any(axis=1))
+        rows = list(rows)
+        for index, row in zip(
+            changed.tolist(), coordinate_lines(vertices[changed], step=step, single=single), strict=True
+        ):
+            rows[index] = row
+        return rows
 
 
 def parse_surface(text: str, source: str) -> ObjSurface:

@@ -1,0 +1,124 @@
+"""The fast path for blendshape OBJ files reads exactly what the line-by-line reader reads, or steps aside.
+
+A blendshape file is compared with its neutral line by line: a ``v`` line written as the neutral's is the
+neutral's position, the others are read. Whatever a file holds, the result (positions, face lines, or the
+error raised) must be the line-by-line reader's.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rigs import RigError
+from rigs._obj import parse_obj
+
+GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
+TRIANGLES = [(a, a + 1, a + 4) for a in range(11) if a % 4 != 3]
+
+
+def _text(vertices: np.ndarray, header: str = "# mesh\n") -> str:
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
+    faces = [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in TRIANGLES]
+    return header + "\n".join(lines) + "\n" + "\n".join(faces) + "\n"
+
+
+NEUTRAL_TEXT = _text(GRID)
+NEUTRAL = parse_obj(NEUTRAL_TEXT, "neutral.obj")
+
+
+def _read(text: str, *, fast: bool):
+    """Positions and face lines of a blendshape file read against the neutral, or the error raised; with
+    ``fast=False`` by the line-by-line reader alone."""
+    with contextlib.ExitStack() as stack:
+        if not fast:
+            stack.enter_context(mock.patch("rigs._obj._vertices_only", return_value=None))
+        try:
+            mesh = parse_obj(text, "shape.obj", with_faces=False, faces_of=NEUTRAL)
+        except RigError as error:
+            return str(error)
+    return mesh.vertices.tolist(), list(mesh.face_lines)
+
+
+def _agree(text: str) -> None:
+    assert _read(text, fast=True) == _read(text, fast=False)
+
+
+def test_unmoved_lines_take_the_neutral_position_and_moved_ones_are_read() -> None:
+    moved = GRID.copy()
+    moved[[2, 9]] += [[0.0, 0.5, 0.25], [1e-3, 0.0, -2.0]]
+    mesh = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
+    assert np.array_equal(mesh.vertices, moved)
+    assert mesh.face_lines == NEUTRAL.face_lines
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0 0.0 1.0"),  # a w value
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0 0.0 # moved"),  # a comment
+        lambda t: t.replace("v 1.0 0.0 0.0", "v  1.0   0.0 0.0"),  # extra spaces
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0"),  # too few values
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0 nan"),  # not finite
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0 zero"),  # not a number
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1_0 0.0 0.0"),  # a number for float(), not for C
+        lambda t: t.replace("v 1.0 0.0 0.0", "v#1.0 0.0 0.0"),  # keyword glued to a comment
+        lambda t: t.replace("v 1.0 0.0 0.0", "v\t1.0 0.0 0.0"),  # a tab
+        lambda t: t.replace("v 1.0 0.0 0.0", "v\x0c1.0 0.0 0.0"),  # other whitespace
+        lambda t: t.replace("v 1.0 0.0 0.0", "v\xa01.0 0.0 0.0"),  # non-ASCII whitespace
+        lambda t: t.replace("v 1.0 0.0 0.0", "  v 1.0 0.0 0.0"),  # indented
+        lambda t: t.replace("v 1.0 0.0 0.0\n", "v 1.0 0.0 0.0\nv\n"),  # a bare keyword
+        lambda t: t.replace("v 1.0 0.0 0.0\n", ""),  # a vertex fewer
+        lambda t: t.replace("v 1.0 0.0 0.0\n", "v 1.0 0.0 0.0\nv 1.0 0.0 0.0\n"),  # one more
+        lambda t: t.replace("v 1.0 0.0 0.0\n", "v 1.0 0.0 0.0\nf 1 2 3\n"),  # a face before the others
+        lambda t: t.replace("f 1 2 5", "f 1 2 6"),  # other connectivity
+        lambda t: t.replace("v 1.0 0.0 0.0", "v 1.0 0.0 \\\n 0.0"),  # a continuation
+        lambda t: t.replace("\n", "\r\n"),  # CRLF
+        lambda t: t + "v 9.0 9.0 9.0\n",  # a vertex after the faces
+    ],
+)
+def test_unusual_shape_files_read_as_the_line_by_line_reader_reads_them(edit) -> None:
+    text = edit(_text(GRID + 0.0, "# shape\n"))
+    _agree(text)
+
+
+_TOKENS = st.sampled_from(
+    [
+        "v",
+        "f",
+        "vt",
+        "g",
+        "#",
+        " ",
+        "  ",
+        "\t",
+        "\xa0",
+        "\n",
+        "\r",
+        "\\",
+        "/",
+        "1",
+        "-2.5",
+        "1e3",
+        "1e400",
+        "nan",
+    ]
+    + ["x", "1_0", "+.5", "v 1 2 3", "f 1 2 3"]
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, NEUTRAL_TEXT.count("\n")), st.lists(_TOKENS, max_size=12)), max_size=3)
+)
+def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> None:
+    lines = NEUTRAL_TEXT.split("\n")
+    for line, tokens in edits:
+        lines[line] = "".join(tokens)
+    text = "\n".join(lines)
+    _agree(text)
