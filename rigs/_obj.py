@@ -29,6 +29,8 @@ MANIFEST = "rig.json"
 MANIFEST_LIMIT = 64 * 2**20
 _VERTEX_LINE = re.compile(r"^v[ \t]([^\n]*)", re.MULTILINE)
 _FACE_LINE = re.compile(r"^f[ \t]([^\n]*)", re.MULTILINE)
+#: What follows the vertex index in a face corner (``/vt/vn``), up to the next whitespace.
+_CORNER_REST = re.compile(r"/\S*")
 #: Stems (any case) taken for the neutral mesh when the folder has no ``neutral.obj``: exporters and
 #: artists also call it the basis (Blender's shape-key basis), base or rest shape.
 NEUTRAL_STEMS = ("neutral", "basis", "base", "rest")
@@ -334,7 +336,48 @@ def _vertices(coordinates: array, line_numbers: array, source: str) -> np.ndarra
 def _faces(
     lines: list[str], line_numbers: array, vertex_counts: array, n_vertices: int, source: str
 ) -> tuple[np.ndarray, ...]:
-    sizes = array("q")
+    counts, flat = _face_corners(lines, line_numbers, n_vertices, source)
+    if counts.size and counts.max() > n_vertices:  # a polygon repeats a vertex (and would be costly)
+        i = int(np.argmax(counts))
+        raise RigError(
+            f"{source}:{line_numbers[i]}: face has {counts[i]} corners, more than the mesh's "
+            f"{n_vertices} vertices"
+        )
+    face_of_corner = np.repeat(np.arange(len(counts)), counts)
+    defined_before = np.frombuffer(vertex_counts, dtype=np.int64)[face_of_corner]
+    flat = np.where(flat < 0, flat + defined_before, flat - 1)
+    bad_corner = (flat < 0) | (flat >= n_vertices)
+    if bad_corner.any():
+        i = int(face_of_corner[np.flatnonzero(bad_corner)[0]])
+        raise RigError(
+            f"{source}:{line_numbers[i]}: face indexes a vertex outside 1..{n_vertices} "
+            f"(or before any vertex is defined): 'f {lines[i][:80]}'"
+        )
+    ends = np.cumsum(counts).tolist()
+    return tuple(flat[start:end] for start, end in zip([0, *ends[:-1]], ends, strict=True))
+
+
+def _face_corners(
+    lines: list[str], line_numbers: array, n_vertices: int, source: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Corner counts of face lines and their vertex indices as written (1-based, or negative).
+
+    All lines are split and converted in one go; when that fails, line by line, to name the first line at
+    fault.
+
+    Raises
+    ------
+    RigError
+        For a face of fewer than 3 corners, or a vertex index that is not an integer or is past 64 bits.
+    """
+    counts = np.fromiter(map(len, map(str.split, lines)), dtype=np.int64, count=len(lines))
+    joined = " ".join(lines)
+    words = (_CORNER_REST.sub("", joined) if "/" in joined else joined).split()
+    if len(words) == counts.sum() and counts.min() >= 3:
+        try:
+            return counts, np.fromiter(map(int, words), dtype=np.int64, count=len(words))
+        except (ValueError, OverflowError):
+            pass
     corners = array("q")
     for i, line in enumerate(lines):
         tokens = line.split()
@@ -350,27 +393,7 @@ def _faces(
             raise RigError(
                 f"{source}:{line_numbers[i]}: face indexes a vertex outside 1..{n_vertices}: 'f {line[:80]}'"
             ) from None
-        sizes.append(len(tokens))
-    counts = np.frombuffer(sizes, dtype=np.int64)
-    if counts.size and counts.max() > n_vertices:  # a polygon repeats a vertex (and would be costly)
-        i = int(np.argmax(counts))
-        raise RigError(
-            f"{source}:{line_numbers[i]}: face has {counts[i]} corners, more than the mesh's "
-            f"{n_vertices} vertices"
-        )
-    flat = np.frombuffer(corners, dtype=np.int64)
-    face_of_corner = np.repeat(np.arange(len(counts)), counts)
-    defined_before = np.frombuffer(vertex_counts, dtype=np.int64)[face_of_corner]
-    flat = np.where(flat < 0, flat + defined_before, flat - 1)
-    bad_corner = (flat < 0) | (flat >= n_vertices)
-    if bad_corner.any():
-        i = int(face_of_corner[np.flatnonzero(bad_corner)[0]])
-        raise RigError(
-            f"{source}:{line_numbers[i]}: face indexes a vertex outside 1..{n_vertices} "
-            f"(or before any vertex is defined): 'f {lines[i][:80]}'"
-        )
-    ends = np.cumsum(counts).tolist()
-    return tuple(flat[start:end] for start, end in zip([0, *ends[:-1]], ends, strict=True))
+    return counts, np.frombuffer(corners, dtype=np.int64)
 
 
 # -- triangulation -----------------------------------------------------------------------------------------
@@ -1075,12 +1098,15 @@ def parse_surface(text: str, source: str) -> ObjSurface:
     RigError
         For a ``v`` line without three values (``source:line: ...``) or a file without ``v`` lines.
     """
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     lines = [line for _, line in _numbered_lines(text)]
     if lines and lines[-1] == "":
         lines.pop()
     rows, tails = [], []
     for index, line in enumerate(lines):
+        if line[:1] != "v" and not line[:1].isspace():  # (its first word is not "v")
+            continue
         parts = line.split(None, 4)
         if parts[:1] != ["v"]:
             continue
@@ -1156,7 +1182,10 @@ def rig_surface(rig: Rig) -> ObjSurface | None:
     surface = read_surface(path, root=root)
     if surface.n_vertices != rig.n_vertices:
         return None
-    positions = parse_obj("\n".join(surface.lines[i] for i in surface.vertex_rows), str(path)).vertices
+    lines = [surface.lines[i] for i in surface.vertex_rows]
+    positions = _read_rows(lines)
+    if positions is None or not (np.abs(positions) <= LARGEST_COORDINATE).all():
+        positions = parse_obj("\n".join(lines), str(path)).vertices  # (raises, naming the line)
     tolerance = max(float(meta.get("decimal_step", 0.0) or 0.0), 1e-6 * rig.diagonal())
     return surface if np.abs(positions - rig.neutral).max() <= tolerance else None
 

@@ -8,6 +8,7 @@ error raised) must be the line-by-line reader's.
 from __future__ import annotations
 
 import contextlib
+from array import array
 from unittest import mock
 
 import numpy as np
@@ -16,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import parse_obj
+from rigs._obj import _face_corners, parse_obj
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
 TRIANGLES = [(a, a + 1, a + 4) for a in range(11) if a % 4 != 3]
@@ -122,3 +123,37 @@ def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> Non
         lines[line] = "".join(tokens)
     text = "\n".join(lines)
     _agree(text)
+
+
+def _corners_line_by_line(lines: list[str]):
+    """Face corners read one line at a time (the reading `_face_corners` must match), or the error."""
+    counts, corners = [], []
+    for number, line in enumerate(lines, 1):
+        tokens = line.split()
+        if len(tokens) < 3:
+            return f"faces.obj:{number}: face needs at least 3 corners, got 'f {line[:80]}'"
+        try:
+            values = [int(token.partition("/")[0]) for token in tokens]
+        except ValueError:
+            return f"faces.obj:{number}: face has a malformed vertex index: 'f {line[:80]}'"
+        if any(not -(2**63) <= value < 2**63 for value in values):
+            return f"faces.obj:{number}: face indexes a vertex outside 1..9: 'f {line[:80]}'"
+        counts.append(len(tokens))
+        corners += values
+    return counts, corners
+
+
+_CORNERS = st.sampled_from(
+    ["1", "2", "-1", "12", "3/4", "3/4/5", "1//2", "/5", "x", "+3", "9" * 20, "-" + "9" * 19]
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6))
+def test_face_corners_read_as_line_by_line(lines) -> None:
+    try:
+        counts, corners = _face_corners(lines, array("q", range(1, len(lines) + 1)), 9, "faces.obj")
+        found = (counts.tolist(), corners.tolist())
+    except RigError as error:
+        found = str(error)
+    assert found == _corners_line_by_line(lines)

@@ -1,0 +1,82 @@
+"""Film-scale speed of ``harness pack`` (issue 14): the whole process of
+``harness pack RIG --out DIR --no-pictures`` on a production-sized rig (N ~ 26.7k vertices, K = 57 shapes,
+the generator's Female-like layout) <= 1 s from its ``.npz`` and <= 1.5 s from its folder of OBJs (written
+by ``harness rigs convert``).
+
+Targets are checked on the best of a few fresh processes (see ``conftest.speed_target``); each time is also
+recorded as a ratio to the start-up of a fresh ``python -c "import numpy"`` measured in the same run, so
+that runs on other machines compare. Run with ``pytest tests/benchmarks/test_bench_pack.py
+--benchmark-enable``.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import rigs
+
+#: The rig: vertices and shapes of a production head (the generator keeps N within 2%).
+SPEC = rigs.PresetSpec("bench-26k", 26_700, 57, "Production-sized rig for the pack benchmark.")
+#: Seconds of the issue for the whole process, by rig source.
+TARGETS = {"npz": 1.0, "obj-folder": 1.5}
+RUNS = 3
+
+
+def _harness(*arguments: object) -> list[str]:
+    return [sys.executable, "-c", "from harness.cli import main; main()", *map(str, arguments)]
+
+
+@pytest.fixture(scope="module")
+def rig_sources(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The rig as a native archive and, converted by the command line, as a folder of OBJs."""
+    folder = tmp_path_factory.mktemp("pack-bench")
+    archive = rigs.save(rigs.generate(SPEC, seed=0), folder / "rig.npz")
+    subprocess.run(_harness("rigs", "convert", archive, folder / "objs"), check=True, capture_output=True)
+    return {"npz": archive, "obj-folder": folder / "objs"}
+
+
+def _best_start(command: list[str], runs: int) -> float:
+    """Fewest seconds of ``runs`` fresh processes of ``command``."""
+    times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        subprocess.run(command, check=True, capture_output=True)
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+@pytest.mark.parametrize("source", sorted(TARGETS))
+def test_bench_pack_whole_process(benchmark, speed_target, rig_sources, source, tmp_path) -> None:
+    out = tmp_path / "session"
+    command = _harness("pack", rig_sources[source], "--out", out, "--no-pictures")
+    times: list[float] = []
+
+    def pack_once() -> None:
+        shutil.rmtree(out, ignore_errors=True)
+        start = time.perf_counter()
+        subprocess.run(command, check=True, capture_output=True)
+        times.append(time.perf_counter() - start)
+
+    runs = 1 if benchmark.disabled else RUNS
+    benchmark.pedantic(pack_once, rounds=runs, iterations=1)
+    document = json.loads((out / "expressions.json").read_text())
+    assert document["expressions"] and (out / "neutral.obj").is_file()
+    seconds = min(times)
+    reference = _best_start([sys.executable, "-c", "import numpy"], runs)
+    rig = rigs.load(rig_sources[source])
+    benchmark.extra_info.update(
+        command=f"harness pack {source} --no-pictures",
+        n_vertices=rig.n_vertices,
+        n_shapes=rig.n_shapes,
+        expressions=len(document["expressions"]),
+        seconds=round(seconds, 4),
+        ratio_to_numpy_start=round(seconds / reference, 2),
+    )
+    speed_target(f"harness pack ({source}) [s]", seconds, TARGETS[source])
