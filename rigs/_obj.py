@@ -15,6 +15,7 @@ import warnings
 from array import array
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from itertools import compress
 from operator import itemgetter
 from pathlib import Path
@@ -1062,14 +1063,30 @@ class ObjSurface:
             raise ValueError(
                 f"{self.source}: {self.n_vertices} 'v' lines, got positions of shape {vertices.shape}"
             )
-        lines = np.array(self.lines, dtype=object)
         rows = self._coordinate_rows(vertices, step, single)
         if any(self.vertex_tails):
             rows = [row + tail for row, tail in zip(rows, self.vertex_tails, strict=True)]
-        lines[self.vertex_rows] = rows
+        pieces, slots = self._layout
+        pieces = pieces.copy()
+        pieces[slots] = rows
         header = "".join(f"# {line}\n" for line in comment.splitlines())
-        body = "\n".join(lines.tolist())
+        body = "\n".join(pieces.tolist())
         return header + body + ("" if body.endswith("\n") else "\n")
+
+    @cached_property
+    def _layout(self) -> tuple[np.ndarray, np.ndarray]:
+        """The file's lines with every run of lines between two ``v`` lines joined into one piece (so
+        that joining the pieces is joining the lines), and the positions of the ``v`` lines among them."""
+        rows = self.vertex_rows.tolist()
+        pieces: list[str | None] = []
+        slots = []
+        for start, end in zip([-1, *rows], [*rows, len(self.lines)], strict=True):
+            if end > start + 1:
+                pieces.append("\n".join(self.lines[start + 1 : end]))
+            if end < len(self.lines):
+                slots.append(len(pieces))
+                pieces.append(None)
+        return np.array(pieces, dtype=object), np.asarray(slots, dtype=np.int64)
 
     def _coordinate_rows(self, vertices: np.ndarray, step: float, single: bool) -> list[str]:
         """`coordinate_lines` of ``vertices``, formatting only the rows whose values differ (bit for bit)
