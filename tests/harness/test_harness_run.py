@@ -111,7 +111,9 @@ def test_a_raising_solver_is_an_error_and_an_unavailable_one_is_skipped(
     summary = harness.run_grid(config, tmp_path, make_executor=_local())
     assert summary.statuses == {"error": 1, "skipped": 1, "ok": 1}
     cells = harness.read_records(tmp_path).query("kind == 'cell'").set_index("solver")
-    assert cells.loc["raising", "message"] == "RuntimeError: backend exploded on purpose"
+    assert cells.loc["raising", "message"] == (
+        "solver error in expression 1: raising: RuntimeError: backend exploded on purpose"
+    )
     assert cells.loc["missing", "message"].startswith(
         "solver 'missing' unavailable: package 'harness-test-nothing'"
     )
