@@ -28,25 +28,16 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import warnings
 from collections.abc import Iterable
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from rigs import atomic_write
+
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
 MANIFEST_VERSION = 1
-
-
-def _current_umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-#: Permissions of new files (a temporary file is created private): what ``open()`` would give.
-_FILE_MODE = 0o666 & ~_current_umask()
 
 
 class OutputFolderError(ValueError):
@@ -55,35 +46,6 @@ class OutputFolderError(ValueError):
 
 class ChangedFileWarning(UserWarning):
     """A file the harness wrote was changed since, so it is left in place instead of being removed."""
-
-
-def atomic_write(path: Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` so that ``path`` holds either its old content or all of the new one.
-
-    The data goes to a uniquely named temporary file in the same folder, is flushed to disk (``fsync``)
-    and renamed over ``path`` (``os.replace``); on any failure the temporary file is removed and
-    ``path`` is unchanged. Text is written as UTF-8.
-
-    Raises
-    ------
-    OSError
-        When the folder is not writable or the disk is full.
-    """
-    path = Path(path)
-    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(descriptor, "wb") as handle:
-            os.fchmod(handle.fileno(), _FILE_MODE)
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    _sync_folder(path.parent)
-    return path
 
 
 def _write(path: Path, payload: bytes) -> Path:
@@ -95,20 +57,6 @@ def _write(path: Path, payload: bytes) -> Path:
         raise OutputFolderError(
             f"{path}: cannot write ({error.strerror or error}); check the free space and permissions"
         ) from None
-
-
-def _sync_folder(folder: Path) -> None:
-    """Flush a folder's entries (the rename) to disk where the platform allows it."""
-    try:
-        descriptor = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(descriptor)
-    except OSError:
-        pass  # some file systems cannot sync a folder; the rename is still atomic
-    finally:
-        os.close(descriptor)
 
 
 def file_sha256(path: Path) -> str:

@@ -22,13 +22,13 @@ the figure has fewer than ``min_runs`` runs there.
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+
+from rigs import atomic_write
 
 #: Columns of a history file, in order; its first line is exactly these names joined by commas.
 HISTORY_COLUMNS: tuple[str, ...] = (
@@ -148,23 +148,6 @@ def _rows_text(rows: pd.DataFrame) -> str:
     )
 
 
-def _write_atomically(path: Path, text: str) -> None:
-    """Replace ``path`` with ``text`` in one step: written to a temporary file beside it, then renamed."""
-    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(descriptor, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.chmod(temporary, mode)
-        os.replace(temporary, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
-        raise
-
-
 def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     """Append the rows of runs not yet in the history file at ``path`` (created when missing).
 
@@ -194,7 +177,7 @@ def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     before = path.read_text(encoding="utf-8") if path.exists() else _HEADER + "\n"
     if not before.endswith("\n"):
         before += "\n"
-    _write_atomically(path, before + _rows_text(new))
+    atomic_write(path, before + _rows_text(new))
     return len(new)
 
 

