@@ -113,14 +113,13 @@ def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None
 
     Returns None when the file is unusual (any whitespace but spaces and line ends, a line continuation,
     an indented line, a ``v`` or ``f`` keyword alone or glued to a comment), has no vertices, or has a
-    vertex line that does not read (too few values, a malformed or non-finite number), leaving the
-    line-by-line reader to handle it and name the line.
+    vertex line that does not read (too few values, a malformed, non-finite or too large number), leaving
+    the line-by-line reader to handle it and name the line.
     """
-    if not text.isascii() or any(character in text for character in _UNPLAIN_CHARACTERS):
+    if not _plain_characters(text):
         return None
     lines, starts, face_lines = _lines_to_read(text, faces_of)
-    kinds = set(starts)
-    if kinds & _UNPLAIN_STARTS or any(kind[:1] == " " for kind in kinds):
+    if not _plain_starts(set(starts)):
         return None
     rows = list(compress(lines, map("v ".__eq__, starts)))
     vertices = _vertex_positions(rows, faces_of) if rows else None
@@ -135,6 +134,54 @@ _UNPLAIN_CHARACTERS = ("\\", "\t", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x1f
 #: Line beginnings that do too (besides indentation): ``v`` or ``f`` alone or glued to a comment.
 _UNPLAIN_STARTS = frozenset({"v", "v#", "f", "f#"})
 _FIRST_TWO = itemgetter(slice(0, 2))
+
+
+def _plain_characters(text: str) -> bool:
+    """ASCII without `_UNPLAIN_CHARACTERS`."""
+    return text.isascii() and not any(character in text for character in _UNPLAIN_CHARACTERS)
+
+
+def _plain_starts(kinds: set[str]) -> bool:
+    """Whether lines beginning with ``kinds`` (their first two characters) are plain: none indented, none
+    of `_UNPLAIN_STARTS`."""
+    return not kinds & _UNPLAIN_STARTS and not any(kind[:1] == " " for kind in kinds)
+
+
+def _plain_mesh(text: str, source: str) -> ObjMesh | None:
+    """A full read of a plain file without groups (as `_vertices_only` tells plain files) in one go: the
+    same mesh the line-by-line reader makes of it, or None to leave the file (and naming the line at
+    fault) to that reader.
+
+    Raises
+    ------
+    RigError
+        For a face the line-by-line reader would refuse (see `_faces`).
+    """
+    if not _plain_characters(text):
+        return None
+    lines, starts, face_lines = _lines_to_read(text, None)
+    kinds = set(starts)
+    if not _plain_starts(kinds) or kinds & {"g", "g ", "g#"}:
+        return None
+    is_vertex = np.fromiter(map("v ".__eq__, starts), dtype=bool, count=len(starts))
+    rows = list(compress(lines, is_vertex))
+    vertices = _read_rows(rows) if rows else None
+    if vertices is None or not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
+        return None
+    is_face = np.fromiter(map("f ".__eq__, starts), dtype=bool, count=len(starts))
+    defined_before = np.cumsum(is_vertex)[is_face]
+    faces = ()
+    if face_lines:
+        numbers = np.flatnonzero(is_face) + 1
+        faces = _faces(list(face_lines), numbers, defined_before, len(vertices), source)
+    first_face = 0 if text.startswith("f ") else text.find("\nf ") + 1
+    return ObjMesh(
+        vertices=vertices,
+        faces=faces,
+        face_lines=face_lines,
+        face_text=text[first_face:] if face_lines and defined_before[0] == len(vertices) else "",
+        vertex_lines=np.array(rows, dtype=object),
+    )
 
 
 def _lines_to_read(text: str, faces_of: ObjMesh | None) -> tuple[list[str], list[str], tuple[str, ...]]:
@@ -160,7 +207,7 @@ def _lines_to_read(text: str, faces_of: ObjMesh | None) -> tuple[list[str], list
 def _vertex_positions(lines: list[str], faces_of: ObjMesh | None) -> np.ndarray | None:
     """(N, 3) positions of ``v`` lines: a line equal to the neutral's (``faces_of``) line of its vertex
     takes the neutral's position, the others are read. None when a line read does not give three finite
-    coordinates."""
+    coordinates within `LARGEST_COORDINATE`."""
     known = faces_of.vertex_lines if faces_of is not None else ()
     if len(known) == len(lines):
         moved = np.flatnonzero(np.array(lines, dtype=object) != known).tolist()
@@ -168,7 +215,7 @@ def _vertex_positions(lines: list[str], faces_of: ObjMesh | None) -> np.ndarray 
     else:
         moved, vertices = list(range(len(lines))), np.empty((len(lines), 3))
     read = _read_rows([lines[index] for index in moved])
-    if read is None or not np.isfinite(read).all():
+    if read is None or not (np.abs(read) <= LARGEST_COORDINATE).all():  # (False for NaN)
         return None
     vertices[moved] = read
     return vertices
@@ -226,10 +273,9 @@ def parse_obj(text: str, source: str, *, with_faces: bool = True, faces_of: ObjM
     """
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
-    if not with_faces:
-        fast = _vertices_only(text, faces_of)
-        if fast is not None:
-            return fast
+    fast = _vertices_only(text, faces_of) if not with_faces else _plain_mesh(text, source)
+    if fast is not None:
+        return fast
     coordinates = array("d")
     vertex_line_numbers = array("q")
     vertex_lines: list[str] = []
@@ -335,8 +381,10 @@ def _vertices(coordinates: array, line_numbers: array, source: str) -> np.ndarra
 
 
 def _faces(
-    lines: list[str], line_numbers: array, vertex_counts: array, n_vertices: int, source: str
+    lines: list[str], line_numbers: Sequence[int], vertex_counts: Sequence[int], n_vertices: int, source: str
 ) -> tuple[np.ndarray, ...]:
+    """0-based polygons of face lines; ``vertex_counts`` are the vertices defined before each line (for
+    negative indices). Raises `RigError` for the first line at fault."""
     counts, flat = _face_corners(lines, line_numbers, n_vertices, source)
     if counts.size and counts.max() > n_vertices:  # a polygon repeats a vertex (and would be costly)
         i = int(np.argmax(counts))
@@ -345,7 +393,7 @@ def _faces(
             f"{n_vertices} vertices"
         )
     face_of_corner = np.repeat(np.arange(len(counts)), counts)
-    defined_before = np.frombuffer(vertex_counts, dtype=np.int64)[face_of_corner]
+    defined_before = np.asarray(vertex_counts, dtype=np.int64)[face_of_corner]
     flat = np.where(flat < 0, flat + defined_before, flat - 1)
     bad_corner = (flat < 0) | (flat >= n_vertices)
     if bad_corner.any():
@@ -359,7 +407,7 @@ def _faces(
 
 
 def _face_corners(
-    lines: list[str], line_numbers: array, n_vertices: int, source: str
+    lines: list[str], line_numbers: Sequence[int], n_vertices: int, source: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """Corner counts of face lines and their vertex indices as written (1-based, or negative).
 

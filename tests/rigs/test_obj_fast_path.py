@@ -94,6 +94,7 @@ _TOKENS = st.sampled_from(
         "f",
         "vt",
         "g",
+        "g a",
         "#",
         " ",
         "  ",
@@ -104,12 +105,23 @@ _TOKENS = st.sampled_from(
         "\\",
         "/",
         "1",
+        "-1",
+        "-40",
         "-2.5",
+    ]
+    + [
         "1e3",
+        "1e200",
         "1e400",
         "nan",
+        "x",
+        "1_0",
+        "+.5",
+        "v 1 2 3",
+        "f 1 2 3",
+        "f 1/1 2//3 -1",
+        "f" + " 1" * 17,
     ]
-    + ["x", "1_0", "+.5", "v 1 2 3", "f 1 2 3"]
 )
 
 
@@ -123,6 +135,32 @@ def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> Non
         lines[line] = "".join(tokens)
     text = "\n".join(lines)
     _agree(text)
+
+
+def _full_read(text: str, *, fast: bool):
+    """Everything a full read gives, or its error; with ``fast=False`` by the line-by-line reader alone."""
+    with contextlib.ExitStack() as stack:
+        if not fast:
+            stack.enter_context(mock.patch("rigs._obj._plain_mesh", return_value=None))
+        try:
+            mesh = parse_obj(text, "mesh.obj")
+        except RigError as error:
+            return str(error)
+    groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
+    faces = [face.tolist() for face in mesh.faces]
+    return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_text, mesh.vertex_lines.tolist()
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, NEUTRAL_TEXT.count("\n")), st.lists(_TOKENS, max_size=12)), max_size=3)
+)
+def test_a_full_read_in_one_go_is_the_line_by_line_reading(edits) -> None:
+    lines = NEUTRAL_TEXT.split("\n")
+    for line, tokens in edits:
+        lines[line] = "".join(tokens)
+    text = "\n".join(lines)
+    assert _full_read(text, fast=True) == _full_read(text, fast=False)
 
 
 def _corners_line_by_line(lines: list[str]):
