@@ -10,11 +10,11 @@ Names are imported from their modules on first use (PEP 562), so that ``harness 
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+import lazy_loader
 
 if TYPE_CHECKING:
-    from harness._claims import claims_table
     from reports._compare import Change, Comparison, compare, comparison_table, run_figures
     from reports._contact import contact_sheet
     from reports._figures import coverage_figure, history_figure, rms_figure
@@ -35,81 +35,27 @@ if TYPE_CHECKING:
         worst_shapes_table,
     )
 
-#: The module that defines each public name.
-_MODULE_OF = {
-    "claims_table": "harness._claims",
-    "Change": "reports._compare",
-    "Comparison": "reports._compare",
-    "compare": "reports._compare",
-    "comparison_table": "reports._compare",
-    "run_figures": "reports._compare",
-    "contact_sheet": "reports._contact",
-    "coverage_figure": "reports._figures",
-    "rms_figure": "reports._figures",
-    "history_figure": "reports._figures",
-    "HISTORY_COLUMNS": "reports._history",
-    "HistoryError": "reports._history",
-    "Spread": "reports._history",
-    "append_history": "reports._history",
-    "read_history": "reports._history",
-    "PAPER_OVERLAP": "reports._paper",
-    "PAPER_TIMINGS": "reports._paper",
-    "png_bytes": "reports._png",
-    "build_report": "reports._report",
-    "BASELINE_SOLVER": "reports._tables",
-    "REFERENCE_TRANSFERS": "reports._tables",
-    "cell_times": "reports._tables",
-    "expression_count_table": "reports._tables",
-    "overlap_table": "reports._tables",
-    "problem_table": "reports._tables",
-    "rms_table": "reports._tables",
-    "separation_table": "reports._tables",
-    "timing_table": "reports._tables",
-    "worst_shapes_table": "reports._tables",
-}
-
-__all__ = [
-    "BASELINE_SOLVER",
-    "HISTORY_COLUMNS",
-    "PAPER_OVERLAP",
-    "PAPER_TIMINGS",
-    "REFERENCE_TRANSFERS",
-    "Change",
-    "Comparison",
-    "HistoryError",
-    "Spread",
-    "append_history",
-    "build_report",
-    "cell_times",
-    "claims_table",
-    "compare",
-    "comparison_table",
-    "contact_sheet",
-    "coverage_figure",
-    "expression_count_table",
-    "history_figure",
-    "overlap_table",
-    "png_bytes",
-    "problem_table",
-    "read_history",
-    "rms_figure",
-    "rms_table",
-    "run_figures",
-    "separation_table",
-    "timing_table",
-    "worst_shapes_table",
-]
-
-
-def __getattr__(name: str) -> Any:
-    """Import a public name from its module on first use and keep it in the package namespace."""
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'reports' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_compare": ["Change", "Comparison", "compare", "comparison_table", "run_figures"],
+        "_contact": ["contact_sheet"],
+        "_figures": ["coverage_figure", "rms_figure", "history_figure"],
+        "_history": ["HISTORY_COLUMNS", "HistoryError", "Spread", "append_history", "read_history"],
+        "_paper": ["PAPER_OVERLAP", "PAPER_TIMINGS"],
+        "_png": ["png_bytes"],
+        "_report": ["build_report"],
+        "_tables": [
+            "BASELINE_SOLVER",
+            "REFERENCE_TRANSFERS",
+            "cell_times",
+            "expression_count_table",
+            "overlap_table",
+            "problem_table",
+            "rms_table",
+            "separation_table",
+            "timing_table",
+            "worst_shapes_table",
+        ],
+    },
+)

@@ -18,8 +18,9 @@ backend nor the minimum-expression machinery.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+import lazy_loader
 
 if TYPE_CHECKING:
     from solvers._base import (
@@ -54,81 +55,39 @@ if TYPE_CHECKING:
         solver_class,
     )
 
-#: The module that defines each public name.
-_MODULE_OF = {
-    "Availability": "solvers._base",
-    "AvailabilityStatus": "solvers._base",
-    "Capabilities": "solvers._base",
-    "Result": "solvers._base",
-    "Solver": "solvers._base",
-    "package_availability": "solvers._base",
-    "ExactSolver": "solvers._exact",
-    "LoadedSolver": "solvers._loaded",
-    "load": "solvers._loaded",
-    "CliqueModel": "solvers._model",
-    "OpenExpression": "solvers._open",
-    "MinimumExpressions": "solvers._minimum",
-    "OrderedSequence": "solvers._minimum",
-    "minimum_cover_solvers": "solvers._minimum",
-    "minimum_expressions": "solvers._minimum",
-    "ordered_minimum_sequence": "solvers._minimum",
-    "Proposal": "solvers._refine",
-    "RefiningSolver": "solvers._refine",
-    "refine": "solvers._refine",
-    "rejecting": "solvers._refine",
-    "SolverInfo": "solvers._registry",
-    "SolverUnavailableError": "solvers._registry",
-    "UnknownSolverError": "solvers._registry",
-    "availability": "solvers._registry",
-    "get": "solvers._registry",
-    "info": "solvers._registry",
-    "names": "solvers._registry",
-    "refresh": "solvers._registry",
-    "solver_class": "solvers._registry",
-}
-
-__all__ = [
-    "Availability",
-    "AvailabilityStatus",
-    "Capabilities",
-    "CliqueModel",
-    "ExactSolver",
-    "LoadedSolver",
-    "MinimumExpressions",
-    "OpenExpression",
-    "OrderedSequence",
-    "Proposal",
-    "RefiningSolver",
-    "Result",
-    "Solver",
-    "SolverInfo",
-    "SolverUnavailableError",
-    "UnknownSolverError",
-    "availability",
-    "get",
-    "info",
-    "load",
-    "minimum_cover_solvers",
-    "minimum_expressions",
-    "names",
-    "ordered_minimum_sequence",
-    "package_availability",
-    "refine",
-    "refresh",
-    "rejecting",
-    "solver_class",
-]
-
-
-def __getattr__(name: str) -> Any:
-    """Import a public name from its module on first use and keep it in the package namespace."""
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'solvers' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_base": [
+            "Availability",
+            "AvailabilityStatus",
+            "Capabilities",
+            "Result",
+            "Solver",
+            "package_availability",
+        ],
+        "_exact": ["ExactSolver"],
+        "_loaded": ["LoadedSolver", "load"],
+        "_model": ["CliqueModel"],
+        "_open": ["OpenExpression"],
+        "_minimum": [
+            "MinimumExpressions",
+            "OrderedSequence",
+            "minimum_cover_solvers",
+            "minimum_expressions",
+            "ordered_minimum_sequence",
+        ],
+        "_refine": ["Proposal", "RefiningSolver", "refine", "rejecting"],
+        "_registry": [
+            "SolverInfo",
+            "SolverUnavailableError",
+            "UnknownSolverError",
+            "availability",
+            "get",
+            "info",
+            "names",
+            "refresh",
+            "solver_class",
+        ],
+    },
+)

@@ -30,5 +30,5 @@ def test_public_names_resolve_on_first_use():
         assert getattr(reports, name) is not None, name
     assert set(reports.__all__) <= set(dir(reports))
     assert reports.compare.__module__ == "reports._compare"
-    with pytest.raises(AttributeError, match="has no attribute 'nothing'"):
+    with pytest.raises(AttributeError, match="No reports attribute nothing"):
         _ = reports.nothing
