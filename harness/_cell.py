@@ -249,7 +249,9 @@ def _check(spec: CellSpec, solver: Any, template: Any, analysis: Any, expression
 
 def _failed_expression(expressions: list[Any]) -> Any | None:
     """The first expression whose solver reported an error (the sequence stops there)."""
-    return next((e for e in expressions if str(e.termination) == "error"), None)
+    from packing import Termination
+
+    return next((e for e in expressions if e.termination is Termination.ERROR), None)
 
 
 def _expression_rows(base: dict[str, Any], expressions: list[Any], n_shapes: int) -> list[dict[str, Any]]:

@@ -9,8 +9,13 @@ from typing import Any
 import numpy as np
 
 from packing._params import params_from
+from packing._solution import Termination
 from packing._symmetry import detect_pairs
 from rigs import Rig
+
+#: Terminations after which a solver had the chance to fill its expression (a record's string compares
+#: equal to its enum member).
+_RAN_TO_END = (Termination.OPTIMAL, Termination.COMPLETED)
 
 
 class CheckError(ValueError):
@@ -126,7 +131,7 @@ def check(
         primary, extra = _shapes_of(expression)
         rules.check_expression(number, primary, extra, primary_before)
         _check_bound(number, expression)
-        if maximal and str(getattr(expression, "termination", "")) in ("optimal", "completed"):
+        if maximal and getattr(expression, "termination", None) in _RAN_TO_END:
             rules.check_maximal(number, primary, primary_before, rejected.get(number, set()))
         primary_before.update(primary)
 
