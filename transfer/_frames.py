@@ -98,7 +98,8 @@ class TransferredEdges:
 
     Notes
     -----
-    O(T) to build; O(F S) for F triangles and S shapes. Triangles degenerate in the template get zero.
+    O(T) to build; a block costs O(F + P) for F triangles and the P (triangle, shape) pairs of them that
+    the shapes move. Triangles degenerate in the template get zero.
     """
 
     def __init__(
@@ -119,29 +120,44 @@ class TransferredEdges:
         self.coefficients[flat] = 0.0
         self.neutral_edges = edge_vectors(template_neutral, triangles)
         self.neutral_normals = scaled_normals(self.neutral_edges)
+        self._moving: dict[int, np.ndarray] = {}
 
-    def moved(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
-        """``(S, F, 2, 3)`` edge displacements of every template shape in ``shapes`` on every triangle in
-        ``faces``."""
-        corners = self.deltas[shapes][:, self.triangles[faces]]  # (S, F, 3 corners, 3)
-        return corners[:, :, 1:] - corners[:, :, :1]
+    def moving(self, shape: int) -> np.ndarray:
+        """Sorted triangles with a corner that template shape ``shape`` displaces, kept once computed.
+
+        Elsewhere the shape's edge displacements, and so its targets, are exactly zero.
+        """
+        found = self._moving.get(shape)
+        if found is None:
+            displaced = np.any(self.deltas[shape] != 0.0, axis=1)
+            found = self._moving[shape] = np.flatnonzero(displaced[self.triangles].any(axis=1))
+        return found
+
+    def within(self, faces: np.ndarray, shape: int) -> np.ndarray:
+        """Positions in the sorted ``faces`` of the triangles that ``shape`` moves (see `moving`)."""
+        return np.intersect1d(faces, self.moving(shape), assume_unique=True, return_indices=True)[1]
+
+    def moved(self, faces: np.ndarray, shape: int) -> np.ndarray:
+        """``(F, 2, 3)`` edge displacements of template shape ``shape`` on the triangles ``faces``."""
+        corners = self.deltas[shape][self.triangles[faces]]  # (F, 3 corners, 3)
+        return corners[:, 1:] - corners[:, :1]
+
+    def edges(self, faces: np.ndarray, shape: int) -> np.ndarray:
+        """``(F, 2, 3)`` targets ``M_k^{A*}`` of template shape ``shape`` on the triangles ``faces``."""
+        moved = self.moved(faces, shape)
+        turned = scaled_normals(self.neutral_edges[faces] + moved) - self.neutral_normals[faces]
+        c = self.coefficients[faces][..., None]  # (F, 3 frame columns, 2 target edges, 1)
+        return c[:, 0] * moved[:, None, 0] + c[:, 1] * moved[:, None, 1] + c[:, 2] * turned[:, None]
 
     def block(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
-        """``(F, 2, 3, S)`` targets ``M_k^{A*}`` of every shape in ``shapes`` on every triangle in ``faces``.
+        """``(F, 2, 3, S)`` targets of every shape in ``shapes`` on every triangle in the sorted ``faces``.
 
-        Evaluated in chunks of triangles, so temporaries stay O(chunk S).
+        Only the triangles each shape moves are evaluated (`within`); the others are exactly zero.
         """
-        result = np.empty((faces.size, 2, 3, shapes.size))
-        for part in triangle_chunks(faces.size, 6 * shapes.size):
-            chunk = faces[part]
-            moved = self.moved(chunk, shapes)
-            bent = (self.neutral_edges[chunk] + moved).reshape(-1, 2, 3)
-            turned = scaled_normals(bent).reshape(shapes.size, chunk.size, 3) - self.neutral_normals[chunk]
-            c = self.coefficients[chunk][..., None]  # (F, 3 frame columns, 2 target edges, 1)
-            values = (
-                c[:, 0] * moved[:, :, None, 0] + c[:, 1] * moved[:, :, None, 1] + c[:, 2] * turned[:, :, None]
-            )
-            result[part] = values.transpose(1, 2, 3, 0)
+        result = np.zeros((faces.size, 2, 3, shapes.size))
+        for column, shape in enumerate(shapes):
+            rows = self.within(faces, shape)
+            result[rows, :, :, column] = self.edges(faces[rows], shape)
         return result
 
 

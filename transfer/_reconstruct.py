@@ -162,6 +162,11 @@ class FrameReconstruction:
             shape=(n_vertices, n_vertices),
         )
         _, self.components = connected_components(adjacency, directed=False)
+        #: Row v lists the triangles with corner v.
+        self.incidence = sp.csr_matrix(
+            (np.ones(triangles.size), (triangles.ravel(), np.repeat(np.arange(n_triangles), 3))),
+            shape=(n_vertices, n_triangles),
+        )
 
     def anchored(self, fixed: np.ndarray, preference: np.ndarray) -> np.ndarray:
         """Add one fixed vertex to every connected component that has none.
@@ -202,8 +207,12 @@ class FrameReconstruction:
         return self.anchored(static_vertices(deltas, tolerance), displacement_lengths(deltas))
 
     def faces(self, mask: np.ndarray) -> np.ndarray:
-        """Sorted triangles touching a vertex left free by ``mask``, the ``(N,)`` held vertices."""
-        return np.flatnonzero(~mask[self.triangles].all(axis=1))
+        """Sorted triangles touching a vertex left free by ``mask``, the ``(N,)`` held vertices.
+
+        O(F) for the F free vertices' triangles, through the vertex-to-triangle incidence.
+        """
+        _, corners, _ = _rows(self.incidence, np.flatnonzero(~mask))
+        return np.unique(corners)
 
     def block(self, mask: np.ndarray) -> FreeBlock | None:
         """The factorised `FreeBlock` of the vertices ``mask`` holds; None when it holds every vertex.

@@ -44,6 +44,9 @@ if TYPE_CHECKING:
 _MIN_STABLE = 3
 #: Scanners (widened shapes and neighbourhoods of one target) kept per process.
 _SCANNER_CACHE_SIZE = 2
+#: Bytes of scans a scanner keeps, so the packings of one rig that share a sequence's first expressions
+#: capture them once.
+_SCAN_BUDGET = 64 * 2**20
 _scanners: OrderedDict[tuple[str, ScanModel], _Scanner] = OrderedDict()
 _scanners_lock = threading.Lock()
 
@@ -149,7 +152,7 @@ def scan_expressions(
     scanner = _scanner(target, model)
     return np.stack(
         [
-            scanner.capture(row, expression, np.random.default_rng([int(seed), j]))
+            scanner.scan(row, expression, int(seed), j)
             for j, (row, expression) in enumerate(zip(weight_array, linear, strict=True))
         ]
     )
@@ -208,6 +211,24 @@ class _Scanner:
             target.n_vertices, max(_MIN_STABLE, int(round(model.stable_share * target.n_vertices)))
         )
         self.centre = self.neutral.mean(axis=0)
+        self._scans: OrderedDict[tuple[bytes, int, int], np.ndarray] = OrderedDict()
+        self._scans_kept = max(1, _SCAN_BUDGET // max(self.neutral.nbytes, 1))
+        self._lock = threading.Lock()
+
+    def scan(self, weights: np.ndarray, expression: np.ndarray, seed: int, index: int) -> np.ndarray:
+        """Scan ``index`` of the capture session ``seed``: `capture` with ``default_rng([seed, index])``,
+        memoised (within `_SCAN_BUDGET`) on the weights, the seed and the index."""
+        key = (weights.tobytes(), seed, index)
+        with self._lock:
+            found = self._scans.get(key)
+        if found is None:
+            found = self.capture(weights, expression, np.random.default_rng([seed, index]))
+            found.flags.writeable = False
+            with self._lock:
+                self._scans[key] = found
+                while len(self._scans) > self._scans_kept:
+                    self._scans.popitem(last=False)
+        return found
 
     def capture(self, weights: np.ndarray, expression: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One scan: the linear ``expression`` plus correctives and noise, moved rigidly, then aligned."""

@@ -68,10 +68,11 @@ class Regularisation:
 
 def edge_motion(prior: TransferredEdges, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
     """``(F, S)`` values of ``|M_i^A|``, the Frobenius norm of the edge displacements of every shape in
-    ``shapes`` on every triangle in ``faces``, in chunks of triangles."""
-    motion = np.empty((faces.size, shapes.size))
-    for part in triangle_chunks(faces.size, 6 * shapes.size):
-        motion[part] = np.sqrt(np.sum(prior.moved(faces[part], shapes) ** 2, axis=(2, 3))).T
+    ``shapes`` on every triangle in the sorted ``faces`` (zero where a shape moves no corner)."""
+    motion = np.zeros((faces.size, shapes.size))
+    for column, shape in enumerate(shapes):
+        rows = prior.within(faces, shape)
+        motion[rows, column] = np.sqrt(np.sum(prior.moved(faces[rows], shape) ** 2, axis=(1, 2)))
     return motion
 
 
@@ -87,14 +88,14 @@ def motion_peaks(setup: TransferSetup) -> np.ndarray:
     -------
     (K,) array of positive scales.
     """
-    n_triangles = setup.triangles.shape[0]
     lengths = displacement_lengths(setup.template_deltas)
     bound = 2.0 * np.sqrt(2.0) * np.where(setup.fixed, lengths, 0.0).max(axis=1, initial=0.0)
     peaks = np.zeros(setup.fixed.shape[0])
     for members in setup.groups:
         peaks[members] = edge_motion(setup.prior, setup.faces(members), members).max(axis=0, initial=0.0)
     for shape in np.flatnonzero(peaks <= bound * (1.0 + 1e-9)):
-        peaks[shape] = edge_motion(setup.prior, np.arange(n_triangles), np.array([shape])).max(initial=0.0)
+        everywhere = setup.prior.moving(shape)
+        peaks[shape] = edge_motion(setup.prior, everywhere, np.array([shape])).max(initial=0.0)
     return np.where(peaks > 0, peaks, 1.0)
 
 
