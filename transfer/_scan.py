@@ -24,7 +24,6 @@ noise and head motion belong to the capture session (seeded by ``seed`` and the 
 
 from __future__ import annotations
 
-import hashlib
 import threading
 import zlib
 from collections import OrderedDict
@@ -33,6 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from transfer._digest import content_digest
 from transfer._inputs import check_weights
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ _SCANNER_CACHE_SIZE = 2
 #: Bytes of scans a scanner keeps, so the packings of one rig that share a sequence's first expressions
 #: capture them once.
 _SCAN_BUDGET = 64 * 2**20
-_scanners: OrderedDict[tuple[str, ScanModel], _Scanner] = OrderedDict()
+_scanners: OrderedDict[tuple[str, tuple[str, ...], ScanModel], _Scanner] = OrderedDict()
 _scanners_lock = threading.Lock()
 
 
@@ -159,15 +159,10 @@ def scan_expressions(
 
 
 def _scanner(target: Rig, model: ScanModel) -> _Scanner:
-    """The `_Scanner` of a target and model, memoised per process on the target's content (a BLAKE2
-    digest), so the capture sessions of every packing of one rig widen its shapes once."""
-    digest = hashlib.blake2b(digest_size=16)
-    for array in (target.neutral, target.deltas, target.triangles):
-        contiguous = np.ascontiguousarray(array)
-        digest.update(f"{contiguous.dtype}{contiguous.shape}".encode())
-        digest.update(contiguous.data)
-    digest.update(repr(target.names).encode())
-    key = (digest.hexdigest(), model)
+    """The `_Scanner` of a target and model, memoised per process on the target's content
+    (`content_digest` and the shape names), so the capture sessions of every packing of one rig widen its
+    shapes once."""
+    key = (content_digest(target.neutral, target.deltas, target.triangles), target.names, model)
     with _scanners_lock:
         if key in _scanners:
             _scanners.move_to_end(key)

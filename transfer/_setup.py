@@ -8,7 +8,6 @@ evaluating ``dt`` and ``ebfr`` at many J values pays one prior and one factorisa
 
 from __future__ import annotations
 
-import hashlib
 import threading
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
@@ -16,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from transfer._digest import content_digest
 from transfer._frames import TransferredEdges, aligned_template
 from transfer._reconstruct import FrameReconstruction, FreeBlock, constraint_groups
 
@@ -165,16 +165,12 @@ def transfer_setup(
 ) -> TransferSetup:
     """The `TransferSetup` of a template rig and target neutral, memoised per process.
 
-    The key is the content of the arrays (a BLAKE2 digest of their bytes) and the parameters, so an equal
-    rig built again shares the set-up; the last `_CACHE_SIZE` set-ups are kept with `FACTOR_BUDGET`
+    The key is the content of the arrays (`content_digest`) and the parameters, so an equal rig built
+    again shares the set-up; the last `_CACHE_SIZE` set-ups are kept with `FACTOR_BUDGET`
     entries of factorisations each.
     """
-    digest = hashlib.blake2b(digest_size=16)
-    for array in (template.neutral, template.deltas, template.triangles, target_neutral):
-        contiguous = np.ascontiguousarray(array)
-        digest.update(f"{contiguous.dtype}{contiguous.shape}".encode())
-        digest.update(contiguous.data)
-    key = (digest.hexdigest(), float(static_tolerance), bool(align))
+    digest = content_digest(template.neutral, template.deltas, template.triangles, target_neutral)
+    key = (digest, float(static_tolerance), bool(align))
     with _setups_lock:
         if key in _setups:
             _setups.move_to_end(key)
