@@ -118,14 +118,36 @@ def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None
     """
     if not _plain_characters(text):
         return None
-    lines, starts, face_lines = _lines_to_read(text, faces_of)
-    if not _plain_starts(set(starts)):
-        return None
-    rows = list(compress(lines, map("v ".__eq__, starts)))
+    tail = faces_of.face_text if faces_of is not None else ""
+    rows = _vertex_block(text[: len(text) - len(tail)]) if tail and text.endswith(tail) else None
+    if rows is not None:
+        face_lines = faces_of.face_lines
+    else:
+        lines, starts, face_lines = _lines_to_read(text, faces_of)
+        if not _plain_starts(set(starts)):
+            return None
+        rows = list(compress(lines, map("v ".__eq__, starts)))
     vertices = _vertex_positions(rows, faces_of) if rows else None
     if vertices is None:
         return None
     return ObjMesh(vertices=vertices, faces=(), face_lines=face_lines)
+
+
+def _vertex_block(head: str) -> list[str] | None:
+    """The lines of ``head`` (a file's text before its face section) from its first ``v`` line on, when
+    only comment lines come before it (as exporters write files); else None. They are not looked at one
+    by one: `_vertex_positions` takes them for ``v`` lines where they equal the neutral's and checks the
+    others."""
+    start = 0 if head.startswith("v ") else head.find("\nv ") + 1
+    if start == 0 and not head.startswith("v "):
+        return None
+    comments = head[: start - 1].split("\n") if start else []
+    if any(line[:1] != "#" for line in comments):
+        return None
+    rows = head[start:].split("\n")
+    if rows[-1] == "":
+        rows.pop()
+    return rows
 
 
 #: Characters that send a file to the line-by-line reader: line continuations, and whitespace other than
@@ -206,15 +228,18 @@ def _lines_to_read(text: str, faces_of: ObjMesh | None) -> tuple[list[str], list
 
 def _vertex_positions(lines: list[str], faces_of: ObjMesh | None) -> np.ndarray | None:
     """(N, 3) positions of ``v`` lines: a line equal to the neutral's (``faces_of``) line of its vertex
-    takes the neutral's position, the others are read. None when a line read does not give three finite
-    coordinates within `LARGEST_COORDINATE`."""
+    takes the neutral's position (so it is a ``v`` line), the others are read. None when one of those is
+    not a plain ``v`` line or does not give three finite coordinates within `LARGEST_COORDINATE`."""
     known = faces_of.vertex_lines if faces_of is not None else ()
     if len(known) == len(lines):
         moved = np.flatnonzero(np.array(lines, dtype=object) != known).tolist()
         vertices = faces_of.vertices.copy()
     else:
         moved, vertices = list(range(len(lines))), np.empty((len(lines), 3))
-    read = _read_rows([lines[index] for index in moved])
+    changed = [lines[index] for index in moved]
+    if any(line[:2] != "v " for line in changed):
+        return None
+    read = _read_rows(changed)
     if read is None or not (np.abs(read) <= LARGEST_COORDINATE).all():  # (False for NaN)
         return None
     vertices[moved] = read
