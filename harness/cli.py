@@ -89,11 +89,12 @@ def _plugin_entry_points() -> dict[str, importlib.metadata.EntryPoint]:
 
 
 def _as_click_command(name: str, value: Any) -> click.Command:
+    """The click command a plugin's entry point names: a click command, or a typer app (the plugin that
+    made one has typer installed; the harness itself does not need it)."""
     if isinstance(value, click.Command):
         return value
-    import typer
-
-    if isinstance(value, typer.Typer):
+    typer = sys.modules.get("typer")
+    if typer is not None and isinstance(value, typer.Typer):
         return typer.main.get_command(value)
     raise TypeError(f"it is a {type(value).__name__}, not a click command or a typer app")
 
