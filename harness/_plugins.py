@@ -62,11 +62,10 @@ def transfer_names() -> list[str]:
 
 
 def solver(name: str) -> Any:
-    """A ready-to-solve instance of the named solver plugin."""
+    """The named solver plugin behind the framework's checks and normalisation (`solvers.get`)."""
     import solvers
 
-    plugin = solvers.get(name)
-    return plugin() if isinstance(plugin, type) else plugin
+    return solvers.get(name)
 
 
 def solver_info(name: str) -> PluginInfo:
