@@ -13,9 +13,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import harness
-from harness import _outdir, _records
+from harness import _records
 from harness._durations import format_duration, parse_duration
 from harness._grid import CellSpec, RunConfig, rig_digest
+from rigs import _atomic
 
 
 @pytest.mark.parametrize(
@@ -98,7 +99,7 @@ def test_unknown_record_column_is_refused() -> None:
 
 
 class _FullDisk:
-    """The `os` module as `harness._outdir` sees it on a full disk: data is written, fsync fails."""
+    """The `os` module as `rigs.atomic_write` sees it on a full disk: data is written, fsync fails."""
 
     def __getattr__(self, name):
         return getattr(os, name)
@@ -109,7 +110,7 @@ class _FullDisk:
 
 
 def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr(_outdir, "os", _FullDisk())
+    monkeypatch.setattr(_atomic, "os", _FullDisk())
     with pytest.raises(harness.RecordsWriteError, match=r"could not write .*aaaa.parquet: disk full"):
         _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
     assert list((tmp_path / "records").iterdir()) == []
