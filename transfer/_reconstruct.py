@@ -230,6 +230,7 @@ class FrameReconstruction:
         return found
 
     def _factorised(self, mask: np.ndarray) -> FreeBlock:
+        """The `FreeBlock` of ``mask``: its rows of the Laplacian and of ``G^T W``, and the factor."""
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
 
@@ -270,7 +271,7 @@ def _rows(matrix: sp.csr_matrix, rows: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def _select(indptr: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """The ``indptr`` of the CSR rows of ``indptr`` with only the entries where ``keep`` holds."""
+    """The ``indptr`` of CSR rows (``indptr``) that keep only their entries where ``keep`` holds."""
     return np.concatenate(([0], np.cumsum(keep)))[indptr]
 
 
