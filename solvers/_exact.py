@@ -13,12 +13,15 @@ normalises the answer as for any plugin.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-from packing import PackingProblem, Termination
+from packing import Termination
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
 from solvers._model import CliqueModel
 from solvers._reduce import reduce_problem
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 
 class ExactSolver:

@@ -9,11 +9,14 @@ that native solver APIs take directly and that pickle cheaply to a worker proces
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
-from packing import PackingProblem
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+
+    from packing import PackingProblem
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,8 @@ class CliqueModel:
 
         With `upper`, the model's constraints are ``matrix() @ x <= upper()``.
         """
+        import scipy.sparse as sp
+
         starts, items, values = self.row_starts, self.row_items, np.ones(self.row_items.size)
         if self.cap is not None:
             starts = np.append(starts, starts[-1] + self.n_items)

@@ -7,9 +7,12 @@ in its own order.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from packing import PackingProblem
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 
 class OpenExpression:

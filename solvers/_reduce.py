@@ -19,11 +19,14 @@ weights, so every dominated item of a round can go at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from packing import PackingProblem
 from solvers._model import CliqueModel
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 
 @dataclass(frozen=True)

@@ -18,12 +18,16 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from packing import PackingProblem, Solution, Termination, conflict_graph
+from packing import Solution, Termination
 from solvers._base import Capabilities, check_solve_arguments, make_solution
 from solvers._loaded import load
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 
 @dataclass(frozen=True)
@@ -101,6 +105,8 @@ def refine(
     """
     check_solve_arguments(problem, time_limit, seed)
     solver = load(solver)
+    from packing import conflict_graph
+
     adjacency = conflict_graph(problem)
     counts = problem.item_shape_counts
     accepted: list[int] = []

@@ -6,13 +6,16 @@ Plugins ``greedy`` (`GreedySolver`) and ``greedy-overlap`` (`GreedyOverlapSolver
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination
+from packing import Termination
 from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
 from solvers._open import OpenExpression
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 #: Distribution that ships the built-in pure-numpy solvers (their version is the project's).
 PROJECT_DISTRIBUTION = "expression-packing-harness"

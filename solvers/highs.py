@@ -7,15 +7,17 @@ version loads beside it in one process, so availability checks the pair.
 from __future__ import annotations
 
 import importlib.metadata
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
 from packing import Termination
 from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: HiGHS version bundled by each OR-Tools release line; highspy must match it to share a process.
 ORTOOLS_BUNDLED_HIGHS = {"9.15": "1.12.0"}

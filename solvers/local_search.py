@@ -13,13 +13,16 @@ all within the cap (sec. 6), until no move improves eq. 3a. It keeps the better 
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from packing import PackingProblem, Termination, conflict_graph
+from packing import Termination
 from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
 from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_order
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 #: An improvement smaller than this (relative to the total weight) is treated as none.
 IMPROVEMENT_TOLERANCE = 1e-12
@@ -122,6 +125,8 @@ def swap_local_search(problem: PackingProblem, start: tuple[int, ...] | None = N
     Each accepted move raises eq. 3a, so the search terminates; one pass costs O(sum of squared
     degrees of the chosen items) on the conflict graph.
     """
+    from packing import conflict_graph
+
     adjacency = conflict_graph(problem)
     starts = (
         [start]

@@ -16,16 +16,17 @@ active blendshape, plus P) and exactly the feasible set and optimum of eq. 3.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
-from packing import PackingProblem
 from solvers._base import Availability, Capabilities, Result, Stopwatch
 from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, run_cbc
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
+
+if TYPE_CHECKING:
+    from packing import PackingProblem
 
 
 class NaivePulpCbcSolver(ExactSolver):
@@ -56,6 +57,7 @@ class NaivePulpCbcSolver(ExactSolver):
     ) -> Result:
         """One PuLP row per vertex, pair and apart constraint, as published (``model`` is not used)."""
         import pulp
+        import scipy.sparse as sp
 
         binary = find_cbc(self.cbc)
         if binary is None:
