@@ -83,11 +83,11 @@ def find_cancellations(
     -----
     Only pairs whose displacements share a moving vertex can cancel; for those, O(N) per pair.
     """
-    found = []
+    found, motion = [], _Motion(rig)
     for number, group in enumerate(groups, start=1):
         found += [
             replace(cancellation, expression=number)
-            for cancellation in _cancelling(rig, combinations(sorted(set(group)), 2), ratio)
+            for cancellation in _cancelling(rig, combinations(sorted(set(group)), 2), ratio, motion)
         ]
     return found
 
@@ -101,16 +101,39 @@ def cancelling_twins(
     return _cancelling(rig, candidates, ratio)
 
 
-def _cancelling(rig: Rig, pairs: Iterable[tuple[str, str]], ratio: float) -> list[Cancellation]:
+class _Motion:
+    """Per shape, computed once: peak displacement, vertices that move at all, and those that move more
+    than ``still`` (1e-9 of the rig's diagonal)."""
+
+    def __init__(self, rig: Rig) -> None:
+        self.rig = rig
+        self.still = 1e-9 * rig.diagonal()  # displacements below this move nothing
+        self._found: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, name: str) -> tuple[float, np.ndarray, np.ndarray]:
+        if name not in self._found:
+            lengths = np.linalg.norm(self.rig.deltas[self.rig.index(name)], axis=1)
+            moved = np.flatnonzero(lengths)
+            strong = moved[lengths[moved] > self.still]
+            self._found[name] = float(lengths.max(initial=0.0)), moved, strong
+        return self._found[name]
+
+
+def _cancelling(
+    rig: Rig, pairs: Iterable[tuple[str, str]], ratio: float, motion: _Motion | None = None
+) -> list[Cancellation]:
+    """The pairs whose sum cancels: a pair's sum is taken only where one of the two moves at all
+    (elsewhere it is exactly zero), and only pairs that both move some vertex can cancel."""
+    motion = _Motion(rig) if motion is None else motion
     found = []
-    still = 1e-9 * rig.diagonal()  # displacements below this move nothing
     for a, b in pairs:
-        first, second = rig.deltas[rig.index(a)], rig.deltas[rig.index(b)]
-        lengths = np.linalg.norm(first, axis=1), np.linalg.norm(second, axis=1)
-        if not ((lengths[0] > still) & (lengths[1] > still)).any():
+        (peak_a, moved_a, strong_a), (peak_b, moved_b, strong_b) = motion(a), motion(b)
+        if not np.intersect1d(strong_a, strong_b, assume_unique=True).size:
             continue
-        peak_sum = float(np.linalg.norm(first + second, axis=1).max())
-        peak_parts = float(max(lengths[0].max(), lengths[1].max()))
+        where = np.union1d(moved_a, moved_b)
+        summed = rig.deltas[rig.index(a), where] + rig.deltas[rig.index(b), where]
+        peak_sum = float(np.sqrt(np.einsum("ij,ij->i", summed, summed).max(initial=0.0)))
+        peak_parts = max(peak_a, peak_b)
         if peak_sum < ratio * peak_parts:
             found.append(Cancellation((a, b), peak_sum, peak_parts))
     return found
