@@ -1,7 +1,8 @@
 """Wavefront OBJ meshes: a tolerant reader, polygon triangulation, and rigs as folders of OBJs.
 
 A rig folder holds the neutral mesh (``neutral.obj`` unless told otherwise) and one OBJ per blendshape with
-the same vertices and faces; the blendshape's name is its file stem. The folder may also hold ``rig.json``
+the same vertices and faces, beside it or, as many exporters write them, in one subfolder (``shapes/``);
+the blendshape's name is its file stem. The folder may also hold ``rig.json``
 (written by :func:`save_obj_folder`) that fixes the shape order and keeps regions and units.
 """
 
@@ -715,7 +716,8 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     ----------
     folder : path
         The folder. Without ``rig.json``, every ``*.obj`` other than the neutral is a blendshape, named by
-        its file stem, in sorted order. With ``rig.json`` (see :func:`save_obj_folder`), its ``shapes`` list
+        its file stem, in sorted order; when the neutral is the only OBJ there, the OBJs of the one
+        subfolder that holds any are. With ``rig.json`` (see :func:`save_obj_folder`), its ``shapes`` list
         gives the order and its ``regions`` and ``units`` are kept.
     neutral : str or path, optional
         File name (in the folder) or path of the neutral mesh; default ``neutral.obj``, else the one file
@@ -753,10 +755,7 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     neutral_path = _neutral_path(folder, entries, neutral, manifest.get("neutral"))
     shape_paths = _shape_paths(folder, entries, neutral_path, manifest.get("shapes"))
     if not shape_paths and "shapes" not in manifest:  # (a rig.json may list none, as written)
-        raise RigError(
-            f"{neutral_path}: one OBJ holds no blendshapes, and its folder has no other OBJ files "
-            "(one per blendshape)"
-        )
+        shape_paths = _subfolder_shape_paths(folder, neutral_path)
 
     outside = neutral is not None and Path(neutral).is_absolute()  # (an explicit path may be elsewhere)
     base = read_obj(neutral_path, root=None if outside else folder)
@@ -947,6 +946,37 @@ def _neutral_path(folder: Path, entries: list[Path], option: str | Path | None, 
             f"{path}: neutral mesh not found (pass neutral=NAME, or load the neutral OBJ's path){hint}"
         )
     return path
+
+
+def _subfolder_shape_paths(folder: Path, neutral_path: Path) -> dict[str, Path]:
+    """The blendshapes of an export that puts the neutral at the top and the shapes in one subfolder
+    (``shapes/``, ``blendshapes/``, ``targets/``, ...): that subfolder's OBJs, named by their stems.
+
+    Raises
+    ------
+    RigError
+        When no subfolder, or more than one, holds OBJ files.
+    """
+    with os.scandir(folder) as found:
+        subfolders = sorted(
+            Path(entry.path)
+            for entry in found
+            if entry.is_dir(follow_symlinks=False) and entry.name[:1] != "."
+        )
+    holding = {sub: rig_entries(sub, _is_obj_name, recursive=False) for sub in subfolders}
+    holding = {sub: entries for sub, entries in holding.items() if entries}
+    if len(holding) != 1:
+        where = (
+            f"its subfolders {', '.join(sub.name for sub in holding)} all hold OBJ files; give the shapes "
+            "in one folder"
+            if holding
+            else "its folder has no other OBJ files and no subfolder of them"
+        )
+        raise RigError(f"{neutral_path}: one OBJ holds no blendshapes, and {where} (one OBJ per blendshape)")
+    ((subfolder, entries),) = holding.items()
+    for path in entries:  # inside the rig's folder, not only inside the subfolder
+        regular_file(path, folder)
+    return _shape_paths(subfolder, entries, neutral_path, None)
 
 
 def _shape_paths(

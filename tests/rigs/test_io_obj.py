@@ -338,3 +338,28 @@ def test_obj_folder_round_trip_property(tmp_path_factory, seed, scale, n_shapes)
     np.testing.assert_array_equal(loaded.neutral, rig.neutral)
     np.testing.assert_allclose(loaded.deltas, rig.deltas, rtol=0, atol=4 * np.finfo(float).eps * scale * 4)
     assert loaded.names == rig.names
+
+
+def test_shapes_in_one_subfolder_beside_the_neutral_are_read(tmp_path):
+    flat = rigs.load(write_folder(tmp_path / "flat", {"b": moved(1, (0, 0, 1)), "a": moved(4, (0, 1, 0))}))
+    nested = tmp_path / "nested"
+    write_folder(nested / "shapes", {"b": moved(1, (0, 0, 1)), "a": moved(4, (0, 1, 0))})
+    (nested / "shapes" / "neutral.obj").rename(nested / "neutral.obj")
+    (nested / "textures").mkdir()  # a subfolder without OBJs is not a candidate
+    rig = rigs.load(nested)
+    assert rig.names == flat.names == ("a", "b")
+    np.testing.assert_array_equal(rig.deltas, flat.deltas)
+
+
+def test_two_subfolders_of_shapes_are_refused_by_name(tmp_path):
+    for sub in ("shapes", "old_shapes"):
+        write_folder(tmp_path / sub, {"a": moved(4, (0, 1, 0))})
+        (tmp_path / sub / "neutral.obj").unlink()
+    (tmp_path / "neutral.obj").write_text(obj_text(GRID, QUADS))
+    with pytest.raises(RigError, match="its subfolders old_shapes, shapes all hold OBJ files"):
+        rigs.load(tmp_path)
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "neutral.obj").write_text(obj_text(GRID, QUADS))
+    with pytest.raises(RigError, match="no other OBJ files and no subfolder of them"):
+        rigs.load(lone)
