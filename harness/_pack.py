@@ -58,8 +58,6 @@ from pathlib import Path
 from time import monotonic
 from typing import Any
 
-import numpy as np
-
 from harness import _plugins as plugins
 from harness._durations import format_duration
 from harness._outdir import ChangedFileWarning, OutputFolder, claim
@@ -447,20 +445,3 @@ def _write(
         warnings.simplefilter("always", ChangedFileWarning)
         folder.remove_stale(keep=names)
     return paths, [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
-
-
-def write_obj(path: Path, vertices: np.ndarray, faces: Sequence[np.ndarray], *, comment: str = "") -> None:
-    """Write one mesh as a Wavefront OBJ: ``v`` lines (round-trip floats), then 1-based ``f`` lines."""
-    from rigs._obj import coordinate_lines
-
-    header = "".join(f"# {line}\n" for line in comment.splitlines())
-    lines = coordinate_lines(np.asarray(vertices, dtype=np.float64))
-    path.write_text(header + "".join(line + "\n" for line in lines) + _obj_face_text(faces))
-
-
-def _obj_face_text(faces: Sequence[np.ndarray] | np.ndarray) -> str:
-    """The 1-based ``f`` lines of polygons (a (T, 3) array of triangles, or a sequence of polygons)."""
-    if isinstance(faces, np.ndarray) or all(len(face) == 3 for face in faces):
-        corners = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
-        return ("f %d %d %d\n" * len(corners)) % tuple(corners.ravel().tolist())
-    return "".join("f " + " ".join(map(str, (np.asarray(face) + 1).tolist())) + "\n" for face in faces)
