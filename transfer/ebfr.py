@@ -347,17 +347,53 @@ def _write(result: np.ndarray, fitted: Fitted) -> None:
         result[np.ix_(members, free)] = np.moveaxis(values, -1, 0)
 
 
-def check_regularisation(kappa: float, theta: float, motion_scale: str, static_tolerance: float) -> None:
-    """Raise a `ValueError` naming the first bad parameter shared by the rigging methods."""
-    if motion_scale not in ("peak", "absolute"):
-        raise ValueError(f"motion_scale must be 'peak' or 'absolute', got {motion_scale!r}")
-    check_positive(kappa, "kappa")
-    check_positive(theta, "theta", allow_zero=True)
-    check_positive(static_tolerance, "static_tolerance", allow_zero=True)
+@dataclass(frozen=True)
+class RiggingSettings:
+    """The regularisation both rigging methods share (`ExampleBasedRigging`, step A, and
+    `transfer.ebfr_full.ExampleBasedRiggingFull`, steps A and B; Li et al. 2010, sec. 3A).
+
+    Parameters
+    ----------
+    kappa : float, default 0.1
+        Regularisation-weight offset (Li et al. 2010, sec. 3A).
+    theta : float, default 2.0
+        Regularisation-weight exponent (Li et al. use 2).
+    motion_scale : {"peak", "absolute"}, default "peak"
+        Measure each template shape's triangle motion relative to its most active triangle (scale-free
+        ``kappa``), or literally in the rig's units as Li et al. (see `Regularisation`).
+    static_tolerance : float, default 1e-6
+        Vertices moving at most this fraction of a template shape's largest displacement stay fixed.
+    align : bool, default True
+        Rotate the template to face like the target first (see `transfer.deformation`).
+    """
+
+    kappa: float = 0.1
+    theta: float = 2.0
+    motion_scale: str = "peak"
+    static_tolerance: float = 1e-6
+    align: bool = True
+
+    def __post_init__(self) -> None:
+        if self.motion_scale not in ("peak", "absolute"):
+            raise ValueError(f"motion_scale must be 'peak' or 'absolute', got {self.motion_scale!r}")
+        check_positive(self.kappa, "kappa")
+        check_positive(self.theta, "theta", allow_zero=True)
+        check_positive(self.static_tolerance, "static_tolerance", allow_zero=True)
+
+    def rigging(self, inputs: TransferInputs) -> GradientSpaceRigging:
+        """The gradient-space fit of ``inputs`` with these settings."""
+        return GradientSpaceRigging(
+            inputs,
+            kappa=self.kappa,
+            theta=self.theta,
+            motion_scale=self.motion_scale,
+            static_tolerance=self.static_tolerance,
+            align=self.align,
+        )
 
 
 @dataclass(frozen=True)
-class ExampleBasedRigging(Transfer):
+class ExampleBasedRigging(RiggingSettings, Transfer):
     """Example-based facial rigging with known 0/1 weights (Li et al. 2010, step A; Carrigan et al. 2020).
 
     The target's blendshapes are fitted per triangle in gradient space to the training expressions,
@@ -369,17 +405,8 @@ class ExampleBasedRigging(Transfer):
     beta : float, default 0.1
         Weight of the regulariser ``E_reg`` against the fit ``E_fit`` (Li et al.: 0.1 balances accuracy
         and robustness; over-fitting below about 0.05). ``beta -> infinity`` is deformation transfer.
-    kappa : float, default 0.1
-        Regularisation-weight offset (Li et al. 2010, sec. 3A).
-    theta : float, default 2.0
-        Regularisation-weight exponent (Li et al. use 2).
-    motion_scale : {"peak", "absolute"}, default "peak"
-        Measure each template shape's triangle motion relative to its most active triangle (scale-free
-        ``kappa``), or literally in the rig's units as Li et al. (see `regularisation_weights`).
-    static_tolerance : float, default 1e-6
-        Vertices moving at most this fraction of a template shape's largest displacement stay fixed.
-    align : bool, default True
-        Rotate the template to face like the target first (see `transfer.deformation`).
+    kappa, theta, motion_scale, static_tolerance, align
+        The regularisation (`RiggingSettings`).
 
     Examples
     --------
@@ -401,30 +428,15 @@ class ExampleBasedRigging(Transfer):
     name: ClassVar[str] = "ebfr"
     binary_weights: ClassVar[bool] = True
     beta: float = 0.1
-    kappa: float = 0.1
-    theta: float = 2.0
-    motion_scale: str = "peak"
-    static_tolerance: float = 1e-6
-    align: bool = True
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         check_positive(self.beta, "beta")
-        check_regularisation(self.kappa, self.theta, self.motion_scale, self.static_tolerance)
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
         """Step A with the given weights."""
-        return self._rigging(inputs).blendshapes(inputs.weights, self.beta)
+        return self.rigging(inputs).blendshapes(inputs.weights, self.beta)
 
     def _prefixes(self, inputs: TransferInputs) -> Callable[[int], np.ndarray]:
         """Step A with the first J expressions, each fitted once (`GradientSpaceRigging.prefixes`)."""
-        return self._rigging(inputs).prefixes(inputs.weights, self.beta)
-
-    def _rigging(self, inputs: TransferInputs) -> GradientSpaceRigging:
-        return GradientSpaceRigging(
-            inputs,
-            kappa=self.kappa,
-            theta=self.theta,
-            motion_scale=self.motion_scale,
-            static_tolerance=self.static_tolerance,
-            align=self.align,
-        )
+        return self.rigging(inputs).prefixes(inputs.weights, self.beta)

@@ -9,7 +9,7 @@ import numpy as np
 
 from transfer._base import Transfer, check_positive
 from transfer._inputs import TransferInputs, check_inputs
-from transfer.ebfr import GradientSpaceRigging, check_regularisation
+from transfer.ebfr import RiggingSettings
 
 
 def schedule(start: float, end: float, steps: int) -> np.ndarray:
@@ -115,7 +115,7 @@ def refit_weights(
 
 
 @dataclass(frozen=True)
-class ExampleBasedRiggingFull(Transfer):
+class ExampleBasedRiggingFull(RiggingSettings, Transfer):
     """Example-based facial rigging alternating blendshape and weight optimisation (Li et al. 2010).
 
     Each iteration runs step A (`transfer.ebfr`: blendshapes in gradient space for fixed weights) and
@@ -136,7 +136,7 @@ class ExampleBasedRiggingFull(Transfer):
         measures positions in units that make the template's bounding-box diagonal this long, so the
         schedule means the same for any rig units.
     kappa, theta, motion_scale, static_tolerance, align
-        As for `transfer.ebfr`.
+        The regularisation (`transfer.ebfr.RiggingSettings`).
 
     Examples
     --------
@@ -155,13 +155,9 @@ class ExampleBasedRiggingFull(Transfer):
     beta_schedule: tuple[float, float] = (0.5, 0.1)
     gamma_schedule: tuple[float, float] = (1000.0, 100.0)
     head_size: float = 250.0
-    kappa: float = 0.1
-    theta: float = 2.0
-    motion_scale: str = "peak"
-    static_tolerance: float = 1e-6
-    align: bool = True
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if int(self.iterations) != self.iterations or self.iterations < 1:
             raise ValueError(f"iterations must be a positive integer, got {self.iterations!r}")
         for argument in ("beta_schedule", "gamma_schedule"):
@@ -171,7 +167,6 @@ class ExampleBasedRiggingFull(Transfer):
             for value in values:
                 check_positive(value, argument)
         check_positive(self.head_size, "head_size")
-        check_regularisation(self.kappa, self.theta, self.motion_scale, self.static_tolerance)
 
     def fit(
         self, template: object, target_neutral: object, weights: object = None, examples: object = None
@@ -197,14 +192,7 @@ class ExampleBasedRiggingFull(Transfer):
                 f"weights must lie in [0, 1] for {self.name!r} (bounded weights); "
                 f"weights[{j}, {k}] = {float(initial[j, k])!r}"
             )
-        rigging = GradientSpaceRigging(
-            inputs,
-            kappa=self.kappa,
-            theta=self.theta,
-            motion_scale=self.motion_scale,
-            static_tolerance=self.static_tolerance,
-            align=self.align,
-        )
+        rigging = self.rigging(inputs)
         betas = schedule(*self.beta_schedule, self.iterations)
         gammas = schedule(*self.gamma_schedule, self.iterations)
         scale = self.head_size / (inputs.template.diagonal() or 1.0)
