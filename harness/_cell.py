@@ -24,7 +24,7 @@ import warnings
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,9 +32,15 @@ from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec, rig_digest
 from harness._rigspec import is_rig_file, resolve_rig
 
+if TYPE_CHECKING:
+    from packing import Analysis, Expression
+    from rigs import Rig
+    from solvers import LoadedSolver
+    from transfer import Transfer
+
 _CACHE_SIZE = 4
 _cache_lock = threading.Lock()
-_rig_cache: OrderedDict[tuple[str, str, int, str], Any] = OrderedDict()
+_rig_cache: OrderedDict[tuple[str, str, int, str], Rig] = OrderedDict()
 _warmed_up: set[str] = set()
 _MEMO_SIZE = 512
 _transfer_memo: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
@@ -59,7 +65,7 @@ class RigChangedError(RuntimeError):
     """The rig file's content is no longer the one the run's cell ids were made from."""
 
 
-def _verified(spec: CellSpec) -> Any:
+def _verified(spec: CellSpec) -> Rig:
     """The template rig of a cell, after checking that its content still has the cell's digest."""
     if spec.rig_digest and is_rig_file(spec.rig):
         found = rig_digest(spec.rig, spec.rig_seed)
@@ -71,7 +77,7 @@ def _verified(spec: CellSpec) -> Any:
     return resolve_rig(spec.rig, seed=spec.rig_seed)
 
 
-def rig_pair(spec: CellSpec) -> tuple[Any, Any]:
+def rig_pair(spec: CellSpec) -> tuple[Rig, Rig]:
     """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
 
     Raises
@@ -81,7 +87,7 @@ def rig_pair(spec: CellSpec) -> tuple[Any, Any]:
     """
     import rigs
 
-    def cached(key: tuple[str, str, int, str], build: Callable[[], Any]) -> Any:
+    def cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
         with _cache_lock:
             if key in _rig_cache:
                 _rig_cache.move_to_end(key)
@@ -191,7 +197,9 @@ def run_cell(spec: CellSpec) -> list[dict[str, Any]] | Lost:
     return [_finish(cell_row), *expression_rows, *transfer_rows]
 
 
-def _pack(spec: CellSpec, solver: Any, template: Any, target: Any) -> tuple[Any, list[Any], dict[str, Any]]:
+def _pack(
+    spec: CellSpec, solver: LoadedSolver, template: Rig, target: Rig
+) -> tuple[Analysis, list[Expression], dict[str, Any]]:
     """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
     bounds on the number of expressions."""
     import packing
@@ -217,7 +225,7 @@ def _pack(spec: CellSpec, solver: Any, template: Any, target: Any) -> tuple[Any,
     return analysis, expressions, facts
 
 
-def _minimum(spec: CellSpec, analysis: Any) -> dict[str, Any]:
+def _minimum(spec: CellSpec, analysis: Analysis) -> dict[str, Any]:
     """The fewest expressions covering every shape, for cells whose solver declares that exact mode
     (``capabilities.minimum_cover``)."""
     import solvers
@@ -230,7 +238,9 @@ def _minimum(spec: CellSpec, analysis: Any) -> dict[str, Any]:
     return {"min_expressions": found.count, "min_expressions_status": str(found.status)}
 
 
-def _check(spec: CellSpec, solver: Any, template: Any, analysis: Any, expressions: list[Any]) -> None:
+def _check(
+    spec: CellSpec, solver: LoadedSolver, template: Rig, analysis: Analysis, expressions: list[Expression]
+) -> None:
     """Re-verify the sequence from the raw deltas (`packing.check`): with the symmetry pairs of the
     harness's own analysis, the overlap the solver declares (``capabilities.max_overlap``, 0 for eq. 3b)
     and no other, bounds at least the objectives, and maximal expressions where the solver ran to its
@@ -247,14 +257,16 @@ def _check(spec: CellSpec, solver: Any, template: Any, analysis: Any, expression
     )
 
 
-def _failed_expression(expressions: list[Any]) -> Any | None:
+def _failed_expression(expressions: list[Expression]) -> Expression | None:
     """The first expression whose solver reported an error (the sequence stops there)."""
     from packing import Termination
 
     return next((e for e in expressions if e.termination is Termination.ERROR), None)
 
 
-def _expression_rows(base: dict[str, Any], expressions: list[Any], n_shapes: int) -> list[dict[str, Any]]:
+def _expression_rows(
+    base: dict[str, Any], expressions: list[Expression], n_shapes: int
+) -> list[dict[str, Any]]:
     rows = []
     covered: set[str] = set()
     for index, expression in enumerate(expressions, start=1):
@@ -289,7 +301,7 @@ def _expression_rows(base: dict[str, Any], expressions: list[Any], n_shapes: int
 
 
 def _transfer_rows(
-    base: dict[str, Any], spec: CellSpec, template: Any, target: Any, expressions: list[Any]
+    base: dict[str, Any], spec: CellSpec, template: Rig, target: Rig, expressions: list[Expression]
 ) -> list[dict[str, Any]]:
     import transfer
 
@@ -331,11 +343,11 @@ class _FirstExpressions:
 
     def __init__(
         self,
-        transfer: Any,
+        transfer: Transfer,
         name: str,
-        template: Any,
-        target: Any,
-        expressions: list[Any],
+        template: Rig,
+        target: Rig,
+        expressions: list[Expression],
         examples: list[Any],
     ) -> None:
         self.transfer, self.name, self.template, self.target = transfer, name, template, target
@@ -350,7 +362,7 @@ class _FirstExpressions:
         return self.prefixes(j)
 
 
-def _examples(spec: CellSpec, target: Any, weights: np.ndarray) -> np.ndarray:
+def _examples(spec: CellSpec, target: Rig, weights: np.ndarray) -> np.ndarray:
     """The training expressions of a cell's whole sequence (`harness._grid.EXAMPLES`): scan-like ones are
     seeded by the cell's seed, so repetitions are independent capture sessions."""
     import transfer
@@ -361,11 +373,11 @@ def _examples(spec: CellSpec, target: Any, weights: np.ndarray) -> np.ndarray:
 
 
 def _transfer_metrics(
-    transfer: Any,
+    transfer: Transfer,
     name: str,
     spec: CellSpec,
-    template: Any,
-    target: Any,
+    template: Rig,
+    target: Rig,
     weights: np.ndarray,
     estimate_first: Callable[[], np.ndarray],
 ) -> dict[str, Any]:
@@ -410,7 +422,7 @@ def _transfer_metrics(
     return {**result, "transfer_reused": reused, "transfer_time": time.perf_counter() - clock}
 
 
-def _training_weights(template: Any, expressions: list[Any]) -> np.ndarray:
+def _training_weights(template: Rig, expressions: list[Expression]) -> np.ndarray:
     """(J, K) 0/1 weights: every shape present in each expression (primary and extra examples)."""
     weights = np.zeros((len(expressions), template.n_shapes))
     for row, expression in zip(weights, expressions, strict=True):
