@@ -56,7 +56,7 @@ from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 from time import monotonic
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from harness import _plugins as plugins
 from harness._durations import format_duration
@@ -65,6 +65,11 @@ from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
 from harness._session_minimum import minimum_sequence
+
+if TYPE_CHECKING:
+    from packing import Analysis, Expression, PackingProblem, Solution
+    from rigs import Rig
+    from solvers import Availability, LoadedSolver, Proposal, RefiningSolver
 
 EXPRESSIONS_FILE = "expressions.json"
 
@@ -313,7 +318,7 @@ class Deadline:
         The deadline on the ``time.monotonic`` clock.
     """
 
-    def __init__(self, inner: Any, end: float) -> None:
+    def __init__(self, inner: LoadedSolver, end: float) -> None:
         self.inner = inner
         self.name = inner.name
         self.capabilities = inner.capabilities
@@ -321,11 +326,11 @@ class Deadline:
         self.started = monotonic()
         self.expired = False
 
-    def availability(self) -> Any:
+    def availability(self) -> Availability:
         """The inner solver's availability."""
         return self.inner.availability()
 
-    def solve(self, problem: Any, *, time_limit: float | None = None, seed: int = 0) -> Any:
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
         """The inner solve with ``time_limit`` reduced to the time left, or nothing once it is spent."""
         from packing import Solution, Termination
 
@@ -349,7 +354,7 @@ class Deadline:
 
 
 def _coverage(
-    analysis: Any, expressions: Sequence[Any], refined: bool, timeout: float | None
+    analysis: Analysis, expressions: Sequence[Expression], refined: bool, timeout: float | None
 ) -> tuple[list[str], str]:
     """The packable shapes no expression holds, and why the sequence stopped before them: ``timeout``
     (seconds) ran out, an expression came out empty (every proposal rejected, or the solver found nothing),
@@ -379,7 +384,7 @@ def _coverage(
 
 
 def _excluded(
-    analysis: Any, missing: Sequence[str], reason: str, rejected: Mapping[int, set[str]]
+    analysis: Analysis, missing: Sequence[str], reason: str, rejected: Mapping[int, set[str]]
 ) -> list[dict[str, str]]:
     """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in rig order."""
     why = {name: "empty: no displacement above the noise floor (sec. 4.1)" for name in analysis.empty_names}
@@ -392,7 +397,7 @@ def _excluded(
     return [{"shape": name, "reason": why[name]} for name in analysis.rig.names if name in why]
 
 
-def _symmetry_note(analysis: Any) -> str:
+def _symmetry_note(analysis: Analysis) -> str:
     symmetry = analysis.symmetry
     if not analysis.params.symmetry:
         return "symmetry off: no pairs"
@@ -403,12 +408,12 @@ def _symmetry_note(analysis: Any) -> str:
 
 
 def _refining(
-    solver: Any,
-    rig: Any,
+    solver: LoadedSolver,
+    rig: Rig,
     rejections: Mapping[int, set[str]],
     decide: Callable[[int, str, bool], bool] | None,
     rejected: dict[int, set[str]],
-) -> Any:
+) -> LoadedSolver | RefiningSolver:
     """Wrap the solver in `solvers.RefiningSolver` (sec. 4.5.3) when there is anything to decide; every
     rejection lands in ``rejected`` (1-based expression -> shapes) for the checker."""
     if not rejections and decide is None:
@@ -420,7 +425,7 @@ def _refining(
 
     listed = solvers.rejecting({expression - 1: names for expression, names in rejections.items()})
 
-    def accept(proposal: Any) -> bool:
+    def accept(proposal: Proposal) -> bool:
         keep = listed(proposal) and (
             decide is None or decide(proposal.expression + 1, proposal.label, proposal.extra_example)
         )
