@@ -21,8 +21,8 @@ def catalogue() -> dict[str, Any]:
     from harness._grid import PRESETS as RUN_PRESETS
 
     return {
-        "solvers": [plugins.solver_info(name).as_dict() for name in plugins.solver_names()],
-        "transfers": [plugins.transfer_info(name).as_dict() for name in plugins.transfer_names()],
+        "solvers": [plugins.listing(plugins.solver_info(name)) for name in plugins.solver_names()],
+        "transfers": [plugins.listing(plugins.transfer_info(name)) for name in plugins.transfer_names()],
         "rig_presets": sorted(rigs.PRESETS),
         "warps": sorted(rigs.WARPS),
         "run_presets": sorted(RUN_PRESETS),

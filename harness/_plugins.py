@@ -6,45 +6,16 @@ lists the valid names.
 
 from __future__ import annotations
 
-import importlib.metadata
 from collections.abc import Iterable
-from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from harness._grid import NO_WARP
 from harness._rigspec import is_rig_file
 
+if TYPE_CHECKING:
+    from registry import PluginInfo
+
 ALL = "all"
-
-
-@dataclass(frozen=True)
-class PluginInfo:
-    """What `harness list` shows about one solver or transfer plugin.
-
-    Attributes
-    ----------
-    description : str
-        One line: what the plugin is (`describe`), then whether a solver may overlap shapes or whether a
-        transfer uses the training examples; empty for a plugin that does not load.
-    """
-
-    kind: str
-    name: str
-    available: bool
-    reason: str
-    version: str
-    capabilities: dict[str, Any]
-    description: str = ""
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "available": self.available,
-            "reason": self.reason,
-            "version": self.version,
-            "description": self.description,
-            "capabilities": self.capabilities,
-        }
 
 
 def solver_names() -> list[str]:
@@ -69,37 +40,33 @@ def solver(name: str) -> Any:
 
 
 def solver_info(name: str) -> PluginInfo:
-    """Availability (with the reason), backend version and capabilities of a solver, without solving."""
+    """Availability (with the reason), backend version and class of a solver, without solving."""
     import solvers
 
-    try:
-        found = solvers.info([name])[0]
-    except Exception as error:  # noqa: BLE001 - a plugin that fails to load is listed as unavailable
-        return PluginInfo("solver", name, False, f"{type(error).__name__}: {error}", "", {})
-    capabilities = _as_dict(found.capabilities)
-    description = ""
-    if found.capabilities is not None:  # (else the plugin did not load: the reason says why)
-        plugin = importlib.metadata.EntryPoint(name, found.entry_point, "").load()  # (imported by info)
-        description = f"{describe(plugin)} {_overlap_clause(found.capabilities.max_overlap)}".lstrip()
-    return PluginInfo("solver", name, found.available, found.reason, found.version, capabilities, description)
+    return solvers.info([name])[0]
 
 
 def transfer_info(name: str) -> PluginInfo:
-    """Whether a transfer plugin loads, and its declared traits (``binary_weights``, ``uses_examples``)."""
+    """Availability (with the reason), version and class of a transfer method."""
     import transfer
 
-    try:
-        method = transfer.get(name)
-    except Exception as error:  # noqa: BLE001 - listed as unavailable with the reason
-        return PluginInfo("transfer", name, False, f"{type(error).__name__}: {error}", "", {})
-    traits = {
-        trait: bool(getattr(method, trait))
-        for trait in ("uses_examples", "binary_weights")
-        if hasattr(method, trait)
-    }
-    clause = _examples_clause(traits["uses_examples"]) if "uses_examples" in traits else ""
-    description = f"{describe(method)} {clause}".strip()
-    return PluginInfo("transfer", name, True, "", "", traits, description)
+    return transfer.info([name])[0]
+
+
+def listing(info: PluginInfo) -> dict[str, Any]:
+    """The JSON-ready row of ``harness list``: the plugin's `PluginInfo`, its one-line description and
+    what it declares (a solver's capabilities; whether a transfer method uses the training examples and
+    takes 0/1 weights only)."""
+    plugin = info.plugin
+    if plugin is None:  # (it did not load: the reason says why)
+        return {**info.as_dict(), "description": "", "capabilities": {}}
+    if hasattr(plugin, "capabilities"):
+        declared = dict(plugin.capabilities.as_dict())
+        clause = _overlap_clause(plugin.capabilities.max_overlap)
+    else:
+        declared = {trait: bool(getattr(plugin, trait)) for trait in ("uses_examples", "binary_weights")}
+        clause = _examples_clause(declared["uses_examples"])
+    return {**info.as_dict(), "description": f"{describe(plugin)} {clause}".strip(), "capabilities": declared}
 
 
 def describe(plugin: Any) -> str:
@@ -121,18 +88,6 @@ def _overlap_clause(max_overlap: float) -> str:
 
 def _examples_clause(uses_examples: bool) -> str:
     return "Uses the training examples." if uses_examples else "Ignores the training examples."
-
-
-def _as_dict(value: Any) -> dict[str, Any]:
-    if value is None:
-        return {}
-    if hasattr(value, "as_dict"):
-        return dict(value.as_dict())
-    if isinstance(value, dict):
-        return dict(value)
-    from dataclasses import asdict, is_dataclass
-
-    return asdict(value) if is_dataclass(value) else {}
 
 
 def expand_names(requested: Iterable[str], known: list[str], what: str, option: str) -> tuple[str, ...]:

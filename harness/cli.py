@@ -85,7 +85,10 @@ class UserError(click.ClickException):
 
 
 def _plugin_entry_points() -> dict[str, importlib.metadata.EntryPoint]:
-    return {entry.name: entry for entry in importlib.metadata.entry_points(group=COMMANDS_GROUP)}
+    """The ``harness.commands`` plugins by name, read afresh (a name registered twice warns)."""
+    from registry import collect
+
+    return collect(importlib.metadata.entry_points(group=COMMANDS_GROUP), "command")
 
 
 def _as_click_command(name: str, value: Any) -> click.Command:

@@ -44,7 +44,6 @@ if TYPE_CHECKING:
     from solvers._open import OpenExpression
     from solvers._refine import Proposal, RefiningSolver, refine, rejecting
     from solvers._registry import (
-        SolverInfo,
         SolverUnavailableError,
         UnknownSolverError,
         availability,
@@ -79,7 +78,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "_refine": ["Proposal", "RefiningSolver", "refine", "rejecting"],
         "_registry": [
-            "SolverInfo",
             "SolverUnavailableError",
             "UnknownSolverError",
             "availability",

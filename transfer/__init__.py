@@ -21,14 +21,16 @@ removed by rigid alignment).
 from transfer._base import Transfer
 from transfer._expressions import training_expressions
 from transfer._metrics import TransferMetrics, metrics, rms
-from transfer._registry import get, names
+from transfer._registry import availability, get, info, names
 from transfer._scan import ScanModel, scan_expressions
 
 __all__ = [
     "ScanModel",
     "Transfer",
     "TransferMetrics",
+    "availability",
     "get",
+    "info",
     "metrics",
     "names",
     "rms",

@@ -1,29 +1,44 @@
-"""Transfer plugins found through the ``harness.transfers`` entry-point group, loaded on first use."""
+"""Transfer plugins found through the ``harness.transfers`` entry-point group (`registry.PluginRegistry`):
+listed without importing them, loaded on first use, a load failure or a non-`Transfer` class reported as
+unavailable with the reason, a name registered twice warned about."""
 
 from __future__ import annotations
 
 import dataclasses
-from functools import cache
-from typing import TYPE_CHECKING
+from collections.abc import Iterable
+from typing import Any
 
+from registry import Availability, PluginInfo, PluginRegistry
 from transfer._base import Transfer
-
-if TYPE_CHECKING:
-    from importlib.metadata import EntryPoint
 
 GROUP = "harness.transfers"
 
 
-@cache
-def _entry_points() -> dict[str, EntryPoint]:
-    from importlib.metadata import entry_points
+def _check(plugin: Any, name: str) -> str | None:
+    """What a loaded transfer plugin lacks, or None."""
+    if not (isinstance(plugin, type) and issubclass(plugin, Transfer)):
+        return "is not a transfer.Transfer subclass"
+    if plugin.name != name:
+        return f"declares name {plugin.name!r}, registered as {name!r}"
+    return None
 
-    return {point.name: point for point in entry_points(group=GROUP)}
+
+TRANSFERS = PluginRegistry(GROUP, "transfer method", _check)
 
 
 def names() -> list[str]:
     """Names of the installed transfer methods, sorted (no plugin module is imported)."""
-    return sorted(_entry_points())
+    return TRANSFERS.names()
+
+
+def availability(name: str) -> Availability:
+    """Whether transfer method ``name`` loads and can run here, and why not."""
+    return TRANSFERS.availability(name)
+
+
+def info(selected: Iterable[str] | None = None) -> list[PluginInfo]:
+    """Availability, version and class of every (or each selected) transfer method."""
+    return TRANSFERS.info(selected)
 
 
 def get(name: str, **params: object) -> Transfer:
@@ -44,14 +59,12 @@ def get(name: str, **params: object) -> Transfer:
     Raises
     ------
     ValueError
-        Unknown name (the message lists the installed ones), unknown parameter (the message lists the
+        Unknown name (the message lists the valid ones), unknown parameter (the message lists the
         accepted ones) or a bad parameter value.
+    registry.PluginUnavailableError
+        The method's module fails to load or does not define a `Transfer`.
     """
-    points = _entry_points()
-    if name not in points:
-        installed = ", ".join(sorted(points)) or "none"
-        raise ValueError(f"unknown transfer method {name!r}; installed: {installed}")
-    cls = points[name].load()
+    cls = TRANSFERS.load(name)
     accepted = {field.name for field in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
     unknown = sorted(set(params) - accepted)
     if unknown:

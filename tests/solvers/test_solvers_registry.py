@@ -7,6 +7,7 @@ import sys
 
 import pytest
 
+import registry
 import solvers
 from solvers import _registry
 from solvers._base import Availability, AvailabilityStatus, package_availability
@@ -16,14 +17,14 @@ BACKEND_MODULES = ("ortools", "highspy", "mip", "pulp", "pyscipopt")
 
 
 @pytest.fixture
-def fake_plugins(monkeypatch):
+def fake_plugins():
     def install(*specs):
         points = [importlib.metadata.EntryPoint(name, value, _registry.GROUP) for name, value in specs]
-        monkeypatch.setattr(_registry, "_entry_points", lambda: _registry.collect(points))
-        _registry._load.cache_clear()
+        _registry.SOLVERS.refresh()
+        _registry.SOLVERS.__dict__["_points"] = registry.collect(points, "solver")
 
     yield install
-    _registry._load.cache_clear()
+    _registry.SOLVERS.refresh()
 
 
 def test_all_built_in_plugins_are_registered():
@@ -96,9 +97,9 @@ def test_duplicate_names_warn_and_keep_the_first():
         importlib.metadata.EntryPoint("greedy", "solvers.greedy:GreedySolver", _registry.GROUP),
     ]
     with pytest.warns(
-        RuntimeWarning, match="registered twice: solvers.greedy:GreedySolver .* other_pkg:Greedy"
+        RuntimeWarning, match="solver .greedy. is registered twice: solvers.greedy:GreedySolver .* other_pkg:Greedy"
     ):
-        found = _registry.collect(points)
+        found = registry.collect(points, "solver")
     assert found["greedy"].value == "solvers.greedy:GreedySolver"
 
 

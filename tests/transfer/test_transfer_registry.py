@@ -42,7 +42,7 @@ def test_get_passes_parameters_and_keeps_defaults():
 
 
 def test_unknown_method_lists_installed_ones():
-    with pytest.raises(ValueError, match=r"unknown transfer method 'nope'; installed: .*ebfr"):
+    with pytest.raises(ValueError, match=r"unknown transfer method 'nope'; valid names: .*ebfr"):
         transfer.get("nope")
 
 
