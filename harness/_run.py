@@ -500,8 +500,8 @@ def _new_run_info(
         "rig_digests": {},
         "versions": {
             **environment.versions(),
-            "solvers": {name: item.as_dict() for name, item in solver_infos.items()},
-            "transfers": {name: plugins.transfer_info(name).as_dict() for name in config.transfers},
+            "solvers": {name: plugins.listing(item) for name, item in solver_infos.items()},
+            "transfers": {name: plugins.listing(plugins.transfer_info(name)) for name in config.transfers},
         },
         "git": environment.git_state(),
         "machine": environment.machine(),

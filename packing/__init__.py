@@ -13,7 +13,13 @@ import lazy_loader
 if TYPE_CHECKING:
     from packing._analysis import Analysis, analyse, build_problem, tie_break_perturbation
     from packing._binary import binary_blendshapes, empty_shapes
-    from packing._bounds import ExpressionBound, conflict_graph, expression_lower_bound, first_fit_colouring
+    from packing._bounds import (
+        ExpressionBound,
+        conflict_graph,
+        conflict_set_bound,
+        expression_lower_bound,
+        first_fit_colouring,
+    )
     from packing._cancel import CANCEL_RATIO, Cancellation, cancelling_twins, find_cancellations
     from packing._check import CheckError, check
     from packing._constraints import parse_pair, read_constraints
@@ -29,7 +35,13 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_analysis": ["Analysis", "analyse", "build_problem", "tie_break_perturbation"],
         "_binary": ["binary_blendshapes", "empty_shapes"],
-        "_bounds": ["ExpressionBound", "first_fit_colouring", "conflict_graph", "expression_lower_bound"],
+        "_bounds": [
+            "conflict_set_bound",
+            "ExpressionBound",
+            "first_fit_colouring",
+            "conflict_graph",
+            "expression_lower_bound",
+        ],
         "_cancel": ["CANCEL_RATIO", "Cancellation", "cancelling_twins", "find_cancellations"],
         "_check": ["CheckError", "check"],
         "_constraints": ["parse_pair", "read_constraints"],

@@ -15,7 +15,8 @@ from rigs import Rig
 
 
 class PackingSolver(Protocol):
-    """What `sequence` needs from a solver: any object with this method (see the `solvers` package)."""
+    """What `sequence` needs from a solver: an object whose ``solve`` answers with a whole `Solution`, as a
+    plugin behind the `solvers` framework does (``solvers.get(name)`` or ``solvers.load(plugin)``)."""
 
     def solve(
         self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0
@@ -109,7 +110,8 @@ def sequence(
     rig : Rig
         The template rig.
     solver : object with ``solve(problem, *, time_limit, seed) -> Solution``
-        Any solver; `packing` never imports a solver library.
+        A solver behind the `solvers` framework (``solvers.get(name)``, ``solvers.load(plugin)``), whose
+        answers are whole `Solution` objects; `packing` never imports a solver library.
     target_neutral : (N, 3) array or Rig, optional
         Target neutral for triangle distortion (eqs. 6-7).
     jmax : int, optional
@@ -201,6 +203,11 @@ def sequence(
 
 
 def _chosen_items(problem: PackingProblem, solution: Solution) -> np.ndarray:
+    if not isinstance(solution, Solution):
+        raise TypeError(
+            f"sequence: the solver answered with a {type(solution).__name__}, not a packing.Solution; "
+            "pass solvers.get(name) or solvers.load(plugin), which turn a plugin's answer into one"
+        )
     chosen = np.array(sorted({int(item) for item in solution.items}), dtype=np.int64)
     if chosen.size and (chosen[0] < 0 or chosen[-1] >= problem.n_items):
         raise ValueError(

@@ -114,10 +114,6 @@ class PluginRegistry:
     def _points(self) -> dict[str, importlib.metadata.EntryPoint]:
         return collect(importlib.metadata.entry_points(group=self.group), self.kind)
 
-    def entry_points(self) -> dict[str, importlib.metadata.EntryPoint]:
-        """Entry points by name (read from installed metadata once; see `refresh`)."""
-        return self._points
-
     def refresh(self) -> None:
         """Forget discovered plugins and loaded classes (after installing or removing a plugin)."""
         self.__dict__.pop("_points", None)

@@ -108,8 +108,8 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
 @click.option(
     "--append",
     is_flag=True,
-    help="After comparing, append NEW's ratios to the --history file (created when missing; a run already "
-    "there is not added again).",
+    help="After a comparison without regressions, append NEW's ratios to the --history file (created when "
+    "missing; a run already there is not added again).",
 )
 @click.option(
     "--window",
@@ -173,9 +173,9 @@ def compare(
         raise InputError(str(error)) from None
     console = Console(width=160)
     console.print(comparison_table(comparison, fail_on_time=fail_on_time, only_changes=only_changes))
-    if figures is not None:
-        _append(history, figures, new)
     regressions = comparison.regressions(fail_on_time=fail_on_time)
+    if figures is not None and not regressions:  # a run that fails its comparison is not history
+        _append(history, figures, new)
     warnings = comparison.warnings(fail_on_time=fail_on_time)
     compared = sum(change.verdict != "added" for change in comparison.changes)
     judged = sum(change.spread is not None for change in comparison.changes)

@@ -12,6 +12,7 @@ normalises the answer as for any plugin.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import replace
 from typing import TYPE_CHECKING, ClassVar
 
@@ -88,7 +89,7 @@ class ExactSolver:
             result = Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         else:
             result = self.solve_problem(problem, model, time_limit=time_limit, seed=seed)
-        items, message, bound = tuple(int(i) for i in result.items), result.message, result.bound
+        items, message, bound = _model_items(result.items, model.n_items), result.message, result.bound
         if reduction is not None:
             items = reduction.items(items)
             if bound is not None:
@@ -112,3 +113,11 @@ class ExactSolver:
             build_time=prepare_time + (result.build_time or 0.0),
             solve_time=result.solve_time if result.solve_time is not None else clock.lap(),
         )
+
+
+def _model_items(items: Iterable[int], n_items: int) -> tuple[int, ...]:
+    """The backend's items as Python ints, each an item of the model it solved, none twice."""
+    chosen = [int(i) for i in items]
+    if any(not 0 <= i < n_items for i in chosen) or len(set(chosen)) != len(chosen):
+        raise ValueError(f"the backend answered items {chosen} for a model of {n_items} items")
+    return tuple(chosen)

@@ -2,8 +2,9 @@
 
 Beyond the paper: Algorithm 1 repeats eq. 3 until no blendshape is left, and the number of expressions
 it needs is not minimal. Covering every item with the fewest expressions is a colouring of the item
-conflict graph (two items conflict iff they share an active vertex, i.e. a presolved conflict set; a
-symmetry pair is one item), with at most ``cap`` blendshapes per colour when a cap is set (sec. 6).
+conflict graph (two items conflict iff they share an active vertex or are kept apart, i.e. share a
+presolved conflict set; a symmetry pair is one item), with at most ``cap`` blendshapes per colour when a
+cap is set (sec. 6).
 
 Models (CP-SAT, or HiGHS as the MILP backend) assign item i to colour c by a Boolean ``x[i, c]``:
 exactly one colour per item; for every conflict set and colour ``sum x[i, c] <= used[c]`` (the clique
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing import PackingProblem, SolutionStatus, Termination, expression_lower_bound, first_fit_colouring
+from packing import PackingProblem, SolutionStatus, Termination, conflict_set_bound, first_fit_colouring
 from solvers import _registry as registry
 from solvers._base import Stopwatch, check_solve_arguments, distribution_version
 from solvers.cpsat import cpsat_parameters, integer_weights
@@ -140,7 +141,7 @@ def minimum_expressions(
     plugin = _covering_plugin(solver)
     _check_cap(problem)
     clock = Stopwatch()
-    lower = expression_lower_bound(problem).lower
+    lower = conflict_set_bound(problem)
     if problem.n_items == 0:
         return MinimumExpressions(0, 0, (), Termination.OPTIMAL, 0.0, solver, "")
     start = first_fit_colouring(problem)

@@ -42,6 +42,8 @@ def _check(plugin: Any, name: str) -> str | None:
         return "has capabilities that are not a solvers.Capabilities"
     if plugin.name != name:
         return f"declares name {plugin.name!r}, registered as {name!r}"
+    if plugin.capabilities.minimum_cover and not hasattr(plugin, "solve_colouring"):
+        return "declares minimum_cover but has no solve_colouring"
     return None
 
 

@@ -17,7 +17,6 @@ stops at the first failure; `parametrize_with_checks` makes one pytest case per 
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
@@ -42,7 +41,6 @@ __all__ = [
     "check_time_limit",
     "check_validity",
     "parametrize_with_checks",
-    "solver_checks",
     "conformance_problems",
     "face_like_problem",
     "hard_problem",
@@ -164,7 +162,7 @@ def hard_problem(seed: int = 0) -> PackingProblem:
 
 
 def _loaded(solver: Any) -> LoadedSolver:
-    """The solver behind the framework's normalisation, or a skip/RuntimeError when it cannot run here."""
+    """The solver behind the framework's normalisation; a RuntimeError when it cannot run here."""
     loaded = load(solver)
     found = loaded.availability()
     if not found:
@@ -304,15 +302,6 @@ CHECKS: dict[str, Callable[..., None]] = {
     "determinism": check_determinism,
     "time limit": check_time_limit,
 }
-
-
-def solver_checks(solver: Any) -> list[tuple[str, Callable[[], None]]]:
-    """Each conformance check of ``solver`` as a named callable, to run one per test.
-
-    A check that does not apply (determinism of a solver that does not claim it, the time limit of one
-    without) passes at once.
-    """
-    return [(name, functools.partial(check, solver)) for name, check in CHECKS.items()]
 
 
 def parametrize_with_checks(solvers: Iterable[Any]):

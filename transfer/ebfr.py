@@ -124,7 +124,7 @@ def fit_edge_frames(
     prior : (T, 2, 3, K) array
         Deformation-transfer edges ``M_i^{A*}`` of the target shapes.
     regularisation : (T, K) array
-        Weights ``w_ti > 0`` (see `regularisation_weights`).
+        Weights ``w_ti > 0`` (see `Regularisation`).
     weights : (J, K) array
         Blendshape weights of the training expressions.
     observed : (T, 2, 3, J) array
@@ -347,7 +347,7 @@ def _write(result: np.ndarray, fitted: Fitted) -> None:
         result[np.ix_(members, free)] = np.moveaxis(values, -1, 0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RiggingSettings:
     """The regularisation both rigging methods share (`ExampleBasedRigging`, step A, and
     `transfer.ebfr_full.ExampleBasedRiggingFull`, steps A and B; Li et al. 2010, sec. 3A).

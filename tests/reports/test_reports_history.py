@@ -215,3 +215,15 @@ def test_a_report_without_a_history_has_no_history_section(make_run, tmp_path):
     page, text = build_report(make_run("run"))
     assert "Performance history" not in text.read_text()
     assert not (page.parent / "figures" / "history.png").exists()
+
+
+def test_a_run_with_regressions_is_not_appended_to_the_history(make_run, fabric, tmp_path):
+    old, path = make_run("old"), tmp_path / "history.csv"
+    _history(path, old, STEADY)
+    before = path.read_bytes()
+    worse = [fabric["optimal"][0], ["smile_L", "smile_R"], fabric["optimal"][2]]
+    sequences = {"naive-pulp-cbc": fabric["optimal"], "highs": worse, "cpsat": fabric["optimal"]}
+    new = make_run("new", sequences=sequences | {"greedy": fabric["greedy"]})
+    result = _invoke(compare_command, old, new, "--history", path, "--append")
+    assert result.exit_code == 1 and "regressions" in result.output
+    assert path.read_bytes() == before

@@ -152,3 +152,30 @@ def test_a_plugin_that_raises_is_an_error_solution_naming_it():
     solution = solvers.load(Broken).solve(solvers.testing.random_problem(5, 10, seed=1))
     assert solution.termination is Termination.ERROR and solution.items == ()
     assert "do-nothing: RuntimeError: backend crashed" in solution.message
+
+
+def test_an_exact_plugin_answering_items_outside_its_model_is_an_error():
+    class Wrapping(solvers.ExactSolver):
+        name = "wrapping"
+        capabilities = Capabilities(exact=True, time_limit=False)
+
+        @classmethod
+        def availability(cls):
+            return solvers.Availability.available("1.0")
+
+        def solve_model(self, model, *, time_limit, seed):
+            return Result([-1], Termination.OPTIMAL)
+
+    problem = solvers.testing.face_like_problem(40, 400, seed=1)
+    solution = solvers.load(Wrapping).solve(problem)
+    assert solution.termination is Termination.ERROR and solution.items == ()
+    assert "answered items [-1]" in solution.message
+
+
+def test_the_sequence_refuses_a_plugin_not_behind_the_framework():
+    import packing
+    import rigs
+
+    with pytest.raises(TypeError, match="pass solvers.get\\(name\\) or solvers.load\\(plugin\\)"):
+        packing.sequence(rigs.generate("tiny"), GreedySolver())
+    assert packing.sequence(rigs.generate("tiny"), solvers.load(GreedySolver))

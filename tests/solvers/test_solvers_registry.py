@@ -97,7 +97,8 @@ def test_duplicate_names_warn_and_keep_the_first():
         importlib.metadata.EntryPoint("greedy", "solvers.greedy:GreedySolver", _registry.GROUP),
     ]
     with pytest.warns(
-        RuntimeWarning, match="solver .greedy. is registered twice: solvers.greedy:GreedySolver .* other_pkg:Greedy"
+        RuntimeWarning,
+        match="solver .greedy. is registered twice: solvers.greedy:GreedySolver .* other_pkg:Greedy",
     ):
         found = registry.collect(points, "solver")
     assert found["greedy"].value == "solvers.greedy:GreedySolver"
