@@ -10,6 +10,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from reports._history import RUN_COLUMNS
 from reports._png import report_style
 from reports._tables import (
     REFERENCE_TRANSFERS,
@@ -223,9 +224,6 @@ def _reference_lines(ax: Axes, references: pd.DataFrame) -> float:
     return top
 
 
-_RUN_KEY = ["date", "commit", "machine"]
-
-
 def _run_ticks(runs: pd.DataFrame, most: int = 12) -> tuple[list[int], list[str]]:
     """At most ``most`` x ticks over the runs: date and short commit (``+`` when the tree was dirty)."""
     step = max(1, -(-len(runs) // most))
@@ -267,9 +265,9 @@ def history_figure(history: pd.DataFrame) -> Figure:
     rows = history[history["ratio"].notna()]
     if rows.empty:
         raise ValueError("history_figure: the history holds no ratio")
-    runs = rows.drop_duplicates(_RUN_KEY).sort_values("date", kind="stable").reset_index(drop=True)
-    order = {key: i for i, key in enumerate(runs[_RUN_KEY].itertuples(index=False, name=None))}
-    rows = rows.assign(run=[order[key] for key in rows[_RUN_KEY].itertuples(index=False, name=None)])
+    runs = rows.drop_duplicates(list(RUN_COLUMNS)).sort_values("date", kind="stable").reset_index(drop=True)
+    order = {key: i for i, key in enumerate(runs[list(RUN_COLUMNS)].itertuples(index=False, name=None))}
+    rows = rows.assign(run=[order[key] for key in rows[list(RUN_COLUMNS)].itertuples(index=False, name=None)])
     figures = sorted(rows["figure"].unique())
     cases = sorted(rows["case"].unique())
     positions, labels = _run_ticks(runs)

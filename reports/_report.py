@@ -13,7 +13,7 @@ from harness import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
 from reports._figures import coverage_figure, history_figure, rms_figure
-from reports._history import read_history
+from reports._history import RUN_COLUMNS, read_history
 from reports._layout import REPORT_DIR
 from reports._png import png_bytes
 from reports._tables import (
@@ -171,7 +171,7 @@ def _history_section(path: Path) -> Section:
     history = read_history(path)
     if history["ratio"].notna().sum() == 0:
         return Section("Performance history", [f"The history {path} holds no ratio yet."])
-    runs = len(history.drop_duplicates(["date", "commit", "machine"]))
+    runs = len(history.drop_duplicates(list(RUN_COLUMNS)))
     return Section(
         "Performance history",
         [
