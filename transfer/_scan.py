@@ -24,9 +24,7 @@ noise and head motion belong to the capture session (seeded by ``seed`` and the 
 
 from __future__ import annotations
 
-import threading
 import zlib
-from collections import OrderedDict
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING
 
@@ -34,6 +32,7 @@ import numpy as np
 
 from transfer._digest import content_digest
 from transfer._inputs import check_weights
+from transfer._memo import BoundedMemo
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -47,8 +46,7 @@ _SCANNER_CACHE_SIZE = 2
 #: Bytes of scans a scanner keeps, so the packings of one rig that share a sequence's first expressions
 #: capture them once.
 _SCAN_BUDGET = 64 * 2**20
-_scanners: OrderedDict[tuple[str, tuple[str, ...], ScanModel], _Scanner] = OrderedDict()
-_scanners_lock = threading.Lock()
+_scanners: BoundedMemo[_Scanner] = BoundedMemo(_SCANNER_CACHE_SIZE)
 
 
 @dataclass(frozen=True)
@@ -163,16 +161,7 @@ def _scanner(target: Rig, model: ScanModel) -> _Scanner:
     (`content_digest` and the shape names), so the capture sessions of every packing of one rig widen its
     shapes once."""
     key = (content_digest(target.neutral, target.deltas, target.triangles), target.names, model)
-    with _scanners_lock:
-        if key in _scanners:
-            _scanners.move_to_end(key)
-            return _scanners[key]
-    scanner = _Scanner(target, model)
-    with _scanners_lock:
-        _scanners[key] = scanner
-        while len(_scanners) > _SCANNER_CACHE_SIZE:
-            _scanners.popitem(last=False)
-    return scanner
+    return _scanners.get_or_build(key, lambda: _Scanner(target, model))
 
 
 class _Scanner:
@@ -206,24 +195,15 @@ class _Scanner:
             target.n_vertices, max(_MIN_STABLE, int(round(model.stable_share * target.n_vertices)))
         )
         self.centre = self.neutral.mean(axis=0)
-        self._scans: OrderedDict[tuple[bytes, int, int], np.ndarray] = OrderedDict()
-        self._scans_kept = max(1, _SCAN_BUDGET // max(self.neutral.nbytes, 1))
-        self._lock = threading.Lock()
+        self._scans: BoundedMemo[np.ndarray] = BoundedMemo(_SCAN_BUDGET // max(self.neutral.nbytes, 1))
 
     def scan(self, weights: np.ndarray, expression: np.ndarray, seed: int, index: int) -> np.ndarray:
         """Scan ``index`` of the capture session ``seed``: `capture` with ``default_rng([seed, index])``,
         memoised (within `_SCAN_BUDGET`) on the weights, the seed and the index."""
-        key = (weights.tobytes(), seed, index)
-        with self._lock:
-            found = self._scans.get(key)
-        if found is None:
-            found = self.capture(weights, expression, np.random.default_rng([seed, index]))
-            found.flags.writeable = False
-            with self._lock:
-                self._scans[key] = found
-                while len(self._scans) > self._scans_kept:
-                    self._scans.popitem(last=False)
-        return found
+        return self._scans.get_or_build(
+            (weights.tobytes(), seed, index),
+            lambda: _read_only(self.capture(weights, expression, np.random.default_rng([seed, index]))),
+        )
 
     def capture(self, weights: np.ndarray, expression: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One scan: the linear ``expression`` plus correctives and noise, moved rigidly, then aligned."""
@@ -329,3 +309,9 @@ def _vertex_normals(neutral: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         np.add.at(normals, triangles[:, corner], face)
     length = np.linalg.norm(normals, axis=1, keepdims=True)
     return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """``array``, made read-only (a memoised scan is shared)."""
+    array.flags.writeable = False
+    return array

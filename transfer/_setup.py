@@ -9,7 +9,6 @@ evaluating ``dt`` and ``ebfr`` at many J values pays one prior and one factorisa
 from __future__ import annotations
 
 import threading
-from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -17,6 +16,7 @@ import numpy as np
 
 from transfer._digest import content_digest
 from transfer._frames import TransferredEdges, aligned_template
+from transfer._memo import BoundedMemo
 from transfer._reconstruct import FrameReconstruction, FreeBlock, constraint_groups
 
 #: Set-ups kept per process (each holds a few (K, N, 3) arrays and sparse factors of one rig pair).
@@ -24,8 +24,7 @@ _CACHE_SIZE = 2
 #: Entries of sparse factorisations a cached set-up keeps, so later solves skip the factorisations.
 FACTOR_BUDGET = 20_000_000
 
-_setups: OrderedDict[tuple[Any, ...], TransferSetup] = OrderedDict()
-_setups_lock = threading.Lock()
+_setups: BoundedMemo[TransferSetup] = BoundedMemo(_CACHE_SIZE)
 
 
 class TransferSetup:
@@ -170,22 +169,15 @@ def transfer_setup(
     entries of factorisations each.
     """
     digest = content_digest(template.neutral, template.deltas, template.triangles, target_neutral)
-    key = (digest, float(static_tolerance), bool(align))
-    with _setups_lock:
-        if key in _setups:
-            _setups.move_to_end(key)
-            return _setups[key]
-    setup = TransferSetup(
-        template.neutral,
-        template.deltas,
-        template.triangles,
-        target_neutral,
-        static_tolerance=static_tolerance,
-        align=align,
-        factor_budget=FACTOR_BUDGET,
+    return _setups.get_or_build(
+        (digest, float(static_tolerance), bool(align)),
+        lambda: TransferSetup(
+            template.neutral,
+            template.deltas,
+            template.triangles,
+            target_neutral,
+            static_tolerance=static_tolerance,
+            align=align,
+            factor_budget=FACTOR_BUDGET,
+        ),
     )
-    with _setups_lock:
-        _setups[key] = setup
-        while len(_setups) > _CACHE_SIZE:
-            _setups.popitem(last=False)
-    return setup

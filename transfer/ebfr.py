@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
@@ -14,6 +12,7 @@ import numpy as np
 from transfer._base import Transfer, check_positive
 from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
 from transfer._inputs import TransferInputs
+from transfer._memo import BoundedMemo
 from transfer._reconstruct import displacement_lengths
 from transfer._setup import TransferSetup, transfer_setup
 
@@ -181,16 +180,8 @@ class RiggingState:
 
     def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
         self.regularisation = Regularisation(setup, kappa, theta, motion_scale)
-        #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`), most recent last.
-        self.expressions: OrderedDict[tuple[str, float], Fitted] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def remember(self, key: tuple[str, float], fitted: Fitted) -> None:
-        """Keep the fitted shapes of one expression, the last `_EXPRESSION_CACHE_SIZE` of them."""
-        with self._lock:
-            self.expressions[key] = fitted
-            while len(self.expressions) > _EXPRESSION_CACHE_SIZE:
-                self.expressions.popitem(last=False)
+        #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`).
+        self.expressions: BoundedMemo[Fitted] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
 
 
 class GradientSpaceRigging:
@@ -295,11 +286,9 @@ class GradientSpaceRigging:
         digest = hashlib.blake2b(row.tobytes(), digest_size=16)
         digest.update(np.ascontiguousarray(self.examples[j]).data)
         key = (digest.hexdigest(), float(beta))
-        found = self.state.expressions.get(key)
-        if found is None:
-            found = self._fitted(row[None, shapes], shapes, np.array([j]), beta)
-            self.state.remember(key, found)
-        return found
+        return self.state.expressions.get_or_build(
+            key, lambda: self._fitted(row[None, shapes], shapes, np.array([j]), beta)
+        )
 
 
 class RisingPrefixes:
