@@ -12,6 +12,7 @@ answer whoever wrote the plugin.
 from __future__ import annotations
 
 import functools
+import inspect
 import numbers
 import time
 import traceback
@@ -159,13 +160,20 @@ def _failed(problem: PackingProblem, solver: LoadedSolver, message: str, elapsed
 
 
 def _version(plugin: Any) -> str:
-    """The backend version the plugin reports through its availability (read once per class)."""
-    return _class_version(type(plugin))
+    """The backend version the plugin reports through its availability: read once per class when
+    ``availability`` is a classmethod (the contract), else asked of the instance (a wrapping solver)."""
+    if isinstance(inspect.getattr_static(type(plugin), "availability", None), classmethod):
+        return _class_version(type(plugin))
+    return _reported(plugin.availability)
 
 
 @functools.cache
 def _class_version(cls: type) -> str:
+    return _reported(cls.availability)
+
+
+def _reported(availability: Any) -> str:
     try:
-        return cls.availability().version or "unknown"
+        return availability().version or "unknown"
     except Exception:  # noqa: BLE001 - a plugin whose availability fails still gets a version string
         return "unknown"

@@ -16,6 +16,7 @@ its own triangles, factorised once and reused for every right-hand side with the
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -130,6 +131,7 @@ class FrameReconstruction:
         self.factor_budget = factor_budget
         self._blocks: dict[bytes, FreeBlock] = {}
         self._entries = 0
+        self._blocks_lock = threading.Lock()  # a set-up is shared by the threads of a process
         n_vertices = neutral.shape[0]
         n_triangles = triangles.shape[0]
         edges = edge_vectors(neutral, triangles)
@@ -220,13 +222,15 @@ class FrameReconstruction:
         Kept for later calls while the factor budget allows.
         """
         key = np.packbits(mask).tobytes()
-        found = self._blocks.get(key)
+        with self._blocks_lock:
+            found = self._blocks.get(key)
         if found is not None or mask.all():
             return found
         found = self._factorised(mask)
-        if self._entries + found.entries <= self.factor_budget:
-            self._blocks[key] = found
-            self._entries += found.entries
+        with self._blocks_lock:
+            if key not in self._blocks and self._entries + found.entries <= self.factor_budget:
+                self._blocks[key] = found
+                self._entries += found.entries
         return found
 
     def _factorised(self, mask: np.ndarray) -> FreeBlock:
