@@ -82,7 +82,7 @@ class LoadedSolver:
         try:
             answer = self.plugin.solve(problem, time_limit=time_limit, seed=seed)
             elapsed = time.perf_counter() - start
-            return _solution(problem, answer, elapsed, self.name, _version(self.plugin))
+            return _solution(problem, answer, elapsed, self.name, self.plugin)
         except Exception as error:  # a failing plugin is reported, never raised into the run
             detail = "".join(traceback.format_exception_only(error)).strip()
             return _failed(problem, self, f"{self.name}: {detail}", time.perf_counter() - start)
@@ -110,8 +110,9 @@ def load(solver: Any) -> LoadedSolver:
     return LoadedSolver(solver() if isinstance(solver, type) else solver)
 
 
-def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, version: str) -> Solution:
-    """The `Solution` of a plugin's answer (a `Result`, or a `Solution` from a wrapping solver)."""
+def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, plugin: Any) -> Solution:
+    """The `Solution` of a plugin's answer (a `Result`, or a `Solution` from a wrapping solver); the
+    plugin's reported version only when the answer names none."""
     from packing import Solution, Termination
 
     if not isinstance(answer, Result | Solution):
@@ -131,7 +132,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, v
         build_time=build_time,
         solve_time=solve_time,
         backend=backend,
-        version=answer.version or version,
+        version=answer.version or _version(plugin),
         message=answer.message,
     )
 
