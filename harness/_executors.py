@@ -7,36 +7,35 @@ result of the cell yields `harness._cell.Lost` with the reason, and ``--resume``
 worker process that dies (killed, out of memory), a worker whose start-up and warm-up exceed their
 allowance, a Dask task that fails (scheduler or worker lost, the package missing on a worker).
 
-Local workers are fresh interpreters (`harness._worker`, started with `subprocess`, never forked: solver
-libraries keep threads and global state, and Dask's daemonic worker processes may not use
-`multiprocessing` children) talking over a socket pair, reused from cell to cell. Each does one untimed
-warm-up solve per solver before its first cell with that solver (see `harness._cell.warm_up`). Start-up and
-warm-up may take ``timeout`` plus `STARTUP_ALLOWANCE` seconds; the cell then gets the full ``timeout``.
-Workers end with the process that started them, even when it is killed with ``kill -9``.
+Local workers are `solvers.Worker` processes (fresh interpreters that end with the process that started
+them, even when it is killed with ``kill -9``), reused from cell to cell. A cell is two calls sent
+together: `harness._cell.warm_up` (one untimed solve per solver and process), then
+`harness._cell.run_cell`. Start-up and warm-up may take ``timeout`` plus `STARTUP_ALLOWANCE` seconds; the
+cell then gets the full ``timeout``.
 """
 
 from __future__ import annotations
 
 import logging
-import multiprocessing.connection
-import os
-import signal
-import socket
-import subprocess
-import sys
 import threading
 import time
 import uuid
 from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Any, Protocol
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from harness._cell import Lost, failure_rows, run_cell, warm_up
 from harness._grid import CellSpec
+from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
+
+if TYPE_CHECKING:
+    from distributed import Future
 
 Rows = list[dict[str, Any]]
 #: What an executor yields for a cell: its record rows, or `Lost`.
 Outcome = Rows | Lost
+#: Cells of one rig group share a template and a target rig: (rig, seed, warp).
+Group = tuple[str, int, str]
 
 #: Seconds a worker may take, on top of ``timeout``, to start and warm a solver up before a cell starts.
 STARTUP_ALLOWANCE = 120.0
@@ -50,7 +49,7 @@ class Executor(Protocol):
     def close(self) -> None: ...
 
 
-def _group(spec: CellSpec) -> tuple[str, int, str]:
+def _group(spec: CellSpec) -> Group:
     """Cells that share a template and a target rig (and so the worker's caches)."""
     return spec.rig, spec.rig_seed, spec.warp
 
@@ -59,23 +58,15 @@ def _timeout_message(timeout: float) -> str:
     return f"cell exceeded --timeout {timeout:g}s and was stopped"
 
 
-def _exit_text(code: int) -> str:
-    if code < 0:
-        try:
-            return f"killed by {signal.Signals(-code).name}"
-        except ValueError:
-            return f"killed by signal {-code}"
-    return f"exit code {code}"
-
-
 @dataclass
-class _Worker:
-    process: subprocess.Popen
-    connection: multiprocessing.connection.Connection
+class _Slot:
+    """One of the executor's worker processes and the cell it runs (``spec`` is None while it is idle)."""
+
+    worker: Worker = field(default_factory=lambda: Worker("harness cell", log=False))
     spec: CellSpec | None = None
     deadline: float | None = None
     started: bool = False
-    group: tuple[str, int, str] | None = None
+    group: Group | None = None
 
 
 class LocalExecutor:
@@ -97,110 +88,91 @@ class LocalExecutor:
             raise ValueError(f"--jobs must be at least 1, got {jobs}")
         self.jobs = jobs
         self.timeout = timeout
-        self._workers: list[_Worker] = []
-
-    def _start_worker(self) -> _Worker:
-        mine, theirs = socket.socketpair()
-        with mine, theirs:
-            process = subprocess.Popen(
-                [sys.executable, "-m", "harness._worker", str(theirs.fileno()), str(os.getpid())],
-                pass_fds=[theirs.fileno()],
-                env={**os.environ, "PYTHONPATH": os.pathsep.join(path for path in sys.path if path)},
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                start_new_session=True,  # Ctrl-C reaches the parent only; it stops the workers
-            )
-            worker = _Worker(process, multiprocessing.connection.Connection(mine.detach()))
-        self._workers.append(worker)
-        return worker
-
-    def _stop_worker(self, worker: _Worker) -> None:
-        if worker.process.poll() is None:
-            worker.process.kill()
-        worker.process.wait()
-        worker.connection.close()
-        self._workers.remove(worker)
+        self._slots = [_Slot() for _ in range(jobs)]
 
     def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
         """Run the cells; yield ``(spec, outcome)`` in completion order."""
         queue = list(cells)
-        while queue or any(worker.spec is not None for worker in self._workers):
+        while queue or any(slot.spec is not None for slot in self._slots):
             self._assign(queue)
-            busy = [worker for worker in self._workers if worker.spec is not None]
-            waitables = [w.connection for w in busy]  # a dying worker closes its end: readable, EOF
-            deadlines = [w.deadline for w in busy if w.deadline is not None]
-            wait = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
-            ready = set(multiprocessing.connection.wait(waitables, timeout=wait))
-            for worker in busy:
-                finished = self._poll(worker, ready)
-                if finished is not None:
-                    yield finished
+            busy = [slot for slot in self._slots if slot.spec is not None]
+            deadlines = [slot.deadline for slot in busy if slot.deadline is not None]
+            wait_for_workers(
+                [slot.worker for slot in busy],
+                timeout=max(0.0, min(deadlines) - time.monotonic()) if deadlines else None,
+            )
+            for slot in busy:
+                outcome = self._outcome(slot)
+                if outcome is not None:
+                    spec, slot.spec, slot.deadline = slot.spec, None, None
+                    assert spec is not None
+                    yield spec, outcome
 
     def _assign(self, queue: list[CellSpec]) -> None:
-        for worker in [w for w in self._workers if w.spec is None and w.process.poll() is not None]:
-            self._stop_worker(worker)  # died while idle
-        idle = [worker for worker in self._workers if worker.spec is None]
-        while queue and (idle or len(self._workers) < self.jobs):
-            worker = idle.pop() if idle else self._start_worker()
-            spec = queue.pop(self._choose(worker, queue))
-            worker.spec, worker.started, worker.group = spec, False, _group(spec)
-            worker.deadline = (
-                None if self.timeout is None else time.monotonic() + self.timeout + STARTUP_ALLOWANCE
-            )
+        """Send queued cells to idle workers (one that ended while idle is started again)."""
+        idle = [slot for slot in self._slots if slot.spec is None]
+        while queue and idle:
+            slot = idle[-1]
+            spec = queue.pop(self._choose(slot, queue))
             try:
-                worker.connection.send(spec.to_dict())
-            except OSError:  # it died since the check; the cell goes back to the queue
-                worker.spec = None
-                self._stop_worker(worker)
+                slot.worker.send("harness._cell:warm_up", spec.solver)
+                slot.worker.send("harness._cell:run_cell", spec)
+            except WorkerDied:  # it ended since it was started: the cell goes back, a fresh process takes it
                 queue.insert(0, spec)
+                continue
+            idle.pop()
+            slot.spec, slot.started, slot.group = spec, False, _group(spec)
+            slot.deadline = self._deadline(STARTUP_ALLOWANCE)
 
-    def _choose(self, worker: _Worker, queue: list[CellSpec]) -> int:
-        """Index of the queued cell for ``worker``: one of the rig group it ran last (its rigs and transfer
+    def _choose(self, slot: _Slot, queue: list[CellSpec]) -> int:
+        """Index of the queued cell for ``slot``: one of the rig group it ran last (its rigs and transfer
         results are cached there), else one of a group no other worker is on, else the first."""
-        others = {w.group for w in self._workers if w is not worker}
-        for wanted in (lambda group: group == worker.group, lambda group: group not in others):
+        others = {other.group for other in self._slots if other is not slot}
+        for wanted in (lambda group: group == slot.group, lambda group: group not in others):
             for index, spec in enumerate(queue):
                 if wanted(_group(spec)):
                     return index
         return 0
 
-    def _poll(self, worker: _Worker, ready: set[Any]) -> tuple[CellSpec, Outcome] | None:
-        spec = worker.spec
-        assert spec is not None
-        while worker.connection in ready or worker.connection.poll():
-            ready.discard(worker.connection)
-            try:
-                message = worker.connection.recv()
-            except (EOFError, OSError):
-                break
-            if message[0] == "started":
-                worker.started = True
-                worker.deadline = None if self.timeout is None else time.monotonic() + self.timeout
-            else:
-                worker.spec, worker.deadline = None, None
-                return spec, message[2]
-        if worker.process.poll() is not None:
-            code, pid = worker.process.returncode, worker.process.pid
-            self._stop_worker(worker)
-            return spec, Lost(f"worker process {pid} died ({_exit_text(code)}) while running the cell")
-        if worker.deadline is not None and time.monotonic() >= worker.deadline:
-            self._stop_worker(worker)
-            if not worker.started:
-                allowed = (self.timeout or 0.0) + STARTUP_ALLOWANCE
-                return spec, Lost(f"worker start-up and the solver's warm-up took over {allowed:g}s")
-            return spec, failure_rows(spec, "timeout", _timeout_message(self.timeout or 0.0))
-        return None
+    def _outcome(self, slot: _Slot) -> Outcome | None:
+        """The outcome of a busy slot's cell once its worker replied, ended or passed its deadline."""
+        assert slot.spec is not None
+        try:
+            while slot.worker.pending and slot.worker.ready():
+                reply = slot.worker.receive()
+                if slot.started:
+                    return cast(Outcome, reply)
+                slot.started = True  # the warm-up is done: the cell itself now runs
+                slot.deadline = self._deadline()
+        except WorkerDied as died:
+            self._discard(slot)
+            return Lost(f"worker process {died.pid} died ({died.exit}) while running the cell")
+        except WorkerError as error:
+            self._discard(slot)
+            return Lost(f"worker process failed while running the cell: {str(error).splitlines()[-1]}")
+        if slot.deadline is None or time.monotonic() < slot.deadline:
+            return None
+        self._discard(slot)
+        if not slot.started:
+            allowed = (self.timeout or 0.0) + STARTUP_ALLOWANCE
+            return Lost(f"worker start-up and the solver's warm-up took over {allowed:g}s")
+        return failure_rows(slot.spec, "timeout", _timeout_message(self.timeout or 0.0))
+
+    def _deadline(self, allowance: float = 0.0) -> float | None:
+        """When a cell sent now (with ``allowance`` for start-up and warm-up) is over its time."""
+        return None if self.timeout is None else time.monotonic() + self.timeout + allowance
+
+    @staticmethod
+    def _discard(slot: _Slot) -> None:
+        """Stop a slot's worker (the next cell starts a fresh one, with empty caches)."""
+        slot.worker.stop()
+        slot.group = None
 
     def close(self) -> None:
         """Stop every worker (cells in flight are lost; their part files were never written)."""
-        for worker in list(self._workers):
-            if worker.spec is None and worker.process.poll() is None:
-                try:
-                    worker.connection.send(None)
-                    worker.process.wait(timeout=2)
-                except (OSError, subprocess.TimeoutExpired):
-                    pass
-            self._stop_worker(worker)
+        for slot in self._slots:
+            slot.worker.stop()
+            slot.spec = None
 
 
 _task_workers = threading.local()
@@ -246,7 +218,7 @@ class DaskExecutor:
         except (OSError, TimeoutError) as error:
             raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from error
         self.timeout = timeout
-        self._futures: list[Any] = []
+        self._futures: list[Future] = []
 
     def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
         """Submit every cell; yield ``(spec, outcome)`` in completion order."""

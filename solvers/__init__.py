@@ -4,7 +4,9 @@ Solvers are plugins registered in the ``harness.solvers`` entry-point group; `na
 importing any backend, `get` returns a ready instance, `info` reports availability and capabilities.
 Beyond single expressions: artist refinement (sec. 4.5.3, `refine`, `RefiningSolver`) and the minimum
 number of expressions with its ordered sequence (`minimum_expressions`, `ordered_minimum_sequence`).
-The conformance checks for plugins live in `solvers.testing`.
+The conformance checks for plugins live in `solvers.testing`. `Worker` runs functions in a persistent child
+process that may crash or be killed without taking its caller along (a backend that cannot share a process
+with the others, the harness's grid cells).
 
 The plugin kit: a plugin's ``solve`` returns a `Result` (items, termination, bound); `load` (which `get`
 applies) checks its arguments and turns its answer into a `packing.Solution` once for every plugin. An
@@ -53,6 +55,7 @@ if TYPE_CHECKING:
         refresh,
         solver_class,
     )
+    from solvers._worker import Worker, WorkerDied, WorkerError, wait_for_workers
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
@@ -87,5 +90,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "refresh",
             "solver_class",
         ],
+        "_worker": ["Worker", "WorkerDied", "WorkerError", "wait_for_workers"],
     },
 )

@@ -1,125 +1,277 @@
-"""Persistent worker processes for backends that cannot share a process with the others.
+"""Worker processes: functions run in a persistent child interpreter that may crash, hang or be killed.
 
-DESIGN.md, "Pitfalls": python-mip's CBC fails to load beside OR-Tools in one process. Such a backend runs
-its ``module:function`` in a long-lived ``python -m solvers._worker`` child: requests and replies are
-pickled over the child's stdin and a private copy of its stdout (library output on fd 1 goes to a log
-file instead), so the caller's ``Solver.solve`` looks the same as for an in-process backend. The first
-call starts the worker (interpreter and library start-up are paid once and never counted as solve time).
-The worker ends with its parent, even when the parent is killed with ``kill -9`` (`exit_with_parent`).
+One layer serves every caller that must not share a process with what it runs. DESIGN.md, "Pitfalls":
+python-mip's CBC fails to load beside OR-Tools in one process, so that backend solves in a worker of its own
+(`worker`, behind the same ``Solver.solve``); the harness runs every grid cell in one, so that a solver
+that segfaults, hangs past ``--timeout`` or is killed loses that cell and not the run.
+
+A `Worker` starts ``python -m solvers._worker_child`` (a fresh interpreter, never a fork: solver libraries
+keep threads and global state) on first use, talks to it over a socket pair (`multiprocessing.connection`
+framing, `pickle` payloads) and restarts it on the call after it died or was stopped. Functions are named
+``"module:function"`` and run in order; interpreter and library start-up are paid once per process, never
+inside a call. A worker ignores Ctrl-C and runs in a session of its own: its parent stops it (a blocking
+`Worker.call` interrupted by Ctrl-C does), and it ends with its parent even when that is killed with
+``kill -9`` (`solvers._worker_child.exit_with_parent`).
 """
 
 from __future__ import annotations
 
 import atexit
-import ctypes
-import importlib
+import multiprocessing.connection
 import os
 import pickle
-import select
 import signal
 import subprocess
 import sys
 import tempfile
 import threading
-import time
-import traceback
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO
+
+#: Seconds a worker may take to exit once its connection is closed, before it is killed.
+STOP_GRACE = 5.0
+#: Characters of a worker's log quoted in an error message.
+LOG_TAIL = 2000
 
 
 class WorkerError(RuntimeError):
-    """The worker process failed: it crashed, timed out, or its function raised."""
+    """A call to a worker failed: its function raised, or no reply came within the call's timeout."""
+
+
+class WorkerDied(WorkerError):
+    """The worker process ended before it replied (it crashed or was killed).
+
+    Attributes
+    ----------
+    pid : int
+        The process id it had.
+    returncode : int
+        Its exit status; minus the signal number when a signal ended it.
+    """
+
+    def __init__(self, message: str, pid: int, returncode: int) -> None:
+        super().__init__(message)
+        self.pid = pid
+        self.returncode = returncode
+
+    @property
+    def exit(self) -> str:
+        """How the process ended: ``killed by SIGKILL`` or ``exit code 1``."""
+        return describe_exit(self.returncode)
+
+
+def describe_exit(returncode: int) -> str:
+    """A process's exit status in words: ``killed by SIGSEGV``, ``exit code 3``."""
+    if returncode < 0:
+        try:
+            return f"killed by {signal.Signals(-returncode).name}"
+        except ValueError:
+            return f"killed by signal {-returncode}"
+    return f"exit code {returncode}"
 
 
 class Worker:
-    """One persistent child process that runs functions by ``"module:function"`` name.
+    """One persistent child process that runs functions named ``"module:function"``.
+
+    `call` runs one function and waits for its result. An owner that waits on several workers at once
+    starts calls with `send`, waits with `wait_for_workers` and collects the replies with `receive`, in
+    the order the calls were sent.
 
     Parameters
     ----------
     label : str
-        Name used in error messages (the solver plugin's name).
+        Name used in error messages (a solver plugin's name).
+    log : bool
+        True: the worker's standard output and error go to a private log whose tail error messages quote
+        (library output never reaches the caller's terminal). False: its output is discarded and its
+        error stream is the caller's.
     """
 
-    def __init__(self, label: str) -> None:
+    def __init__(self, label: str, *, log: bool = True) -> None:
         self.label = label
-        self._process: subprocess.Popen | None = None
-        self._log = None
+        self.log = log
+        self._process: subprocess.Popen[bytes] | None = None
+        self._connection: multiprocessing.connection.Connection | None = None
+        self._log: IO[bytes] | None = None
+        self._pending = 0
         self._lock = threading.Lock()
 
-    def call(self, function: str, *args: Any, timeout: float | None = None) -> Any:
-        """Run ``function(*args)`` in the worker and return its result.
+    @property
+    def pid(self) -> int | None:
+        """The worker's process id, or None when it is not running."""
+        return None if self._process is None else self._process.pid
+
+    @property
+    def pending(self) -> int:
+        """Calls sent whose replies have not been received."""
+        return self._pending
+
+    def fileno(self) -> int:
+        """The descriptor that turns readable when a reply comes or the process ends (`wait_for_workers`)."""
+        if self._connection is None:
+            raise ValueError(f"{self.label} worker is not running")
+        return self._connection.fileno()
+
+    def ready(self) -> bool:
+        """True when `receive` would not wait: a reply came, or the process ended."""
+        return self._connection is not None and self._connection.poll()
+
+    def send(self, function: str, *args: object) -> None:
+        """Start ``function(*args)`` in the worker, starting the process first if it is not running.
+
+        Raises
+        ------
+        WorkerDied
+            The process ended before it took the call (it is then stopped; the next call restarts it).
+        """
+        self._send(function, args)
+
+    def receive(self) -> object:
+        """The result of the oldest call sent, waiting for it if need be.
 
         Raises
         ------
         WorkerError
-            With the worker's traceback or the tail of its log when it died; a dead or timed-out
-            worker is discarded and the next call starts a fresh one.
+            With the worker's traceback when the function raised (the worker goes on).
+        WorkerDied
+            When the process ended first (it is then stopped; the next call restarts it).
         """
-        with self._lock:
-            process = self._ensure_started()
-            try:
-                pickle.dump((function, args), process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
-                process.stdin.flush()
-                if timeout is not None and os.name == "posix":
-                    ready, _, _ = select.select([process.stdout], [], [], timeout)
-                    if not ready:
-                        raise TimeoutError(f"no reply within {timeout:.0f} s")
-                status, value = pickle.load(process.stdout)
-            except (OSError, EOFError, pickle.UnpicklingError, TimeoutError) as error:
-                detail = self._log_tail()
-                self._stop(kill=True)
-                raise WorkerError(f"{self.label} worker process failed ({error}). {detail}".strip()) from None
-        if status == "error":
+        if self._connection is None or not self._pending:
+            raise WorkerError(f"{self.label} worker: no call is waiting for a reply")
+        try:
+            succeeded, value = pickle.loads(self._connection.recv_bytes())
+        except (EOFError, OSError):
+            raise self._died() from None
+        self._pending -= 1
+        if not succeeded:
             raise WorkerError(f"{self.label} worker: {value}")
         return value
 
-    def close(self) -> None:
-        """Stop the worker process (it is restarted by the next call)."""
+    def call(self, function: str, *args: object, timeout: float | None = None) -> object:
+        """Run ``function(*args)`` in the worker and return its result.
+
+        Parameters
+        ----------
+        function : str
+            ``"module:function"``, importable in the worker.
+        *args
+            Its arguments (pickled).
+        timeout : float, optional
+            Seconds to wait for the reply; the worker is stopped when none comes.
+
+        Raises
+        ------
+        WorkerError
+            The function raised, or no reply came within ``timeout``.
+        WorkerDied
+            The process ended first (a crash, a kill).
+
+        Notes
+        -----
+        Calls from several threads take turns. A dead, timed-out or interrupted worker is stopped and the
+        next call starts a fresh one.
+        """
         with self._lock:
-            self._stop()
+            connection = self._send(function, args)
+            try:
+                if not connection.poll(timeout):
+                    detail = self._log_tail()
+                    self.stop()
+                    message = f"{self.label} worker process gave no reply within {timeout:.0f} s. {detail}"
+                    raise WorkerError(message.strip())
+                return self.receive()
+            except WorkerError:
+                raise
+            except BaseException:  # Ctrl-C: the late reply would answer the next call
+                self.stop()
+                raise
 
-    def _ensure_started(self) -> subprocess.Popen:
-        if self._process is not None and self._process.poll() is None:
-            return self._process
-        self._stop()
-        self._log = tempfile.TemporaryFile(prefix=f"harness-{self.label}-")
-        env = dict(os.environ)
-        package_root = str(Path(__file__).resolve().parent.parent)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH", "")) if p)
-        self._process = subprocess.Popen(
-            [sys.executable, "-m", "solvers._worker", str(os.getpid())],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=self._log,
-            env=env,
-        )
-        return self._process
+    def stop(self) -> None:
+        """End the process: at once when a call is in flight, else by closing its connection.
 
-    def _log_tail(self, limit: int = 2000) -> str:
+        Replies not received are lost. The next `send` or `call` starts a fresh process.
+        """
+        process, connection = self._process, self._connection
+        self._process, self._connection = None, None
+        if process is not None:
+            if self._pending:
+                process.kill()
+            if connection is not None:
+                connection.close()
+            try:
+                process.wait(timeout=STOP_GRACE)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        self._pending = 0
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+
+    def _send(self, function: str, args: tuple[object, ...]) -> multiprocessing.connection.Connection:
+        """Send one call (see `send`); the connection it went over."""
+        connection = self._started()
+        payload = pickle.dumps((function, args), protocol=pickle.HIGHEST_PROTOCOL)
+        try:
+            connection.send_bytes(payload)
+        except OSError:
+            raise self._died() from None
+        self._pending += 1
+        return connection
+
+    def _started(self) -> multiprocessing.connection.Connection:
+        """The connection to a running process (started, or restarted after it ended)."""
+        if self._process is not None and self._connection is not None and self._process.poll() is None:
+            return self._connection
+        self.stop()
+        output: IO[bytes] | int = subprocess.DEVNULL
+        if self.log:
+            output = self._log = tempfile.TemporaryFile(prefix=f"worker-{self.label}-")
+        mine, theirs = multiprocessing.connection.Pipe()  # a socket pair on POSIX
+        with theirs:
+            self._process = subprocess.Popen(
+                [sys.executable, "-m", "solvers._worker_child", str(theirs.fileno()), str(os.getpid())],
+                pass_fds=[theirs.fileno()],
+                env={**os.environ, "PYTHONPATH": _import_path()},
+                stdin=subprocess.DEVNULL,
+                stdout=output,
+                stderr=output if self.log else None,
+                start_new_session=True,  # Ctrl-C reaches the caller only; the caller stops its workers
+            )
+        self._connection = mine
+        return mine
+
+    def _died(self) -> WorkerDied:
+        """The error for a process that ended before it replied; the worker is stopped."""
+        assert self._process is not None
+        process, detail = self._process, self._log_tail()
+        self._pending = 0  # its end of the connection closed: it is exiting, let it finish
+        self.stop()
+        message = f"{self.label} worker process {process.pid} died ({describe_exit(process.returncode)})."
+        return WorkerDied(f"{message} {detail}".strip(), process.pid, process.returncode)
+
+    def _log_tail(self) -> str:
         if self._log is None:
             return ""
         self._log.seek(0)
         text = self._log.read().decode(errors="replace").strip()
-        return f"Worker log: {text[-limit:]}" if text else ""
+        return f"Worker log: {text[-LOG_TAIL:]}" if text else ""
 
-    def _stop(self, kill: bool = False) -> None:
-        process, self._process = self._process, None
-        if process is not None:
-            if kill:
-                process.kill()
-            for stream in (process.stdin, process.stdout):
-                try:
-                    stream.close()
-                except OSError:
-                    pass
-            try:
-                process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
-        if self._log is not None:
-            self._log.close()
-            self._log = None
+
+def wait_for_workers(workers: Sequence[Worker], timeout: float | None = None) -> None:
+    """Wait until one of ``workers`` has a reply to receive or its process ended, or ``timeout`` seconds.
+
+    The caller then asks each worker whether it is `Worker.ready`.
+    """
+    multiprocessing.connection.wait(workers, timeout=timeout)  # type: ignore[arg-type]
+
+
+def _import_path() -> str:
+    """``PYTHONPATH`` for a worker: this project's root, then the caller's ``sys.path`` (plugin folders
+    added at run time included), so that a function resolves in the worker as it does in the caller."""
+    root = str(Path(__file__).resolve().parent.parent)
+    return os.pathsep.join(dict.fromkeys(path for path in (root, *sys.path) if path))
 
 
 _WORKERS: dict[str, Worker] = {}
@@ -127,7 +279,7 @@ _WORKERS_LOCK = threading.Lock()
 
 
 def worker(label: str) -> Worker:
-    """The persistent worker of one backend (created on first use, stopped at interpreter exit)."""
+    """The shared persistent worker of one backend (created on first use, stopped at interpreter exit)."""
     with _WORKERS_LOCK:
         if label not in _WORKERS:
             _WORKERS[label] = Worker(label)
@@ -135,68 +287,6 @@ def worker(label: str) -> Worker:
 
 
 @atexit.register
-def _close_all() -> None:
+def _stop_all() -> None:
     for running in list(_WORKERS.values()):
-        running.close()
-
-
-#: ``prctl`` option asking the kernel for a signal when the parent exits (``<linux/prctl.h>``).
-_PR_SET_PDEATHSIG = 1
-#: Seconds between two checks of the parent by the watchdog thread.
-_WATCH_INTERVAL = 1.0
-
-
-def exit_with_parent(parent: int) -> None:
-    """End this process as soon as ``parent`` (the process that started it) ends, however it ends.
-
-    On Linux the kernel sends SIGKILL when the parent exits (``prctl(PR_SET_PDEATHSIG)``, through
-    `ctypes`); on every platform a daemon thread checks every `_WATCH_INTERVAL` seconds that the parent
-    is still this process's parent (an orphan is re-parented) and exits otherwise. A parent already gone
-    by the time this runs ends the process at once.
-    """
-    if sys.platform.startswith("linux"):
-        try:
-            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        except (OSError, AttributeError):
-            pass  # no usable libc: the watchdog below still ends the process
-    if os.getppid() != parent:
-        os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent,), name="parent-watchdog", daemon=True).start()
-
-
-def _watch_parent(parent: int) -> None:
-    while os.getppid() == parent:
-        time.sleep(_WATCH_INTERVAL)
-    os._exit(1)
-
-
-def _resolve(function: str):
-    module, _, name = function.partition(":")
-    return getattr(importlib.import_module(module), name)
-
-
-def main() -> None:
-    """Worker loop: read ``(function, args)`` pickles from stdin, write ``(status, value)`` replies.
-
-    ``sys.argv[1]`` is the parent's process id: the worker ends with it (`exit_with_parent`).
-    """
-    exit_with_parent(int(sys.argv[1]))
-    requests = sys.stdin.buffer
-    replies = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
-    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # C libraries printing to fd 1 must not corrupt replies
-    sys.stdout = sys.stderr
-    while True:
-        try:
-            function, args = pickle.load(requests)
-        except EOFError:
-            return
-        try:
-            reply = ("ok", _resolve(function)(*args))
-        except BaseException:  # report everything; the parent decides
-            reply = ("error", traceback.format_exc())
-        pickle.dump(reply, replies, protocol=pickle.HIGHEST_PROTOCOL)
-        replies.flush()
-
-
-if __name__ == "__main__":
-    main()
+        running.stop()

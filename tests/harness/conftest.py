@@ -5,8 +5,11 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
+import signal
+import subprocess
 import sys
 import textwrap
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,10 +20,11 @@ import solvers
 from harness._cell import run_cell
 
 PLUGIN_MODULE = '''
-"""Solver plugins for the harness tests: one that sleeps, one that raises, one that is unavailable."""
+"""Solver plugins for the harness tests: two that sleep, one that raises, one that is unavailable."""
 
 import os
 import time
+from pathlib import Path
 
 import solvers
 from solvers.greedy import GreedySolver
@@ -35,6 +39,23 @@ class SleepySolver(GreedySolver):
     def solve(self, problem, *, time_limit=None, seed=0):
         if "bump0_L" in problem.shape_names:
             time.sleep(float(os.environ.get("HARNESS_TEST_SLEEP", "60")))
+        return super().solve(problem, time_limit=time_limit, seed=seed)
+
+
+class NapperSolver(GreedySolver):
+    """Greedy. On the first expression of the test sheet it first leaves a file named by its process id in
+    HARNESS_FAULT_MARKS (so that a test knows which process runs the cell), then sleeps
+    HARNESS_FAULT_SLEEP seconds (default 0)."""
+
+    name = "napper"
+    capabilities = solvers.Capabilities(exact=False, time_limit=False)
+
+    def solve(self, problem, *, time_limit=None, seed=0):
+        if "bump0_L" in problem.shape_names and problem.meta.get("expression") == 1:
+            marks = os.environ.get("HARNESS_FAULT_MARKS")
+            if marks:
+                Path(marks, str(os.getpid())).touch()
+            time.sleep(float(os.environ.get("HARNESS_FAULT_SLEEP", "0")))
         return super().solve(problem, time_limit=time_limit, seed=seed)
 
 
@@ -82,6 +103,7 @@ class MissingSolver(GreedySolver):
 ENTRY_POINTS = """
 [harness.solvers]
 sleepy = harness_test_plugins:SleepySolver
+napper = harness_test_plugins:NapperSolver
 raising = harness_test_plugins:RaisingSolver
 missing = harness_test_plugins:MissingSolver
 
@@ -126,7 +148,7 @@ def plugins_registered(plugin_dir: Path):
 
 @pytest.fixture
 def test_plugins(plugin_dir: Path):
-    """The test solver plugins ``sleepy``, ``raising`` and ``missing``, registered for one test."""
+    """The test solver plugins (``sleepy``, ``napper``, ``raising``, ``missing``), registered for one test."""
     with plugins_registered(plugin_dir):
         yield plugin_dir
 
@@ -170,6 +192,27 @@ class InlineExecutor:
         pass
 
 
+@pytest.fixture(scope="session")
+def grid_arguments(rig_file: Path) -> Callable[[str], list[str]]:
+    """``harness run`` arguments (but ``--out``) of a grid of 6 cells on the test rig: the solvers greedy,
+    the given one and cpsat, importance on and off, two transfers, one local worker, quiet."""
+
+    def arguments(solver: str) -> list[str]:
+        return [
+            "run",
+            "--rigs", str(rig_file),
+            "--warps", "none",
+            "--solvers", f"greedy,{solver},cpsat",
+            "--importance", "both",
+            "--transfers", "ebfr,dt",
+            "--j-values", "2,4",
+            "--jobs", "1",
+            "--quiet",
+        ]  # fmt: skip
+
+    return arguments
+
+
 @pytest.fixture(scope="module")
 def module_plugins(plugin_dir: Path):
     """The test solver plugins, registered for a whole test module."""
@@ -194,3 +237,21 @@ def _comparable(records):
 def comparable():
     """Records without the columns that change from run to run, in a canonical row order."""
     return _comparable
+
+
+def _check_stopped(process: subprocess.Popen, stderr: bytes, out: Path, stop: signal.Signals) -> None:
+    import harness
+
+    if stop == signal.SIGINT:
+        assert process.returncode == 130 and "interrupted" in stderr.decode()
+        assert harness.read_run(out)["state"] == "interrupted"
+    else:
+        assert process.returncode == -signal.SIGKILL
+        assert harness.read_run(out)["state"] == "running"
+
+
+@pytest.fixture
+def check_stopped():
+    """``check_stopped(process, stderr, out, stop)``: a ``harness run`` process ended by ``stop`` (Ctrl-C or
+    kill -9) has the exit status of that end and left ``run.json`` in the matching state."""
+    return _check_stopped

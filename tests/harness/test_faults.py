@@ -6,13 +6,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import importlib
 import json
 import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,7 +20,6 @@ import pytest
 from click.testing import CliRunner
 
 import harness
-import solvers
 from harness.cli import cli
 
 psutil = pytest.importorskip("psutil")
@@ -31,78 +28,18 @@ CELLS = 6  # 1 rig x 3 solvers x importance on/off
 #: Bound on every wait of these tests (seconds); a healthy run of the grid takes a few.
 PATIENCE = 60.0
 
-NAPPER = '''
-"""A solver plugin for the fault tests: greedy, after a nap on the first expression of the test sheet."""
 
-import os
-import time
-from pathlib import Path
-
-import solvers
-from solvers.greedy import GreedySolver
-
-
-class NapperSolver(GreedySolver):
-    """Greedy. On the first expression of the sheet rig it first leaves a file named by its process id in
-    HARNESS_FAULT_MARKS (so that a test knows which process runs the cell), then sleeps
-    HARNESS_FAULT_SLEEP seconds."""
-
-    name = "napper"
-    capabilities = solvers.Capabilities(exact=False, time_limit=False)
-
-    def solve(self, problem, *, time_limit=None, seed=0):
-        if "bump0_L" in problem.shape_names and problem.meta.get("expression") == 1:
-            marks = os.environ.get("HARNESS_FAULT_MARKS")
-            if marks:
-                Path(marks, str(os.getpid())).touch()
-            time.sleep(float(os.environ.get("HARNESS_FAULT_SLEEP", "0")))
-        return super().solve(problem, time_limit=time_limit, seed=seed)
-'''
+@pytest.fixture(scope="module")
+def grid(grid_arguments) -> list[str]:
+    """The ``harness run`` arguments of the grid these tests break, with the ``napper`` solver."""
+    return grid_arguments("napper")
 
 
 @pytest.fixture(scope="module")
-def napper(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """The ``napper`` solver plugin, registered for this process and every process it starts."""
-    root = tmp_path_factory.mktemp("napper")
-    (root / "harness_fault_plugins.py").write_text(textwrap.dedent(NAPPER))
-    info = root / "harness_fault_plugins-0.0.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: harness-fault-plugins\nVersion: 0.0\n")
-    (info / "entry_points.txt").write_text("[harness.solvers]\nnapper = harness_fault_plugins:NapperSolver\n")
-    old = os.environ.get("PYTHONPATH")
-    sys.path.insert(0, str(root))
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(root), *([old] if old else [])])
-    importlib.invalidate_caches()
-    solvers.refresh()
-    yield root
-    sys.path.remove(str(root))
-    if old is None:
-        del os.environ["PYTHONPATH"]
-    else:
-        os.environ["PYTHONPATH"] = old
-    importlib.invalidate_caches()
-    solvers.refresh()
-
-
-def _grid(rig_file: Path) -> list[str]:
-    return [
-        "run",
-        "--rigs", str(rig_file),
-        "--warps", "none",
-        "--solvers", "greedy,napper,cpsat",
-        "--importance", "both",
-        "--transfers", "ebfr,dt",
-        "--j-values", "2,4",
-        "--jobs", "1",
-        "--quiet",
-    ]  # fmt: skip
-
-
-@pytest.fixture(scope="module")
-def reference(rig_file, napper, tmp_path_factory) -> pd.DataFrame:
+def reference(grid, module_plugins, tmp_path_factory) -> pd.DataFrame:
     """Records of the grid run once without a fault, by the local executor."""
     out = tmp_path_factory.mktemp("reference") / "out"
-    result = CliRunner().invoke(cli, [*_grid(rig_file), "--out", str(out)])
+    result = CliRunner().invoke(cli, [*grid, "--out", str(out)])
     assert result.exit_code == 0, result.output
     return harness.read_records(out)
 
@@ -159,10 +96,10 @@ def _files(folder: Path) -> list[Path]:
 
 @pytest.mark.parametrize("stop", [signal.SIGKILL, signal.SIGINT], ids=["kill-9", "ctrl-c"])
 def test_the_run_stopped_takes_its_workers_along_and_resumes_to_the_reference(
-    stop, rig_file, reference, comparable, marks, tmp_path, monkeypatch
+    stop, grid, check_stopped, reference, comparable, marks, tmp_path, monkeypatch
 ) -> None:
     out = tmp_path / "out"
-    process = _start([*_grid(rig_file), "--out", str(out)])
+    process = _start([*grid, "--out", str(out)])
     _napping(marks, process)
     workers = psutil.Process(process.pid).children(recursive=True)
     assert workers, "the run has no worker process"
@@ -176,20 +113,15 @@ def test_the_run_stopped_takes_its_workers_along_and_resumes_to_the_reference(
     _, alive = psutil.wait_procs(workers, timeout=5)
     assert not alive, f"workers outlived the run: {alive}"
     assert len(_parts(out)) == 1  # the greedy cell; the napping one was in flight
-    if stop == signal.SIGINT:
-        assert process.returncode == 130 and "interrupted" in stderr.decode()
-        assert harness.read_run(out)["state"] == "interrupted"
-    else:
-        assert process.returncode == -signal.SIGKILL
-        assert harness.read_run(out)["state"] == "running"
+    check_stopped(process, stderr, out, stop)
     _resume_to_the_reference(out, reference, comparable, monkeypatch, kept=1)
 
 
 def test_a_worker_killed_mid_cell_loses_only_that_cell_and_resume_runs_it(
-    rig_file, reference, comparable, marks, tmp_path, monkeypatch
+    grid, reference, comparable, marks, tmp_path, monkeypatch
 ) -> None:
     out = tmp_path / "out"
-    process = _start([*_grid(rig_file), "--out", str(out)])
+    process = _start([*grid, "--out", str(out)])
     os.kill(_napping(marks, process), signal.SIGKILL)
     _, stderr = process.communicate(timeout=PATIENCE)
     assert process.returncode == 1, stderr.decode()
@@ -203,7 +135,7 @@ def test_a_worker_killed_mid_cell_loses_only_that_cell_and_resume_runs_it(
 
 
 @pytest.fixture
-def dask_cluster(napper, marks, tmp_path) -> Iterator[tuple[str, subprocess.Popen]]:
+def dask_cluster(module_plugins, marks, tmp_path) -> Iterator[tuple[str, subprocess.Popen]]:
     """A Dask scheduler and one single-threaded worker, as processes on 127.0.0.1."""
     pytest.importorskip("distributed")
     address_file = tmp_path / "scheduler.json"
@@ -228,11 +160,11 @@ def dask_cluster(napper, marks, tmp_path) -> Iterator[tuple[str, subprocess.Pope
 
 
 def test_a_lost_dask_scheduler_ends_the_run_incomplete_and_resume_finishes_it(
-    rig_file, reference, comparable, marks, dask_cluster, tmp_path, monkeypatch
+    grid, reference, comparable, marks, dask_cluster, tmp_path, monkeypatch
 ) -> None:
     address, scheduler = dask_cluster
     out = tmp_path / "out"
-    process = _start([*_grid(rig_file), "--out", str(out), "--executor", "dask", "--scheduler", address])
+    process = _start([*grid, "--out", str(out), "--executor", "dask", "--scheduler", address])
     _napping(marks, process)
     scheduler.kill()
     _, stderr = process.communicate(timeout=PATIENCE)
@@ -278,11 +210,11 @@ def _filled(disk: Path) -> Iterator[None]:
 
 
 def test_a_full_disk_at_start_is_one_line_naming_the_folder_and_leaves_no_empty_file(
-    rig_file, napper, small_disk
+    grid, module_plugins, small_disk
 ) -> None:
     out = small_disk / "run"
     with _filled(small_disk):
-        result = CliRunner().invoke(cli, [*_grid(rig_file), "--out", str(out)])
+        result = CliRunner().invoke(cli, [*grid, "--out", str(out)])
         assert result.exit_code == 2, result.output
         lines = result.output.strip().splitlines()
         assert len(lines) == 1 and str(out) in lines[0] and "No space left" in lines[0], result.output
@@ -292,10 +224,10 @@ def test_a_full_disk_at_start_is_one_line_naming_the_folder_and_leaves_no_empty_
 
 
 def test_a_disk_full_during_the_run_keeps_the_finished_cells_and_resume_finishes_it(
-    rig_file, reference, comparable, marks, small_disk, monkeypatch
+    grid, reference, comparable, marks, small_disk, monkeypatch
 ) -> None:
     out = small_disk / "run"
-    process = _start([*_grid(rig_file), "--out", str(out)])
+    process = _start([*grid, "--out", str(out)])
     _napping(marks, process)
     with _filled(small_disk):
         _, stderr = process.communicate(timeout=PATIENCE)
@@ -333,7 +265,7 @@ def test_the_isolated_solver_worker_dies_with_its_parent() -> None:
 def test_without_the_kernel_signal_the_watchdog_ends_an_orphaned_worker() -> None:
     orphan = (
         "import os, sys, time; sys.platform = 'elsewhere'; "  # no prctl: only the watchdog thread is left
-        "from solvers._worker import exit_with_parent; exit_with_parent(os.getppid()); time.sleep(60)"
+        "from solvers._worker_child import exit_with_parent; exit_with_parent(os.getppid()); time.sleep(60)"
     )
     middle = (
         f"import subprocess, sys, time; child = subprocess.Popen([sys.executable, '-c', {orphan!r}]); "

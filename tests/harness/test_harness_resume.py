@@ -19,18 +19,10 @@ from harness.cli import cli
 CELLS = 6  # 1 rig x 3 solvers x importance on/off
 
 
-def _grid(rig_file: Path) -> list[str]:
-    return [
-        "run",
-        "--rigs", str(rig_file),
-        "--warps", "none",
-        "--solvers", "greedy,sleepy,cpsat",
-        "--importance", "both",
-        "--transfers", "ebfr,dt",
-        "--j-values", "2,4",
-        "--jobs", "1",
-        "--quiet",
-    ]  # fmt: skip
+@pytest.fixture(scope="module")
+def grid(grid_arguments) -> list[str]:
+    """The ``harness run`` arguments of the grid these tests interrupt, with the ``sleepy`` solver."""
+    return grid_arguments("sleepy")
 
 
 @pytest.fixture(scope="module")
@@ -41,10 +33,10 @@ def slow_sleepy():
 
 
 @pytest.fixture(scope="module")
-def reference(rig_file, module_plugins, slow_sleepy, tmp_path_factory) -> pd.DataFrame:
+def reference(grid, module_plugins, slow_sleepy, tmp_path_factory) -> pd.DataFrame:
     """Records of the grid run once without interruption, by the local executor."""
     out = tmp_path_factory.mktemp("reference")
-    result = CliRunner().invoke(cli, [*_grid(rig_file), "--out", str(out), "--force"])
+    result = CliRunner().invoke(cli, [*grid, "--out", str(out), "--force"])
     assert result.exit_code == 0, result.output
     return harness.read_records(out)
 
@@ -55,14 +47,14 @@ def _parts(out: Path) -> list[Path]:
 
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "crash"])
 def test_a_run_stopped_mid_way_resumes_to_the_uninterrupted_records(
-    stop, rig_file, reference, comparable, tmp_path
+    stop, grid, check_stopped, reference, comparable, tmp_path
 ) -> None:
     out = tmp_path / "out"
     command = [
         sys.executable,
         "-c",
         "from harness.cli import main; main()",
-        *_grid(rig_file),
+        *grid,
         "--out",
         str(out),
     ]
@@ -74,12 +66,7 @@ def test_a_run_stopped_mid_way_resumes_to_the_uninterrupted_records(
     _, stderr = process.communicate(timeout=60)
     recorded = len(_parts(out))
     assert 1 <= recorded < CELLS, f"the run was not stopped mid-way ({recorded} of {CELLS} cells recorded)"
-    if stop == signal.SIGINT:
-        assert process.returncode == 130 and "interrupted" in stderr.decode()
-        assert harness.read_run(out)["state"] == "interrupted"
-    else:
-        assert process.returncode == -signal.SIGKILL
-        assert harness.read_run(out)["state"] == "running"
+    check_stopped(process, stderr, out, stop)
 
     result = CliRunner().invoke(cli, ["run", "--resume", str(out), "--jobs", "1", "--quiet"])
     assert result.exit_code == 0, result.output
@@ -89,7 +76,7 @@ def test_a_run_stopped_mid_way_resumes_to_the_uninterrupted_records(
     pd.testing.assert_frame_equal(comparable(harness.read_records(out)), comparable(reference))
 
 
-def test_the_dask_executor_records_what_the_local_one_does(rig_file, reference, comparable, tmp_path) -> None:
+def test_the_dask_executor_records_what_the_local_one_does(grid, reference, comparable, tmp_path) -> None:
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
         n_workers=1,
@@ -100,7 +87,7 @@ def test_the_dask_executor_records_what_the_local_one_does(rig_file, reference, 
         dashboard_address=None,
     ) as cluster:
         arguments = [
-            *_grid(rig_file),
+            *grid,
             "--out",
             str(tmp_path),
             "--executor",
@@ -115,8 +102,8 @@ def test_the_dask_executor_records_what_the_local_one_does(rig_file, reference, 
     pd.testing.assert_frame_equal(comparable(records), comparable(reference))
 
 
-def test_the_dask_executor_needs_a_reachable_scheduler(rig_file, tmp_path) -> None:
+def test_the_dask_executor_needs_a_reachable_scheduler(grid, tmp_path) -> None:
     result = CliRunner().invoke(
-        cli, [*_grid(rig_file)[:-3], "--solvers", "greedy", "--out", str(tmp_path), "--executor", "dask"]
+        cli, [*grid[:-3], "--solvers", "greedy", "--out", str(tmp_path), "--executor", "dask"]
     )
     assert result.exit_code == 2 and "--executor dask needs --scheduler tcp://HOST:PORT" in result.output
