@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 
 import click
 import pytest
 
 from harness.cli import BUILTIN, cli
+from tests.benchmarks.timing import best_time
 
 TARGET_SECONDS = 0.3
 RUNS = 3
@@ -22,12 +22,7 @@ RUNS = 3
 def _run(*arguments: str) -> tuple[float, subprocess.CompletedProcess]:
     """Fewest seconds of ``RUNS`` fresh ``harness`` processes, and the last one."""
     command = [sys.executable, "-c", "from harness.cli import main; main()", *arguments]
-    times, done = [], None
-    for _ in range(RUNS):
-        start = time.perf_counter()
-        done = subprocess.run(command, capture_output=True, text=True, check=True)
-        times.append(time.perf_counter() - start)
-    return min(times), done
+    return best_time(lambda: subprocess.run(command, capture_output=True, text=True, check=True), RUNS)
 
 
 @pytest.mark.parametrize("arguments", [("--help",), ("list", "--json")], ids=["help", "list"])

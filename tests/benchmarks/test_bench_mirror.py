@@ -10,12 +10,12 @@ checked on the best of a few repetitions (see ``conftest.speed_target``). Run wi
 from __future__ import annotations
 
 import functools
-import time
 
 import numpy as np
 import pytest
 
 import rigs
+from tests.benchmarks.timing import best_time
 
 #: Seconds allowed for one map of the 100k-vertex mesh.
 BUDGET = 1.0
@@ -33,16 +33,6 @@ def _jittered(rig: rigs.Rig, share: float) -> np.ndarray:
     return rig.neutral + share * float(np.linalg.norm(edges, axis=2).mean()) * directions
 
 
-def _best_time(function, repeats: int):
-    """Fewest seconds of ``repeats`` calls, and the last result."""
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
-
-
 @pytest.mark.parametrize(
     ("case", "jitter", "on_surface"),
     [("exact, surface", 0.0, True), ("jittered, surface", 0.3, True), ("jittered, vertices", 0.3, False)],
@@ -51,7 +41,7 @@ def test_bench_mirror_map(benchmark, speed_target, case, jitter, on_surface):
     rig = _mesh()
     neutral = _jittered(rig, jitter) if jitter else rig.neutral
     triangles = rig.triangles if on_surface else None
-    seconds, _ = _best_time(lambda: rigs.mirror_map(neutral, triangles=triangles), repeats=3)
+    seconds, _ = best_time(lambda: rigs.mirror_map(neutral, triangles=triangles), repeats=3)
     mirror = benchmark(rigs.mirror_map, neutral, triangles=triangles)
     benchmark.extra_info.update(
         n_vertices=rig.n_vertices, n_triangles=len(rig.triangles), matched=float(np.mean(mirror >= 0))

@@ -11,7 +11,6 @@ sequence). Targets are checked on the best of a few repetitions (see ``conftest.
 from __future__ import annotations
 
 import functools
-import time
 import warnings
 
 import numpy as np
@@ -20,6 +19,7 @@ import pytest
 import packing
 import rigs
 import solvers
+from tests.benchmarks.timing import best_time
 
 
 @functools.cache
@@ -38,21 +38,11 @@ def _analyse(rig: rigs.Rig, target: np.ndarray, **params) -> packing.Analysis:
         return packing.analyse(rig, target, **params)
 
 
-def _best_time(function, repeats: int):
-    """Fewest seconds of ``repeats`` calls, and the last result."""
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
-
-
 @pytest.mark.parametrize("preset", ["toon", "female"])
 def test_bench_analysis(benchmark, speed_target, preset):
     rig = _generated(preset)
     target = _target(rig)
-    seconds, _ = _best_time(lambda: _analyse(rig, target), repeats=2)
+    seconds, _ = best_time(lambda: _analyse(rig, target), repeats=2)
     analysis = benchmark(_analyse, rig, target)
     problem = analysis.problem
     benchmark.extra_info.update(
@@ -83,7 +73,7 @@ def test_bench_expression_presolve(benchmark, speed_target, preset):
     rig = _generated(preset)
     analysis = _analyse(rig, _target(rig), beta=0.5)
     used = _half_used(analysis)
-    seconds, _ = _best_time(lambda: analysis.problem_for(used), repeats=20)
+    seconds, _ = best_time(lambda: analysis.problem_for(used), repeats=20)
     problem = benchmark(analysis.problem_for, used)
     fresh = packing.problem_from_incidence(problem.incidence, problem.weights, items=problem.items)
     assert [c.tolist() for c in problem.cliques] == [c.tolist() for c in fresh.cliques]
@@ -99,7 +89,7 @@ def test_bench_presolve_from_vertices(benchmark, speed_target, preset):
     """The full presolve of the first expression from its item-by-vertex incidence."""
     rig = _generated(preset)
     problem = _analyse(rig, _target(rig)).problem
-    seconds, _ = _best_time(lambda: packing._presolve.maximal_conflict_sets(problem.incidence), repeats=20)
+    seconds, _ = best_time(lambda: packing._presolve.maximal_conflict_sets(problem.incidence), repeats=20)
     cliques, rows = benchmark(packing._presolve.maximal_conflict_sets, problem.incidence)
     assert rows == problem.n_vertex_rows and len(cliques) == len(problem.cliques)
     benchmark.extra_info.update(n_items=problem.n_items, vertex_rows=rows, clique_rows=len(cliques))
@@ -134,7 +124,7 @@ def test_bench_sequence_problems(benchmark, speed_target, preset, beta):
     rig = _generated(preset)
     analysis = _analyse(rig, _target(rig), beta=beta)
     choices = _greedy_choices(analysis)
-    seconds, _ = _best_time(lambda: _sequence_problems(analysis, choices), repeats=5)
+    seconds, _ = best_time(lambda: _sequence_problems(analysis, choices), repeats=5)
     problems = benchmark(_sequence_problems, analysis, choices)
     used: list[str] = []
     for problem, chosen in zip(problems, choices, strict=True):

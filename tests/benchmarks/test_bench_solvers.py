@@ -18,6 +18,7 @@ import rigs
 import solvers
 from packing import Termination
 from solvers.naive import NaivePulpCbcSolver
+from tests.benchmarks.timing import best_time
 
 PRESETS = ("female", "digidouble", "male", "toon")
 FAST_EXACT = ("cpsat", "highs")
@@ -39,23 +40,16 @@ def _problem(preset):
     return analysis.problem_for()
 
 
-def _best_time(function, repeats=REPEATS):
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
-
-
 @pytest.mark.parametrize("preset", PRESETS)
 def test_first_optimal_expression_speed(benchmark, speed_target, preset):
     problem = _problem(preset)
-    timings = {name: _best_time(functools.partial(solvers.get(name).solve, problem)) for name in FAST_EXACT}
+    timings = {
+        name: best_time(functools.partial(solvers.get(name).solve, problem), REPEATS) for name in FAST_EXACT
+    }
     fastest = min(timings, key=lambda name: timings[name][0])
     fast_time, fast = timings[fastest]
-    naive_time, naive = _best_time(lambda: NaivePulpCbcSolver("bundled").solve(problem), repeats=1)
-    naive_newer_time, _ = _best_time(lambda: NaivePulpCbcSolver("auto").solve(problem), repeats=1)
+    naive_time, naive = best_time(lambda: NaivePulpCbcSolver("bundled").solve(problem), repeats=1)
+    naive_newer_time, _ = best_time(lambda: NaivePulpCbcSolver("auto").solve(problem), repeats=1)
     solution = benchmark(solvers.get(fastest).solve, problem)
     benchmark.extra_info.update(
         preset=preset,

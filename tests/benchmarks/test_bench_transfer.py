@@ -30,6 +30,7 @@ import pytest
 import harness
 import rigs
 import transfer
+from tests.transfer.packing_like import packing_weights
 from transfer import _scan, _setup
 
 MEMORY_LIMIT = 4 * 2**30
@@ -57,22 +58,7 @@ def _case(
     """Template, warped target, packing-like 0/1 weights and the copied training expressions."""
     template = rigs.generate(preset, seed=0)
     target = rigs.warp(template, "alien")
-    length = np.linalg.norm(template.deltas, axis=-1)
-    active = length >= 0.3 * length.max(axis=1, keepdims=True)
-    order = list(np.argsort(-active.sum(axis=1), kind="stable"))
-    rows: list[np.ndarray] = []
-    remaining = list(order)
-    while len(rows) < n_expressions:  # first-fit greedy of disjoint active sets, repeated when all are placed
-        remaining = remaining or list(order)
-        used = np.zeros(template.n_vertices, dtype=bool)
-        row = np.zeros(template.n_shapes)
-        for shape in list(remaining):
-            if not (active[shape] & used).any():
-                used |= active[shape]
-                row[shape] = 1.0
-                remaining.remove(shape)
-        rows.append(row)
-    weights = np.array(rows).reshape(-1, template.n_shapes)
+    weights = packing_weights(template, n_expressions)
     return template, target, weights, transfer.training_expressions(target, weights)
 
 

@@ -17,43 +17,37 @@ from harness.cli import COMMANDS_GROUP, cli
 
 HEADER = "import click\nfrom click import command as cmd, group\nimport typer\n\n"
 
-#: Module sources and whether their ``run`` command can be read without importing them.
-SOURCES = {
-    "docstring": (
-        True,
-        '@click.command()\n@click.argument("x")\ndef run(x):\n    """Run it.\n\n    More."""\n',
-    ),
+#: Module sources whose ``run`` command is read from the source, without importing the module.
+READABLE = {
+    "docstring": '@click.command()\n@click.argument("x")\ndef run(x):\n    """Run it.\n\n    More."""\n',
     "literal_help": (
-        True,
         '@click.command("run", help="Adjacent " "literals: one string. Second sentence.")\n'
-        'def run():\n    """No."""\n',
+        'def run():\n    """No."""\n'
     ),
-    "short_help": (True, '@cmd(short_help="  Short and sweet. ", help="Long.")\ndef run():\n    pass\n'),
-    "hidden": (True, "@click.command(hidden=True)\ndef run():\n    pass\n"),
-    "deprecated": (True, '@click.command(deprecated="use walk")\ndef run():\n    """Old."""\n'),
-    "group": (True, '@group()\ndef run():\n    """Several things."""\n'),
-    "bare": (True, "@click.command\ndef run():\n    '''Bare decorator.'''\n"),
-    "fstring": (False, 'WHERE = "x"\n\n@click.command(help=f"To {WHERE}.")\ndef run():\n    pass\n'),
-    "computed": (False, '@click.command(help="a" + "b")\ndef run():\n    pass\n'),
-    "custom_class": (False, "@click.command(cls=click.Group)\ndef run():\n    '''No.'''\n"),
-    "outer_decorator": (
-        False,
-        "def wrap(f):\n    return f\n\n@wrap\n@click.command()\ndef run():\n    '''No.'''\n",
-    ),
-    "rebound": (False, "@click.command()\ndef run():\n    '''No.'''\n\nrun = click.Group('run')\n"),
-    "star_import": (False, "from os.path import *\n\n@click.command()\ndef run():\n    '''No.'''\n"),
-    "typer_app": (False, "run = typer.Typer(help='An app.')\n\n@run.command()\ndef go():\n    pass\n"),
-    "other_command": (
-        False,
-        "def command():\n    return click.command()\n\n@command()\ndef run():\n    '''No.'''\n",
-    ),
+    "short_help": '@cmd(short_help="  Short and sweet. ", help="Long.")\ndef run():\n    pass\n',
+    "hidden": "@click.command(hidden=True)\ndef run():\n    pass\n",
+    "deprecated": '@click.command(deprecated="use walk")\ndef run():\n    """Old."""\n',
+    "group": '@group()\ndef run():\n    """Several things."""\n',
+    "bare": "@click.command\ndef run():\n    '''Bare decorator.'''\n",
 }
+#: Module sources whose ``run`` command only an import tells.
+IMPORTED = {
+    "fstring": 'WHERE = "x"\n\n@click.command(help=f"To {WHERE}.")\ndef run():\n    pass\n',
+    "computed": '@click.command(help="a" + "b")\ndef run():\n    pass\n',
+    "custom_class": "@click.command(cls=click.Group)\ndef run():\n    '''No.'''\n",
+    "outer_decorator": "def wrap(f):\n    return f\n\n@wrap\n@click.command()\ndef run():\n    '''No.'''\n",
+    "rebound": "@click.command()\ndef run():\n    '''No.'''\n\nrun = click.Group('run')\n",
+    "star_import": "from os.path import *\n\n@click.command()\ndef run():\n    '''No.'''\n",
+    "typer_app": "run = typer.Typer(help='An app.')\n\n@run.command()\ndef go():\n    pass\n",
+    "other_command": "def command():\n    return click.command()\n\n@command()\ndef run():\n    '''No.'''\n",
+}
+SOURCES = READABLE | IMPORTED
 
 
 @pytest.fixture
 def modules(tmp_path, monkeypatch):
     """One importable module per entry of `SOURCES`, none imported yet."""
-    for name, (_, body) in SOURCES.items():
+    for name, body in SOURCES.items():
         (tmp_path / f"summary_{name}.py").write_text(HEADER + textwrap.dedent(body))
     (tmp_path / "summary_broken.py").write_text("def run(:\n")
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -69,10 +63,9 @@ def _entry(name: str) -> importlib.metadata.EntryPoint:
 
 @pytest.mark.parametrize("name", sorted(SOURCES))
 def test_a_plain_source_gives_the_commands_own_summary_without_importing_it(modules, name) -> None:
-    readable = SOURCES[name][0]
     found = static_command(_entry(name))
     assert f"summary_{name}" not in sys.modules
-    assert (found is not None) == readable
+    assert (found is not None) == (name in READABLE)
     if found is None:
         return
     real = importlib.import_module(f"summary_{name}").run

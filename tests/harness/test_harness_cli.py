@@ -3,28 +3,17 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 
 import harness
 import packing
 import rigs
 from harness.cli import cli
-
-
-def invoke(*arguments: str, input: str | None = None):
-    return CliRunner().invoke(cli, [str(a) for a in arguments], input=input)
-
-
-def assert_one_line_error(result, *fragments: str) -> None:
-    """Exit code 2, one line on stderr naming the problem, no traceback."""
-    assert result.exit_code == 2, result.output
-    text = result.output.strip()
-    assert "Traceback" not in text and len(text.splitlines()) == 1, text
-    for fragment in fragments:
-        assert fragment in text, text
+from tests.harness.cli_helpers import assert_one_line_error, invoke
 
 
 def test_list_json_reports_plugins_presets_and_warps() -> None:
@@ -101,6 +90,12 @@ def test_rigs_warp_takes_parametric_specs(tmp_path) -> None:
     np.testing.assert_allclose(warped.neutral[:, 0], 1.2 * template.neutral[:, 0])
 
 
+def run_tiny(out: Path, solvers: str, *extra: object) -> Result:
+    """``harness run`` of the ``tiny`` preset, unwarped, with ``solvers`` and the ``dt`` transfer."""
+    grid = ["--rigs", "tiny", "--warps", "none", "--solvers", solvers, "--transfers", "dt"]
+    return invoke("run", *grid, "--out", out, *extra)
+
+
 def test_bad_run_arguments_are_one_line_errors(tmp_path) -> None:
     out = tmp_path / "out"
     assert_one_line_error(
@@ -118,20 +113,7 @@ def test_bad_run_arguments_are_one_line_errors(tmp_path) -> None:
     assert bad_duration.exit_code == 2 and "not a duration: '3 parsecs'" in bad_duration.output
     assert not out.exists()
 
-    first = invoke(
-        "run",
-        "--rigs",
-        "tiny",
-        "--warps",
-        "none",
-        "--solvers",
-        "greedy",
-        "--transfers",
-        "dt",
-        "--out",
-        out,
-        "-q",
-    )
+    first = run_tiny(out, "greedy", "-q")
     assert first.exit_code == 0, first.output
     again = invoke("run", "--rigs", "tiny", "--warps", "none", "--solvers", "greedy", "--out", out)
     assert_one_line_error(again, "already holds a run; use --resume to finish it, --force to overwrite it")
@@ -139,19 +121,7 @@ def test_bad_run_arguments_are_one_line_errors(tmp_path) -> None:
 
 def test_show_summarises_a_run(tmp_path) -> None:
     out = tmp_path / "out"
-    run = invoke(
-        "run",
-        "--rigs",
-        "tiny",
-        "--warps",
-        "none",
-        "--solvers",
-        "greedy,highs",
-        "--transfers",
-        "dt",
-        "--out",
-        out,
-    )
+    run = run_tiny(out, "greedy,highs")
     assert run.exit_code == 0, run.output
     assert "ok tiny greedy" in " ".join(run.output.split())
     shown = CliRunner(env={"COLUMNS": "200"}).invoke(cli, ["show", str(out)])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import errno
 import json
 import os
 
@@ -14,6 +13,7 @@ from harness import _plugins, _records
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
 from rigs import _atomic
+from tests.harness.full_disk import FullDisk
 
 
 def _config(rig_file, **changes) -> RunConfig:
@@ -151,17 +151,6 @@ def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
     )
 
 
-class _FullDisk:
-    """The `os` module as `rigs.atomic_write` sees it on a full disk: data is written, fsync fails."""
-
-    def __getattr__(self, name):
-        return getattr(os, name)
-
-    @staticmethod
-    def fsync(descriptor):
-        raise OSError(errno.ENOSPC, "No space left on device")
-
-
 def test_a_full_disk_stops_the_run_with_finished_cells_kept(rig_file, tmp_path, monkeypatch, inline) -> None:
     real = _records.atomic_write
     parts = []
@@ -170,7 +159,7 @@ def test_a_full_disk_stops_the_run_with_finished_cells_kept(rig_file, tmp_path, 
         if path.parent.name == "records":
             parts.append(path)
             if len(parts) == 2:
-                monkeypatch.setattr(_atomic, "os", _FullDisk())
+                monkeypatch.setattr(_atomic, "os", FullDisk())
         try:
             return real(path, data)
         finally:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import errno
 import math
 import os
 import shutil
@@ -17,6 +16,7 @@ from harness import _records
 from harness._durations import format_duration, parse_duration
 from harness._grid import CellSpec, RunConfig, rig_digest
 from rigs import _atomic
+from tests.harness.full_disk import FullDisk
 
 
 @pytest.mark.parametrize(
@@ -98,19 +98,8 @@ def test_unknown_record_column_is_refused() -> None:
         _records.records_table([{"cell": "x", "colour": "red"}])
 
 
-class _FullDisk:
-    """The `os` module as `rigs.atomic_write` sees it on a full disk: data is written, fsync fails."""
-
-    def __getattr__(self, name):
-        return getattr(os, name)
-
-    @staticmethod
-    def fsync(descriptor):
-        raise OSError(errno.ENOSPC, "No space left on device")
-
-
 def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
-    monkeypatch.setattr(_atomic, "os", _FullDisk())
+    monkeypatch.setattr(_atomic, "os", FullDisk())
     with pytest.raises(harness.RecordsWriteError, match=r"could not write .*aaaa.parquet: disk full"):
         _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
     assert list((tmp_path / "records").iterdir()) == []

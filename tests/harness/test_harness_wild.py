@@ -8,33 +8,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 import rigs
-from harness.cli import cli
-
-
-def invoke(*arguments: object):
-    return CliRunner(env={"COLUMNS": "250"}).invoke(cli, [str(a) for a in arguments])
-
-
-def flat(text: str) -> str:
-    """Terminal output with line wrapping undone."""
-    return " ".join(text.split())
-
-
-def assert_one_line_error(result, *fragments: str) -> None:
-    assert result.exit_code == 2, result.output
-    text = result.output.strip()
-    assert "Traceback" not in text and len(text.splitlines()) == 1, text
-    for fragment in fragments:
-        assert fragment in text, text
-
-
-def pack(rig_path, out, *extra: object) -> tuple[dict, str]:
-    result = invoke("pack", rig_path, "--solver", "cpsat", "--jmax", "20", "--out", out, *extra)
-    assert result.exit_code == 0, result.output
-    return json.loads((out / "expressions.json").read_text()), flat(result.output)
+from tests.harness.cli_helpers import assert_one_line_error, flat, invoke, pack
 
 
 @pytest.fixture(scope="module")

@@ -3,42 +3,23 @@ extra examples, artist constraints, regions and cancellation warnings."""
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 import harness._pack
 import packing
 import rigs
 import solvers
-from harness.cli import cli
+from tests.harness import cli_helpers
+from tests.harness.cli_helpers import assert_one_line_error, flat, invoke
 
-
-def invoke(*arguments: object, input: str | None = None):
-    return CliRunner(env={"COLUMNS": "250"}).invoke(cli, [str(a) for a in arguments], input=input)
-
-
-def flat(text: str) -> str:
-    """Terminal output with line wrapping undone."""
-    return " ".join(text.split())
-
-
-def assert_one_line_error(result, *fragments: str) -> None:
-    assert result.exit_code == 2, result.output
-    text = result.output.strip()
-    assert "Traceback" not in text and len(text.splitlines()) == 1, text
-    for fragment in fragments:
-        assert fragment in text, text
-
-
-def pack(rig, out: Path, *extra: object) -> tuple[dict, str]:
-    result = invoke("pack", rig, "--solver", "cpsat", "--jmax", "20", "--no-pictures", "--out", out, *extra)
-    assert result.exit_code == 0, result.output
-    return json.loads((out / "expressions.json").read_text()), flat(result.output)
+#: `harness pack` with cpsat, at most 20 expressions and no pictures.
+pack = functools.partial(cli_helpers.pack, pictures=False)
 
 
 def contents(folder: Path) -> dict[str, bytes]:

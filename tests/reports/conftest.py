@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -118,6 +119,25 @@ def _rms(covered: int, transfer: str, importance: bool, repetition: int = 0, noi
     return _SCALE[transfer] * (1.1 if not importance else 1.0) / (1.0 + covered) * wobble
 
 
+def cell_group(rig: str, *, importance: bool = True, repetition: int = 0) -> dict[str, object]:
+    """The `harness.GROUP_COLUMNS` of a fabricated cell: ``rig`` with the ``alien`` warp and the default
+    settings of `harness run`."""
+    return {
+        "rig": rig,
+        "rig_seed": 0,
+        "warp": "alien",
+        "mu": 0.3,
+        "alpha": 0.5,
+        "beta": 0.0,
+        "symmetry": True,
+        "importance": importance,
+        "cap": None,
+        "jmax": None,
+        "time_limit": None,
+        "repetition": repetition,
+    }
+
+
 def fabricate_run(out: Path, spec: RunSpec) -> Path:
     """Write a run directory for ``spec`` exactly as `harness run` lays one out; returns ``out``."""
     records_dir = out / "records"
@@ -125,20 +145,7 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
     schema = pa.schema(list(harness.RECORD_COLUMNS.items()))
     group_rows = []
     for importance, repetition in itertools.product(spec.importance, range(spec.repetitions)):
-        setting = {
-            "rig": spec.rig,
-            "rig_seed": 0,
-            "warp": "alien",
-            "mu": 0.3,
-            "alpha": 0.5,
-            "beta": 0.0,
-            "symmetry": True,
-            "importance": importance,
-            "cap": None,
-            "jmax": None,
-            "time_limit": None,
-            "repetition": repetition,
-        }
+        setting = cell_group(spec.rig, importance=importance, repetition=repetition)
         group_rows.append((setting, {}))
         for solver in [*spec.sequences, *spec.skipped]:
             cell = hashlib.sha256(json.dumps([setting, solver], sort_keys=True).encode()).hexdigest()[:16]
@@ -276,6 +283,12 @@ def fabricate(face_rig_file: Path):
 def make_run(tmp_path: Path, fabricate):
     """Factory: ``make_run(name, **RunSpec fields)`` fabricates a run on the face rig under ``tmp_path``."""
     return lambda name, **fields: fabricate(tmp_path / name, **fields)
+
+
+@pytest.fixture(scope="session")
+def group() -> Callable[..., dict[str, object]]:
+    """The group columns of a fabricated cell: ``group(rig, importance=True, repetition=0)``."""
+    return cell_group
 
 
 @pytest.fixture(scope="session")

@@ -5,12 +5,9 @@ and random values in glTF fields. Whatever the mutation, loading gives a valid `
 from __future__ import annotations
 
 import json
-import signal
 import struct
 import tempfile
 import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,24 +17,20 @@ from hypothesis import strategies as st
 import rigs
 from rigs import RigError
 from rigs._rig import RigWarning
+from tests.rigs.rig_files import GRID, QUADS, hang_alarm
 
 FUZZ = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SECONDS = 10
 
-SIDE = 4
-GRID = np.array([[x, y, 0.0] for y in range(SIDE) for x in range(SIDE)])
-QUADS = [
-    [y * SIDE + x, y * SIDE + x + 1, (y + 1) * SIDE + x + 1, (y + 1) * SIDE + x]
-    for y in range(SIDE - 1)
-    for x in range(SIDE - 1)
-] + [[0, 1, 6, 5, 4]]
+#: The grid's quads and one pentagon.
+FACES = [*QUADS, [0, 1, 6, 5, 4]]
 
 
 def obj_text(vertices: np.ndarray) -> str:
     lines = ["# fuzz", "o Face", "g skin"]
     lines += [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
     lines += ["vt 0 0", "vn 0 0 1"]
-    lines += ["f " + " ".join(f"{i + 1}/1/1" for i in face) for face in QUADS]
+    lines += ["f " + " ".join(f"{i + 1}/1/1" for i in face) for face in FACES]
     return "\n".join(lines) + "\n"
 
 
@@ -45,24 +38,10 @@ NEUTRAL = obj_text(GRID).encode()
 SMILE = obj_text(GRID + np.where(np.arange(16)[:, None] == 5, [0, 0, 0.3], 0)).encode()
 
 
-@contextmanager
-def hang_guard() -> Iterator[None]:
-    def hang(signum, frame):
-        raise TimeoutError(f"rig loading hung for more than {SECONDS} s")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(SECONDS)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def load_or_refuse(path: Path, **options) -> rigs.Rig | None:
     """The rig at ``path``, or None when it is refused with a one-line RigError; any other exception or a
     warning other than RigWarning fails."""
-    with warnings.catch_warnings(record=True) as caught, hang_guard():
+    with warnings.catch_warnings(record=True) as caught, hang_alarm(SECONDS):
         warnings.simplefilter("always")
         try:
             rig = rigs.load(path, **options)

@@ -14,7 +14,6 @@ import gzip
 import io
 import json
 import os
-import signal
 import struct
 import subprocess
 import sys
@@ -32,6 +31,7 @@ import pytest
 import rigs
 from rigs import RigError
 from rigs._rig import RigWarning
+from tests.rigs.rig_files import GRID, QUADS, hang_alarm
 
 #: Seconds one load may take before the guard calls it a hang.
 HANG_SECONDS = 20
@@ -73,15 +73,6 @@ def add(name: str, build: Callable[[Path], tuple[Path, dict]], error: str | None
 
 
 # == OBJ folders ===========================================================================================
-SIDE = 4
-GRID = np.array([[x, y, 0.0] for y in range(SIDE) for x in range(SIDE)])
-QUADS = [
-    [y * SIDE + x, y * SIDE + x + 1, (y + 1) * SIDE + x + 1, (y + 1) * SIDE + x]
-    for y in range(SIDE - 1)
-    for x in range(SIDE - 1)
-]
-
-
 def obj_text(vertices: np.ndarray = GRID, faces=QUADS) -> str:
     lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in np.asarray(vertices, dtype=float).tolist()]
     lines += ["f " + " ".join(str(i + 1) for i in face) for face in faces]
@@ -505,6 +496,20 @@ def uri_entry(kind: str) -> Callable[[dict, Path], None]:
     return mutate
 
 
+def sparse(
+    count: int, *, view: int = 3, component: int = 5125, offset: int | None = None, values: bool = True
+) -> Callable[[dict, Path], None]:
+    """Give accessor 1 (the first morph target) ``count`` sparse substitutions: indices of component type
+    ``component`` read from bufferView ``view`` (at byte ``offset``), values from bufferView 1 (or none)."""
+    indices = {"bufferView": view, "componentType": component}
+    if offset is not None:
+        indices["byteOffset"] = offset
+    substitutions = {"count": count, "indices": indices}
+    if values:
+        substitutions["values"] = {"bufferView": 1}
+    return setter("accessors.1.sparse", substitutions)
+
+
 PRIMITIVE = "meshes.0.primitives.0"
 #: Cases that would allocate gigabytes (or read /dev/zero) if the reader trusted the file.
 HEAVY = {
@@ -706,57 +711,15 @@ for label, mutate, error in [
         r"index \d+ is past the 6 vertices",
     ),
     ("indices-out-of-range", setter(f"{PRIMITIVE}.indices", 12), r"accessor 12 does not exist"),
-    (
-        "sparse-count-past",
-        lambda d, f: d["accessors"][1].update(
-            sparse={
-                "count": 99,
-                "indices": {"bufferView": 3, "componentType": 5125},
-                "values": {"bufferView": 1},
-            }
-        ),
-        r"sparse: 99 substitutions for 6 elements",
-    ),
-    (
-        "sparse-repeated-index",
-        lambda d, f: d["accessors"][1].update(
-            sparse={
-                "count": 2,
-                "indices": {"bufferView": 3, "componentType": 5125, "byteOffset": 8},
-                "values": {"bufferView": 1},
-            }
-        ),
-        r"sparse: indices do not strictly increase",
-    ),
+    ("sparse-count-past", sparse(99), r"sparse: 99 substitutions for 6 elements"),
+    ("sparse-repeated-index", sparse(2, offset=8), r"sparse: indices do not strictly increase"),
     (
         "sparse-index-past",
-        lambda d, f: d["accessors"][1].update(
-            sparse={
-                "count": 1,
-                "indices": {"bufferView": 0, "componentType": 5125, "byteOffset": 12},
-                "values": {"bufferView": 1},
-            }
-        ),
+        sparse(1, view=0, offset=12),
         r"sparse: index 1065353216 is past the accessor's 6 elements",
     ),
-    (
-        "sparse-index-float",
-        lambda d, f: d["accessors"][1].update(
-            sparse={
-                "count": 1,
-                "indices": {"bufferView": 3, "componentType": 5126},
-                "values": {"bufferView": 1},
-            }
-        ),
-        r"sparse indices have component type 5126",
-    ),
-    (
-        "sparse-no-values",
-        lambda d, f: d["accessors"][1].update(
-            sparse={"count": 1, "indices": {"bufferView": 3, "componentType": 5125}}
-        ),
-        r"sparse: needs 'indices' and 'values'",
-    ),
+    ("sparse-index-float", sparse(1, component=5126), r"sparse indices have component type 5126"),
+    ("sparse-no-values", sparse(1, values=False), r"sparse: needs 'indices' and 'values'"),
     ("sparse-not-object", setter("accessors.1.sparse", [1, 2]), r"accessor 1: 'sparse' must be an object"),
     (
         "sparse-count-negative",
@@ -1831,24 +1794,18 @@ def guarded(*, trace: bool = True) -> Iterator[dict]:
     """Fail on a hang (the alarm raises in the test; faulthandler dumps every stack and exits if even
     that cannot interrupt), and report the peak of traced allocations in ``stats["peak"]``."""
 
-    def hang(signum, frame):
-        raise TimeoutError(f"rig loading hung for more than {HANG_SECONDS} s")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(HANG_SECONDS)
     faulthandler.dump_traceback_later(3 * HANG_SECONDS, exit=True)
     if trace:
         tracemalloc.start()
     stats: dict = {}
     try:
-        yield stats
+        with hang_alarm(HANG_SECONDS):
+            yield stats
     finally:
         if trace:
             stats["peak"] = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
         faulthandler.cancel_dump_traceback_later()
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def test_the_corpus_is_large_and_its_names_unique() -> None:

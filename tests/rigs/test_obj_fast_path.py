@@ -127,16 +127,24 @@ _TOKENS = st.sampled_from(
 )
 
 
-@settings(max_examples=400, deadline=None)
-@given(
-    st.lists(st.tuples(st.integers(0, NEUTRAL_TEXT.count("\n")), st.lists(_TOKENS, max_size=12)), max_size=3)
+#: Up to three lines of the neutral, each replaced by up to 12 tokens.
+_LINE_EDITS = st.lists(
+    st.tuples(st.integers(0, NEUTRAL_TEXT.count("\n")), st.lists(_TOKENS, max_size=12)), max_size=3
 )
-def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> None:
+
+
+def _edited(edits: list[tuple[int, list[str]]]) -> str:
+    """The neutral's text with each edited line replaced by its tokens run together."""
     lines = NEUTRAL_TEXT.split("\n")
     for line, tokens in edits:
         lines[line] = "".join(tokens)
-    text = "\n".join(lines)
-    _agree(text)
+    return "\n".join(lines)
+
+
+@settings(max_examples=400, deadline=None)
+@given(_LINE_EDITS)
+def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> None:
+    _agree(_edited(edits))
 
 
 def _full_read(text: str, *, fast: bool):
@@ -154,14 +162,9 @@ def _full_read(text: str, *, fast: bool):
 
 
 @settings(max_examples=400, deadline=None)
-@given(
-    st.lists(st.tuples(st.integers(0, NEUTRAL_TEXT.count("\n")), st.lists(_TOKENS, max_size=12)), max_size=3)
-)
+@given(_LINE_EDITS)
 def test_a_full_read_in_one_go_is_the_line_by_line_reading(edits) -> None:
-    lines = NEUTRAL_TEXT.split("\n")
-    for line, tokens in edits:
-        lines[line] = "".join(tokens)
-    text = "\n".join(lines)
+    text = _edited(edits)
     assert _full_read(text, fast=True) == _full_read(text, fast=False)
 
 

@@ -10,6 +10,7 @@ import pytest
 
 import rigs
 from rigs import Rig
+from tests.transfer.packing_like import packing_weights
 
 
 def _sheet(n_columns: int = 24, n_rows: int = 28, n_shapes: int = 10, seed: int = 0) -> Rig:
@@ -48,31 +49,6 @@ def _deform(rig: Rig, deformation: Callable[[np.ndarray], np.ndarray]) -> Rig:
     return replace(rig, neutral=neutral, deltas=deformation(rig.neutral + rig.deltas) - neutral)
 
 
-def _packing(rig: Rig, n_expressions: int | None = None, mu: float = 0.3) -> np.ndarray:
-    """A packing-like sequence: first-fit greedy of shapes with disjoint active vertices (eq. 2).
-
-    Largest shapes first; when every shape is placed and more expressions are wanted, further passes
-    pack the shapes again (the second pass of Carrigan et al. 2020, sec. 6).
-    """
-    length = np.linalg.norm(rig.deltas, axis=-1)
-    active = length >= mu * length.max(axis=1, keepdims=True)
-    order = list(np.argsort(-active.sum(axis=1), kind="stable"))
-    rows: list[np.ndarray] = []
-    remaining = list(order)
-    while remaining if n_expressions is None else len(rows) < n_expressions:
-        if not remaining:
-            remaining = list(order)
-        used = np.zeros(rig.n_vertices, dtype=bool)
-        row = np.zeros(rig.n_shapes)
-        for shape in list(remaining):
-            if not (active[shape] & used).any():
-                used |= active[shape]
-                row[shape] = 1.0
-                remaining.remove(shape)
-        rows.append(row)
-    return np.array(rows).reshape(-1, rig.n_shapes)
-
-
 @pytest.fixture(scope="session")
 def sheet() -> Callable[..., Rig]:
     """Factory of sheet rigs: ``sheet(n_columns, n_rows, n_shapes, seed)``."""
@@ -94,7 +70,7 @@ def deform() -> Callable[[Rig, Callable[[np.ndarray], np.ndarray]], Rig]:
 @pytest.fixture(scope="session")
 def packing() -> Callable[..., np.ndarray]:
     """Greedy packing-like expression weights: ``packing(rig, n_expressions=None, mu=0.3)``."""
-    return _packing
+    return packing_weights
 
 
 @pytest.fixture(scope="session")
