@@ -7,8 +7,11 @@ is used) <= 3 s, the whole greedy sequence <= 0.3 s and the peak memory of analy
 of a fresh process from the moment its rig and target neutral are loaded (so it includes them, not the
 loading), read on Linux from ``/proc``; elsewhere it is not measured. Every time is also recorded as a ratio
 to the same figure on ``female`` measured in the same run, so that runs on other machines compare. Targets
-are checked on the best of a few repetitions (see ``conftest.speed_target``). Run with
-``pytest tests/benchmarks/test_bench_film.py --benchmark-enable``.
+are checked on the best of a few repetitions (see ``conftest.speed_target``).
+
+The timings take a minute of a loaded machine: they run only in a benchmark run (``slow``; run with
+``pytest tests/benchmarks/test_bench_film.py --benchmark-enable``). The default run checks the sequences of
+film scale's 1,000 shapes (``FILM_SHAPES``, on fewer vertices) instead.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from __future__ import annotations
 import functools
 import subprocess
 import sys
-import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +28,7 @@ import pytest
 import packing
 import rigs
 import solvers
+from tests.benchmarks.timing import best_time
 
 #: Seconds (and megabytes) of the issue, per preset.
 TARGETS = {
@@ -35,32 +39,40 @@ REFERENCE = "female"
 REPEATS = 2
 #: The peak is read from here (Linux).
 PROC = Path("/proc/self")
+#: The whole sequences run (Algorithm 1 until every shape is used): label -> solver.
+SEQUENCES = {"optimal": "cpsat", "greedy": "greedy"}
+#: The ``film`` preset's layout and 1,000 shapes on 3,000 vertices: film scale's count of shapes and
+#: expressions (about 200 in each sequence) at a fraction of its cost.
+FILM_SHAPES = replace(
+    rigs.PRESETS["film"],
+    name="film-shapes",
+    n_vertices=3000,
+    description="The film preset's 1,000 shapes on 3,000 vertices.",
+)
 
 
-def _rig(preset: str) -> tuple[rigs.Rig, np.ndarray]:
+def _rig(preset: str | rigs.PresetSpec) -> tuple[rigs.Rig, np.ndarray]:
     """The preset's rig and the neutral of its alien warp (the target of eqs. 6-7)."""
     rig = rigs.generate(preset)
     return rig, rigs.warp(rig, "alien").neutral
 
 
-def _best(function, repeats: int = REPEATS):
-    """Fewest seconds of ``repeats`` calls, and the last result."""
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
+def _check_sequences(rig: rigs.Rig, analysis: packing.Analysis, sequences: dict) -> None:
+    """Every sequence passes the checker and uses every packable shape exactly once."""
+    packable = sorted(rig.names[k] for k in np.flatnonzero(analysis.packable))
+    for expressions in sequences.values():
+        packing.check(rig, expressions, pairs=analysis.pairs)
+        assert sorted(shape for expression in expressions for shape in expression.shapes) == packable
 
 
 def _figures(rig: rigs.Rig, target: np.ndarray) -> tuple[dict[str, float], packing.Analysis, dict]:
     """Seconds of the analysis and of the whole optimal and greedy sequences, with their expressions."""
-    analysis_time, analysis = _best(lambda: packing.analyse(rig, target))
+    analysis_time, analysis = best_time(lambda: packing.analyse(rig, target), REPEATS)
     figures, sequences = {"analysis": analysis_time}, {}
-    for label, name in (("optimal", "cpsat"), ("greedy", "greedy")):
+    for label, name in SEQUENCES.items():
         solver = solvers.get(name)
-        figures[label], sequences[label] = _best(
-            lambda solver=solver: packing.sequence(rig, solver, analysis=analysis)
+        figures[label], sequences[label] = best_time(
+            lambda solver=solver: packing.sequence(rig, solver, analysis=analysis), REPEATS
         )
     figures["total"] = figures["analysis"] + figures["optimal"] + figures["greedy"]
     return figures, analysis, sequences
@@ -104,14 +116,25 @@ def _peak_mb(rig: rigs.Rig, target: np.ndarray, folder: Path) -> float | None:
     return float(done.stdout.split()[-1])
 
 
+def test_sequences_of_a_thousand_shapes_use_every_packable_shape():
+    rig, target = _rig(FILM_SHAPES)
+    analysis = packing.analyse(rig, target)
+    sequences = {
+        label: packing.sequence(rig, solvers.get(name), analysis=analysis)
+        for label, name in SEQUENCES.items()
+    }
+    assert rig.n_shapes == 1000 and min(len(expressions) for expressions in sequences.values()) > 100
+    _check_sequences(rig, analysis, sequences)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("preset", list(TARGETS))
 def test_bench_film_scale(benchmark, speed_target, tmp_path, preset):
+    if benchmark.disabled:
+        pytest.skip("the film-scale timings run only with --benchmark-enable")
     rig, target = _rig(preset)
     figures, analysis, sequences = _figures(rig, target)
-    packable = sorted(rig.names[k] for k in np.flatnonzero(analysis.packable))
-    for expressions in sequences.values():
-        packing.check(rig, expressions, pairs=analysis.pairs)
-        assert sorted(shape for expression in expressions for shape in expression.shapes) == packable
+    _check_sequences(rig, analysis, sequences)
     benchmark.pedantic(
         packing.sequence,
         args=(rig, solvers.get("cpsat")),
