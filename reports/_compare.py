@@ -4,7 +4,8 @@ Quality figures (objective, coverage, expression count, transfer RMS, benchmark 
 change beyond a relative tolerance; times may not grow by more than a threshold. Absolute times are noisy on
 shared machines, so run times are compared as ratios to `BASELINE_SOLVER`'s time measured in the same run.
 Given the history of earlier runs' ratios (`reports._history`), a ratio is judged against its own
-run-to-run spread there instead of against the one old run.
+run-to-run spread there instead of against the one old run: the spread of the same case (`case_id`) and
+figure.
 """
 
 from __future__ import annotations
@@ -12,17 +13,27 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
 import pandas as pd
 from rich.table import Table
 
 import harness
-from reports._history import HISTORY_COLUMNS, RUN_COLUMNS, Spread, read_history, run_identity, spreads
+from reports._history import (
+    HISTORY_COLUMNS,
+    RUN_COLUMNS,
+    Spread,
+    identify_legacy_rows,
+    read_history,
+    run_identity,
+    spreads,
+)
 from reports._tables import (
     BASELINE_SOLVER,
     CASE_COLUMNS,
@@ -41,7 +52,8 @@ Value = float | str | tuple
 class Metric:
     """One figure of one case: a time (scalar seconds or ratio) or a quality value (scalar or vector).
 
-    ``case`` is a benchmark's name or a run's case label (a tuple of `CASE_COLUMNS` values while reading).
+    ``case`` is a benchmark's name or a run's case label (a tuple of `CASE_COLUMNS` values while reading);
+    ``case_id`` is a run's case spelled out in full (`case_id`), empty for a benchmark.
     """
 
     case: Any
@@ -49,6 +61,7 @@ class Metric:
     kind: Kind
     value: Value
     seconds: float | None = None  #: the absolute time behind a time metric
+    case_id: str = ""
 
 
 @dataclass(frozen=True)
@@ -122,6 +135,38 @@ def _case_labels(cases: Iterable[tuple]) -> dict[tuple, str]:
         )
         for case, (_, row) in zip(cases, frame.iterrows(), strict=True)
     }
+
+
+def _identity_value(value: object) -> str:
+    """A `CASE_COLUMNS` value as `case_id` spells it: ``none``, ``true``/``false``, a number in its shortest
+    form whatever its type (``10`` for 10 and 10.0, ``0.3``), text as is."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool | np.bool_):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        return str(int(number)) if number.is_integer() else repr(number)
+    return str(value)
+
+
+def case_id(case: tuple) -> str:
+    """The stable identity of a run's case: every `CASE_COLUMNS` value, named, whatever else the run holds.
+
+    Parameters
+    ----------
+    case : tuple
+        The case's `CASE_COLUMNS` values (None where missing).
+
+    Returns
+    -------
+    str
+        ``rig=tiny; rig_seed=0; warp=big-eyes; mu=0.3; ...; solver=cpsat``: the rig as the run names it (a
+        preset, or a rig file's path), numbers in their shortest form.
+    """
+    return "; ".join(
+        f"{column}={_identity_value(value)}" for column, value in zip(CASE_COLUMNS, case, strict=True)
+    )
 
 
 def _case_keys(frame: pd.DataFrame) -> list[tuple]:
@@ -244,7 +289,10 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
     old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
     labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
     old_metrics, new_metrics = (
-        [dataclasses.replace(metric, case=labels[metric.case]) for metric in metrics]
+        [
+            dataclasses.replace(metric, case=labels[metric.case], case_id=case_id(metric.case))
+            for metric in metrics
+        ]
         for metrics in (old_metrics, new_metrics)
     )
     basis = (
@@ -268,7 +316,8 @@ def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
     Returns
     -------
     DataFrame with the `reports._history.HISTORY_COLUMNS`, one row per (case, figure), named as
-    `compare` names them (cases labelled by the settings that vary within this run).
+    `compare` names them (cases labelled by the settings that vary within this run) and identified in full
+    (`case_id`).
 
     Raises
     ------
@@ -282,25 +331,41 @@ def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
     if not _has_ratios(records):
         raise ValueError(f"{run_dir}: no finished {BASELINE_SOLVER} cell, so no ratios for the history")
     metrics = _time_metrics(records, ratios=True)
-    labels = _case_labels(sorted({metric.case for metric in metrics}, key=repr))
+    labels = _figure_labels(metrics)
     identity = run_identity(harness.read_run(run_dir))
     rows = [
-        {**identity, "case": labels[m.case], "figure": m.name, "ratio": m.value, "seconds": m.seconds}
+        {
+            **identity,
+            "case": labels[m.case],
+            "figure": m.name,
+            "ratio": m.value,
+            "seconds": m.seconds,
+            "case_id": case_id(m.case),
+        }
         for m in metrics
     ]
     return pd.DataFrame(rows, columns=list(HISTORY_COLUMNS))
 
 
+def _figure_labels(metrics: list[Metric]) -> dict[tuple, str]:
+    """The history's ``case`` label of each case of one run's time metrics."""
+    return _case_labels(sorted({metric.case for metric in metrics}, key=repr))
+
+
 def _history_spreads(
     path: Path, new: Path, *, window: int, k: float, tolerance: float, min_runs: int
 ) -> dict[tuple[str, str], Spread]:
-    """Spreads of the figures in the history at ``path``, leaving out the rows of run ``new`` itself."""
+    """Spreads of the figures in the history at ``path`` by (`case_id`, figure), leaving out the rows of run
+    ``new`` itself; a row written before ``case_id`` stands for the case of ``new`` its label names."""
     if not (new / "records").is_dir():
         raise ValueError(f"compare: a history applies to run directories, not to {new}")
     history = read_history(path)
     identity = run_identity(harness.read_run(new))
     own = (history[list(RUN_COLUMNS)] == pd.Series({c: identity[c] for c in RUN_COLUMNS})).all(axis=1)
-    return spreads(history[~own], window=window, k=k, tolerance=tolerance, min_runs=min_runs)
+    labels = _figure_labels(_time_metrics(_read_run(new), ratios=True))
+    case_ids = {label: case_id(case) for case, label in labels.items()}
+    earlier = identify_legacy_rows(history[~own], case_ids)
+    return spreads(earlier, window=window, k=k, tolerance=tolerance, min_runs=min_runs)
 
 
 # -- judging changes ---------------------------------------------------------------------------------------
@@ -435,8 +500,9 @@ def compare(
         if other is None:
             changes.append(Change(metric.case, metric.name, metric.kind, metric.value, None, "missing"))
         elif metric.kind == "time":
-            key = (metric.case, metric.name)
-            changes.append(_time_change(metric, other, threshold, min_time, judged.get(key)))
+            changes.append(
+                _time_change(metric, other, threshold, min_time, judged.get((other.case_id, other.name)))
+            )
         else:
             changes.append(_quality_change(metric, other, tolerance))
     changes += [Change(m.case, m.name, m.kind, None, m.value, "added") for m in by_key.values()]

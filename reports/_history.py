@@ -9,10 +9,16 @@ speed of the machine cancels out; the raw seconds are kept beside it. Columns (`
 - ``machine``: host, CPU count, processor and Python of the run
 - ``case``, ``figure``: what was timed, named as ``harness compare`` names it
 - ``ratio``, ``seconds``: the figure as a ratio to the reference, and in seconds
+- ``case_id``: which case was timed, whatever its run: every column that tells cases apart, spelled out
+  (`reports._compare.case_id`). The ``case`` label shows only what varies within its run, so two grids can
+  label different cases alike; a figure's runs are the rows of one ``case_id``.
 
 A run is identified by (``date``, ``commit``, ``machine``); appending a run twice adds nothing. The file is
 only ever rewritten whole and atomically, with the earlier rows byte for byte, and only when its first line
-is this format's header: any other file is refused, never overwritten.
+is this format's header or the earlier one without ``case_id`` (`LEGACY_COLUMNS`): any other file is
+refused, never overwritten. Appending to a file of the earlier format writes the current header in place of
+its first line and keeps its rows, which read with an empty ``case_id``: such a row stands for the case its
+label names in the run being judged (`identify_legacy_rows`).
 
 The spread rule (`spreads`) judges a new ratio against the same figure's last runs: it is slower when above
 ``median + max(k * 1.4826 * MAD, tolerance * median)`` (1.4826 MAD is a robust standard deviation: one
@@ -23,6 +29,7 @@ the figure has fewer than ``min_runs`` runs there.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,7 +47,11 @@ HISTORY_COLUMNS: tuple[str, ...] = (
     "figure",
     "ratio",
     "seconds",
+    "case_id",
 )
+
+#: Columns of the history format before ``case_id``; such a file is still read, and upgraded on append.
+LEGACY_COLUMNS: tuple[str, ...] = HISTORY_COLUMNS[:-1]
 
 #: Columns that identify one run in a history.
 RUN_COLUMNS: tuple[str, ...] = ("date", "commit", "machine")
@@ -49,6 +60,8 @@ RUN_COLUMNS: tuple[str, ...] = ("date", "commit", "machine")
 MAD_SCALE = 1.4826
 
 _HEADER = ",".join(HISTORY_COLUMNS)
+_LEGACY_HEADER = ",".join(LEGACY_COLUMNS)
+_TEXT_COLUMNS = ("date", "commit", "dirty", "machine", "case", "figure", "case_id")
 _FLOAT_FORMAT = "%.6g"
 
 
@@ -94,14 +107,15 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
     Returns
     -------
     DataFrame with the `HISTORY_COLUMNS`: text columns as str, ``dirty`` as bool, ``ratio`` and
-    ``seconds`` as float (NaN where the run had none), in file order.
+    ``seconds`` as float (NaN where the run had none), in file order. Rows written before ``case_id``
+    (`LEGACY_COLUMNS`) have an empty one.
 
     Raises
     ------
     FileNotFoundError
         When ``path`` does not exist.
     HistoryError
-        When the file does not start with the history header or a row does not parse.
+        When the file does not start with a history header or a row does not parse.
     """
     path = Path(path)
     try:
@@ -111,9 +125,9 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
         raise _not_a_history(path, "not UTF-8 text") from None
     except IsADirectoryError:
         raise _not_a_history(path, "a directory") from None
-    if first != _HEADER:
+    if first not in (_HEADER, _LEGACY_HEADER):
         raise _not_a_history(path, f"its first line is not {_HEADER!r}")
-    text = dict.fromkeys(["date", "commit", "dirty", "machine", "case", "figure"], str)
+    text = dict.fromkeys(_TEXT_COLUMNS, str)
     try:
         frame = pd.read_csv(
             path,
@@ -126,7 +140,33 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
     flags = frame["dirty"].map({"True": True, "False": False})
     if flags.isna().any():
         raise _not_a_history(path, "the dirty column holds other values than True and False")
+    if "case_id" not in frame.columns:
+        frame["case_id"] = ""
     return frame.assign(dirty=flags.astype(bool))[list(HISTORY_COLUMNS)]
+
+
+def identify_legacy_rows(history: pd.DataFrame, case_ids: Mapping[str, str]) -> pd.DataFrame:
+    """``history`` with the rows written before ``case_id`` given one, or dropped.
+
+    Such a row has only its run's label of the case. It stands for the case that the run being judged
+    labels alike (``case_ids``: label -> ``case_id``, from `reports.run_figures` of that run); a row whose
+    label names no case there is dropped. Rows with a ``case_id`` are kept as they are.
+
+    Parameters
+    ----------
+    history : DataFrame
+        `read_history` of a file.
+    case_ids : mapping
+        The ``case`` label of each case of the judged run -> its ``case_id``.
+
+    Returns
+    -------
+    DataFrame with the `HISTORY_COLUMNS`, every ``case_id`` filled.
+    """
+    legacy = history["case_id"] == ""
+    derived = history.loc[legacy, "case"].map(case_ids)
+    identified = history.assign(case_id=history["case_id"].where(~legacy, derived))
+    return identified[identified["case_id"].notna()].reset_index(drop=True)
 
 
 def run_identity(run: dict) -> dict[str, object]:
@@ -154,7 +194,8 @@ def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     Parameters
     ----------
     path : path
-        The history file. An existing file must be one (`read_history` accepts it); its bytes are kept.
+        The history file. An existing file must be one (`read_history` accepts it); its rows are kept
+        byte for byte, under the current header when it had the earlier one (`LEGACY_COLUMNS`).
     rows : DataFrame
         Rows with the `HISTORY_COLUMNS`, e.g. `reports.run_figures` of a run.
 
@@ -177,6 +218,8 @@ def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     before = path.read_text(encoding="utf-8") if path.exists() else _HEADER + "\n"
     if not before.endswith("\n"):
         before += "\n"
+    if before.startswith(_LEGACY_HEADER + "\n"):
+        before = _HEADER + before[len(_LEGACY_HEADER) :]
     atomic_write(path, before + _rows_text(new))
     return len(new)
 
@@ -194,7 +237,8 @@ def spreads(
     Parameters
     ----------
     history : DataFrame
-        `read_history` of a file, without the run being judged.
+        `read_history` of a file, without the run being judged; rows without a ``case_id`` are left out
+        (`identify_legacy_rows` gives them one).
     window : int
         Latest runs (by date) of a figure that give its spread.
     k : float
@@ -207,21 +251,23 @@ def spreads(
     Returns
     -------
     dict
-        ``(case, figure) -> Spread``, with ``high = median + margin`` and ``low = max(median - margin, 0)``
+        ``(case_id, figure) -> Spread``, with ``high = median + margin`` and ``low = max(median - margin, 0)``
         where ``margin = max(k * MAD_SCALE * MAD, tolerance * median)``.
 
     Notes
     -----
     O(R log R) for R history rows.
     """
-    rows = history[history["ratio"].notna()].sort_values("date", kind="stable")
+    rows = history[history["ratio"].notna() & (history["case_id"] != "")].sort_values("date", kind="stable")
     result = {}
-    for (case, figure), of_figure in rows.groupby(["case", "figure"], sort=True):
+    for (case_id, figure), of_figure in rows.groupby(["case_id", "figure"], sort=True):
         ratios = of_figure["ratio"].tail(window)
         if len(ratios) < min_runs:
             continue
         median = float(ratios.median())
         mad = MAD_SCALE * float((ratios - median).abs().median())
         margin = max(k * mad, tolerance * median)
-        result[(case, figure)] = Spread(len(ratios), median, mad, max(median - margin, 0.0), median + margin)
+        result[(case_id, figure)] = Spread(
+            len(ratios), median, mad, max(median - margin, 0.0), median + margin
+        )
     return result

@@ -7,11 +7,14 @@ scaled by one factor: steady factors are a quiet machine, scattered ones a noisy
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 
 from reports import (
+    BASELINE_SOLVER,
     HISTORY_COLUMNS,
     HistoryError,
     append_history,
@@ -20,8 +23,12 @@ from reports import (
     read_history,
     run_figures,
 )
+from reports._history import LEGACY_COLUMNS, identify_legacy_rows, spreads
 from reports.cli import compare as compare_command
 from reports.cli import report as report_command
+
+#: The committed baseline run and history of CI (`benchmarks/README.md`).
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 
 STEADY = [1.0, 1.02, 0.98, 1.01, 0.99, 1.03, 0.97, 1.0]
 SCATTERED = [1.0, 1.3, 0.75, 1.25, 0.8, 1.35, 0.7, 1.0]
@@ -121,6 +128,47 @@ def test_a_short_history_falls_back_to_the_baseline_rule(make_run, tmp_path):
         ]
     assert set(_times(judged, "/highs").values()) == {("same", "")}
     assert compare(old, new, history=tmp_path / "history.csv", min_runs=4).changes != plain.changes
+
+
+def test_a_case_of_another_grid_labelled_alike_is_not_its_history(make_run, tmp_path):
+    """Runs that all keep importance on or all off label their cases alike (``face/alien/highs``): the
+    history of one grid must not judge the other's ratios."""
+    slowed = TIMES | {"highs": 0.04}
+    other_grid = make_run("importance-off", importance=(False,), seconds=slowed)
+    _history(tmp_path / "history.csv", other_grid, STEADY)
+    old, new = make_run("old"), make_run("new", seconds=slowed)
+    assert set(read_history(tmp_path / "history.csv")["case"]) == set(run_figures(new)["case"])
+    judged = compare(old, new, history=tmp_path / "history.csv")
+    # the other grid's history absorbed the slowdown; this grid's is judged by the one old run's rule
+    assert set(_times(judged, "/highs").values()) == {("slower", "")}
+    assert all(change.spread is None for change in judged.changes)
+
+
+def test_rows_written_before_the_case_id_still_judge_by_their_label(make_run, tmp_path):
+    old, path = make_run("old"), tmp_path / "history.csv"
+    rows = _history(tmp_path / "current.csv", make_run("slowed", seconds=TIMES | {"highs": 0.04}), STEADY)
+    legacy = rows[list(LEGACY_COLUMNS)].to_csv(index=False, float_format="%.6g", lineterminator="\n")
+    path.write_text(legacy)
+    assert set(read_history(path)["case_id"]) == {""}
+    new = make_run("new", seconds=TIMES | {"highs": 0.04})
+    assert set(_times(compare(old, new, history=path), "/highs").values()) == {("same", "(history)")}
+    assert append_history(path, run_figures(new)) == 6
+    earlier_rows = legacy.partition("\n")[2]
+    assert path.read_text().startswith(",".join(HISTORY_COLUMNS) + "\n" + earlier_rows)
+    history = read_history(path)
+    assert list(history["case_id"] == "") == [True] * len(rows) + [False] * 6
+    assert (
+        compare(old, new, history=path).changes == compare(old, new, history=tmp_path / "current.csv").changes
+    )
+
+
+def test_the_committed_history_still_judges_the_baseline_cases():
+    history = read_history(BENCHMARKS / "history.csv")
+    figures = run_figures(BENCHMARKS / "baseline")
+    identified = identify_legacy_rows(history, dict(zip(figures["case"], figures["case_id"], strict=True)))
+    judged = spreads(identified)
+    assert judged and set(judged) <= set(zip(figures["case_id"], figures["figure"], strict=True))
+    assert all(figure.endswith(f"/ {BASELINE_SOLVER}") for _, figure in judged)
 
 
 def test_the_judged_run_is_left_out_of_its_own_history(make_run, tmp_path):
