@@ -25,11 +25,12 @@ folder's manifest at a time.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path, PurePosixPath
 from typing import Any
 
@@ -86,23 +87,55 @@ class OutputFolder:
         return self.path / MANIFEST_NAME
 
     def write_file(self, name: str, data: bytes | str) -> Path:
-        """Write ``data`` as ``name`` (relative to the folder) atomically, record it and save the manifest.
+        """Write ``data`` as ``name`` (relative to the folder): `write_files` of one file."""
+        return self.write_files({name: data})[0]
+
+    def write_files(self, contents: Mapping[str, bytes | str]) -> list[Path]:
+        """Write each ``name -> data`` (relative names, text as UTF-8) atomically, in order, listed in the
+        manifest, which is saved once.
+
+        The manifest lists the files before they are written, with the SHA-256 of what is about to be
+        written: an interrupted write leaves every file either listed with its content or holding other
+        content, which `owns` then does not claim, so the harness never later replaces or removes a file
+        it did not write. When a write fails (the manifest's or a file's), the files not written keep their
+        earlier entries.
+
+        Returns
+        -------
+        list of Path
+            The written files, in the order of ``contents``.
 
         Raises
         ------
         OutputFolderError
-            When ``name`` exists and is not this session's unchanged file, or the write fails (naming the
-            file and the reason, e.g. a full disk).
+            When a name exists and is not this session's unchanged file (before anything is written), or
+            a write fails (naming the file and the reason, e.g. a full disk).
         """
-        name = _checked_name(name)
-        self.check_free([name])
-        self._check_inside(name)
-        path = self.path / name
-        payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
-        _write(path, payload)
-        self.files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
-        self.save()
-        return path
+        payloads = {
+            _checked_name(name): data.encode("utf-8") if isinstance(data, str) else bytes(data)
+            for name, data in contents.items()
+        }
+        self.check_free(payloads)
+        for name in payloads:
+            self._check_inside(name)
+        earlier = {name: self.files.get(name) for name in payloads}
+        for name, payload in payloads.items():
+            self.files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
+        written: list[Path] = []
+        try:
+            self.save()
+            for name, payload in payloads.items():
+                written.append(_write(self.path / name, payload))
+        except OutputFolderError:
+            for name in list(payloads)[len(written) :]:
+                if earlier[name] is None:
+                    del self.files[name]
+                else:
+                    self.files[name] = earlier[name]
+            with contextlib.suppress(OutputFolderError):
+                self.save()
+            raise
+        return written
 
     def record(self, path: Path | str) -> str:
         """List a file the caller wrote into the folder by other means; `save` persists the manifest.

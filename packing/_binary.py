@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing._params import check_range
+from rigs import vector_lengths
 
 if TYPE_CHECKING:
     from rigs import Rig
@@ -18,8 +19,7 @@ def displacement_norms(deltas: np.ndarray) -> np.ndarray:
     deltas = np.asarray(deltas, dtype=np.float64)
     if deltas.ndim != 3 or deltas.shape[2] != 3:
         raise ValueError(f"deltas must have shape (K, N, 3), got {deltas.shape}")
-    squared = np.einsum("knd,knd->kn", deltas, deltas)
-    return np.sqrt(squared, out=squared)  # in place: one (K, N) array at a time
+    return vector_lengths(deltas)
 
 
 def empty_mask(norms: np.ndarray, noise_floor: float = 1e-6, scale: float | None = None) -> np.ndarray:

@@ -14,7 +14,7 @@ from itertools import combinations
 
 import numpy as np
 
-from rigs import Rig, mirror_name_pairs
+from rigs import Rig, mirror_name_pairs, vector_lengths
 
 #: A pair cancels when the peak of its summed displacement is below this share of its larger part's peak.
 CANCEL_RATIO = 0.5
@@ -112,7 +112,7 @@ class _Motion:
 
     def __call__(self, name: str) -> tuple[float, np.ndarray, np.ndarray]:
         if name not in self._found:
-            lengths = np.linalg.norm(self.rig.deltas[self.rig.index(name)], axis=1)
+            lengths = vector_lengths(self.rig.deltas[self.rig.index(name)])
             moved = np.flatnonzero(lengths)
             strong = moved[lengths[moved] > self.still]
             self._found[name] = float(lengths.max(initial=0.0)), moved, strong

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from packing._binary import rig_masks
 from packing._params import params_from
 from packing._solution import Termination
 from packing._symmetry import detect_pairs
@@ -52,7 +53,8 @@ def check(
 ) -> None:
     """Verify an expression sequence from the rig's raw deltas, not from any packing model.
 
-    The binary blendshapes are recomputed here from ``rig.deltas`` with the given ``mu`` (eq. 2), and
+    The binary blendshapes are recomputed here from ``rig.deltas`` with the given ``mu`` (eq. 2, by
+    `packing._binary.rig_masks`, the definition the analysis uses), and
     the symmetry pairs are detected again with the given parameters unless ``pairs`` are given. For
     each expression in order, the first violation raises:
 
@@ -108,10 +110,7 @@ def check(
     settings = params_from(**params)
     if not 0.0 <= overlap < 1.0:
         raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
-    lengths = np.linalg.norm(rig.deltas, axis=2)
-    largest = lengths.max(axis=1, initial=0.0)
-    empty = largest <= settings.noise_floor * rig.diagonal()
-    active = (lengths >= settings.mu * largest[:, None]) & ~empty[:, None]
+    lengths, empty, active = rig_masks(rig, settings.mu, settings.noise_floor)
     if pairs is None:
         found = detect_pairs(rig, lengths, active, empty, settings).pairs
         pairs = [(rig.names[a], rig.names[b]) for a, b in found]

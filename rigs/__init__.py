@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
     from rigs._obj import ObjSurface, plain_surface, rig_surface
     from rigs._regions import read_regions, regions_from_mapping
-    from rigs._rig import Rig, RigError, RigWarning
+    from rigs._rig import Rig, RigError, RigWarning, vector_lengths
     from rigs._warp import WARPS, Compose, LocalScale, Scale, warp
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -36,7 +36,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
         "_obj": ["ObjSurface", "plain_surface", "rig_surface"],
         "_regions": ["read_regions", "regions_from_mapping"],
-        "_rig": ["Rig", "RigError", "RigWarning"],
+        "_rig": ["Rig", "RigError", "RigWarning", "vector_lengths"],
         "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "warp"],
     },
 )

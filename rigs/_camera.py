@@ -22,7 +22,7 @@ import numpy as np
 
 from rigs._mirror import mirror_map
 from rigs._names import side_of
-from rigs._rig import Rig
+from rigs._rig import Rig, vector_lengths
 
 #: Names of shapes of the upper face and of the lower face, for the sign of "up".
 _UPPER = re.compile(r"brow|eye|lid|forehead", re.IGNORECASE)
@@ -58,7 +58,7 @@ def frontal_camera(rig: Rig) -> np.ndarray:
     One mirror map of the neutral (`rigs.mirror_map`, O(N log N)) and one pass over the deltas (O(K N)).
     """
     neutral = np.asarray(rig.neutral, dtype=np.float64)
-    motion = np.linalg.norm(rig.deltas, axis=2) if rig.n_shapes else np.zeros((0, len(neutral)))
+    motion = vector_lengths(rig.deltas) if rig.n_shapes else np.zeros((0, len(neutral)))
     moved = motion.max(axis=0) if len(motion) else np.zeros(len(neutral))
     right = _symmetry_normal(neutral, rig.triangles)
     facing = _facing(neutral, rig.triangles, moved, right)

@@ -36,7 +36,7 @@ import numpy as np
 
 from rigs._npz import load_npz, save_npz
 from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
-from rigs._rig import Rig, RigError
+from rigs._rig import Rig, RigError, vector_lengths
 from rigs._safe import read_text, regular_file
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
 from rigs._usd import USD_SUFFIXES, load_usd, save_usd
@@ -214,7 +214,7 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
     deltas = rig.deltas
     zeroed: dict[str, int] = {}
     if floor > 0 and rig.n_shapes:
-        lengths = np.linalg.norm(deltas, axis=2)
+        lengths = vector_lengths(deltas)
         noise = (lengths < floor) & (lengths > 0)
         counts = noise.sum(axis=1)
         if counts.any():

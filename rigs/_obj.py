@@ -1043,8 +1043,25 @@ def _face_text(faces: Sequence[np.ndarray]) -> str:
     return "".join("f " + " ".join(map(str, (face + 1).tolist())) + "\n" for face in faces)
 
 
-def _vertex_text(vertices: np.ndarray) -> str:
-    return ("v %r %r %r\n" * len(vertices)) % tuple(vertices.ravel().tolist())
+def shortest_vertex_text(vertices: np.ndarray, *, single: bool = False) -> str:
+    """``v x y z`` lines (each ending in a line feed) with every coordinate written as the shortest text
+    that reads back as the same float64, or with ``single`` the same float32 (``1`` for 1.0, ``1e+20``,
+    ``0.00001``).
+
+    Formatted by Arrow's CSV writer, several times faster than Python's ``repr`` on the tens of thousands
+    of vertices of a production head.
+    """
+    import pyarrow as pa
+    from pyarrow import csv
+
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    kind = pa.float32() if single else pa.float64()
+    columns = {"keyword": pa.array(["v"] * len(vertices), pa.string())}
+    columns.update({axis: pa.array(vertices[:, k], kind) for k, axis in enumerate("xyz")})
+    sink = pa.BufferOutputStream()
+    options = csv.WriteOptions(include_header=False, delimiter=" ", quoting_style="none")
+    csv.write_csv(pa.table(columns), sink, options)
+    return sink.getvalue().to_pybytes().decode("ascii")
 
 
 def write_obj(
@@ -1052,7 +1069,9 @@ def write_obj(
 ) -> None:
     """Write one OBJ: ``v`` lines with shortest round-trip floats, then 1-based ``f`` lines."""
     header = "".join(f"# {line}\n" for line in comment.splitlines())
-    Path(path).write_text(header + _vertex_text(np.asarray(vertices)) + _face_text(faces), encoding="utf-8")
+    Path(path).write_text(
+        header + shortest_vertex_text(np.asarray(vertices)) + _face_text(faces), encoding="utf-8"
+    )
 
 
 def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
@@ -1085,9 +1104,11 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
     faces = rig.faces if rig.faces is not None else tuple(rig.triangles)
     face_text = _face_text(faces)
     source = rig.meta.get("source", "rig")
-    (folder / "neutral.obj").write_text(f"# neutral of {source}\n" + _vertex_text(rig.neutral) + face_text)
+    (folder / "neutral.obj").write_text(
+        f"# neutral of {source}\n" + shortest_vertex_text(rig.neutral) + face_text
+    )
     for name, delta in zip(rig.names, rig.deltas, strict=True):
-        text = f"# blendshape {name} of {source}\n" + _vertex_text(rig.neutral + delta) + face_text
+        text = f"# blendshape {name} of {source}\n" + shortest_vertex_text(rig.neutral + delta) + face_text
         (folder / f"{name}.obj").write_text(text, encoding="utf-8")
     manifest = {
         "format": "obj-folder",
@@ -1275,10 +1296,7 @@ def coordinate_lines(vertices: np.ndarray, *, step: float = 0.0, single: bool = 
         return (f"v %.{decimals}f %.{decimals}f %.{decimals}f\n" * len(values) % tuple(values.ravel())).split(
             "\n"
         )[:-1]
-    if single:
-        words = [str(value) for value in vertices.astype(np.float32).ravel()]
-        return [f"v {x} {y} {z}" for x, y, z in zip(words[0::3], words[1::3], words[2::3], strict=True)]
-    return ("v %r %r %r\n" * len(vertices) % tuple(vertices.ravel().tolist())).split("\n")[:-1]
+    return shortest_vertex_text(vertices, single=single).split("\n")[:-1]
 
 
 def rig_surface(rig: Rig) -> ObjSurface | None:

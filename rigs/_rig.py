@@ -31,6 +31,14 @@ LARGEST_COORDINATE = 1e150
 _REAL_KINDS = "iuf"
 
 
+def vector_lengths(vectors: np.ndarray) -> np.ndarray:
+    """Euclidean length of every 3-vector of a (..., 3) array, e.g. the (K, N) ``|dv_k^n|`` of a rig's
+    deltas (Carrigan et al. 2020, eq. 2): one pass without the temporaries of ``numpy.linalg.norm``."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    squared = np.einsum("...d,...d->...", vectors, vectors)
+    return np.sqrt(squared, out=squared) if squared.ndim else np.sqrt(squared)
+
+
 def _as_array(values: Any, what: str, source: str) -> np.ndarray:
     try:
         return np.asarray(values)

@@ -13,9 +13,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from harness import _outdir as outdir
 from harness._outdir import (
     MANIFEST_NAME,
     ChangedFileWarning,
+    OutputFolder,
     OutputFolderError,
     atomic_write,
     claim,
@@ -171,8 +173,8 @@ def test_a_failed_write_keeps_the_old_content_and_leaves_no_temporary_file(tmp_p
 
     monkeypatch.setattr(os, "fsync", disk_full)
     with pytest.raises(
-        OutputFolderError, match="expressions.json: cannot write .No space left on device"
-    ) as error:
+        OutputFolderError, match=f"{MANIFEST_NAME}: cannot write .No space left on device"
+    ) as error:  # (the manifest lists a file before it is written)
         folder.write_file("expressions.json", "new\n")
     assert "\n" not in str(error.value)
     assert (tmp_path / "out" / "expressions.json").read_text() == "old\n"
@@ -246,3 +248,57 @@ def test_no_sequence_of_sessions_touches_a_file_harness_did_not_write(user, firs
             assert (out / name).read_bytes() == f"second {name}".encode()
         listed = json.loads((out / MANIFEST_NAME).read_text())["files"]
         assert set(listed) == set(written)
+
+
+def _listed(out: Path) -> dict[str, dict[str, str]]:
+    return json.loads((out / MANIFEST_NAME).read_text())["files"]
+
+
+NAMES = ("b.obj", "sub/c.obj", "a.obj")
+
+
+def test_several_files_are_listed_before_they_are_written_and_the_manifest_is_saved_once(
+    tmp_path, monkeypatch
+) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+    saved: list[dict[str, dict[str, str]]] = []
+    original_save = OutputFolder.save
+
+    def save(self: OutputFolder) -> Path:
+        assert not any((out / name).exists() for name in NAMES)  # listed first, then written
+        saved.append(dict(self.files))
+        return original_save(self)
+
+    monkeypatch.setattr(OutputFolder, "save", save)
+    paths = folder.write_files(dict(zip(NAMES, ("b\n", b"c\n", "a\n"), strict=True)))
+    assert paths == [out / "b.obj", out / "sub" / "c.obj", out / "a.obj"]
+    assert len(saved) == 1 and sorted(saved[0]) == sorted(NAMES)
+    assert all(folder.owns(name) for name in NAMES)
+    assert _listed(out) == folder.files
+
+
+def test_a_write_failing_midway_keeps_the_earlier_entries_of_the_files_not_written(
+    tmp_path, monkeypatch
+) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+    folder.write_files({"first.obj": "old first\n", "second.obj": "old second\n"})
+    before = dict(folder.files)
+    writes = 0
+    original_write = outdir._write
+
+    def fail_on_the_second_file(path: Path, payload: bytes) -> Path:
+        nonlocal writes
+        writes += path.name != MANIFEST_NAME
+        if writes == 2 and path.name != MANIFEST_NAME:
+            raise OutputFolderError(f"{path}: cannot write (No space left on device)")
+        return original_write(path, payload)
+
+    monkeypatch.setattr(outdir, "_write", fail_on_the_second_file)
+    with pytest.raises(OutputFolderError, match="second.obj: cannot write"):
+        folder.write_files({"first.obj": "new first\n", "second.obj": "new second\n", "third.obj": "3\n"})
+    assert (out / "first.obj").read_text() == "new first\n" and folder.owns("first.obj")
+    assert (out / "second.obj").read_text() == "old second\n" and folder.owns("second.obj")
+    assert folder.files["second.obj"] == before["second.obj"] and "third.obj" not in folder.files
+    assert _listed(out) == folder.files

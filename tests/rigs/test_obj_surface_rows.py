@@ -30,5 +30,5 @@ def test_a_signed_zero_is_a_change() -> None:
     surface.text(first)
     flipped = first.copy()
     flipped[2, 1] = -0.0
-    assert "v 0.0 -0.0 0.0" in surface.text(flipped)
+    assert "v 0 -0 0" in surface.text(flipped)
     assert surface.text(flipped) == parse_surface(TEXT, "mesh.obj").text(flipped)

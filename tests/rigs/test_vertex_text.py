@@ -1,0 +1,52 @@
+"""`rigs.shortest_vertex_text`: every coordinate reads back as the same float, in its shortest text."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from rigs._obj import shortest_vertex_text
+
+FINITE64 = st.floats(allow_nan=False, allow_infinity=False)
+FINITE32 = st.floats(allow_nan=False, allow_infinity=False, width=32)
+
+
+def _significant(text: str) -> int:
+    """Number of significant digits of a decimal number's text."""
+    mantissa = text.lower().lstrip("-").split("e")[0].replace(".", "")
+    return len(mantissa.strip("0")) or 1
+
+
+def _read(text: str) -> list[list[str]]:
+    lines = text.split("\n")
+    assert lines[-1] == ""  # every line ends in a line feed
+    return [line.split(" ") for line in lines[:-1]]
+
+
+@settings(deadline=None)  # (the first example imports Arrow)
+@given(hnp.arrays(np.float64, st.tuples(st.integers(0, 20), st.just(3)), elements=FINITE64))
+def test_float64_coordinates_read_back_bit_for_bit_with_the_fewest_digits(vertices: np.ndarray) -> None:
+    rows = _read(shortest_vertex_text(vertices))
+    assert len(rows) == len(vertices)
+    for words, vertex in zip(rows, vertices.tolist(), strict=True):
+        assert words[0] == "v" and len(words) == 4
+        read = np.array([float(word) for word in words[1:]])
+        assert read.view(np.int64).tolist() == np.array(vertex).view(np.int64).tolist()  # (-0.0 kept)
+        assert [_significant(word) for word in words[1:]] == [_significant(repr(value)) for value in vertex]
+
+
+@settings(deadline=None)  # (the first example imports Arrow)
+@given(hnp.arrays(np.float32, st.tuples(st.integers(1, 20), st.just(3)), elements=FINITE32))
+def test_single_precision_coordinates_read_back_as_the_same_float32(vertices: np.ndarray) -> None:
+    rows = _read(shortest_vertex_text(vertices.astype(np.float64), single=True))
+    read = np.array([[np.float32(word) for word in words[1:]] for words in rows], dtype=np.float32)
+    assert read.view(np.int32).tolist() == vertices.view(np.int32).tolist()
+    shortest = [_significant(str(value)) for value in vertices.ravel()]
+    assert [_significant(word) for words in rows for word in words[1:]] == shortest
+
+
+def test_plain_values_are_written_plainly() -> None:
+    text = shortest_vertex_text(np.array([[1.0, -0.0, 0.1], [7.2296, 1e-5, 1e20]]))
+    assert text == "v 1 -0 0.1\nv 7.2296 0.00001 1e+20\n"
