@@ -14,10 +14,12 @@ import os
 import re
 import warnings
 from array import array
-from collections.abc import Iterator, Sequence
+from collections import deque
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import cached_property
-from itertools import compress
+from functools import cached_property, partial
+from itertools import compress, islice
 from operator import itemgetter
 from pathlib import Path
 
@@ -120,7 +122,11 @@ def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None
     if not _plain_characters(text):
         return None
     tail = faces_of.face_text if faces_of is not None else ""
-    rows = _vertex_block(text[: len(text) - len(tail)]) if tail and text.endswith(tail) else None
+    head = text[: len(text) - len(tail)] if tail and text.endswith(tail) else None
+    start = _vertex_block_start(head) if head is not None else None
+    if start is not None and (vertices := _plain_vertex_block(head[start:])) is not None:
+        return ObjMesh(vertices=vertices, faces=(), face_lines=faces_of.face_lines)
+    rows = _vertex_block(head[start:]) if start is not None else None
     if rows is not None:
         face_lines = faces_of.face_lines
     else:
@@ -134,22 +140,61 @@ def _vertices_only(text: str, faces_of: ObjMesh | None = None) -> ObjMesh | None
     return ObjMesh(vertices=vertices, faces=(), face_lines=face_lines)
 
 
-def _vertex_block(head: str) -> list[str] | None:
-    """The lines of ``head`` (a file's text before its face section) from its first ``v`` line on, when
-    only comment lines come before it (as exporters write files); else None. They are not looked at one
-    by one: `_vertex_positions` takes them for ``v`` lines where they equal the neutral's and checks the
-    others."""
+def _vertex_block_start(head: str) -> int | None:
+    """Where the first ``v`` line of ``head`` (a file's text before its face section) starts, when only
+    comment lines come before it (as exporters write files); else None."""
     start = 0 if head.startswith("v ") else head.find("\nv ") + 1
     if start == 0 and not head.startswith("v "):
         return None
     comments = head[: start - 1].split("\n") if start else []
     if any(line[:1] != "#" for line in comments):
         return None
-    rows = head[start:].split("\n")
+    return start
+
+
+def _vertex_block(block: str) -> list[str]:
+    """The lines of a vertex block (`_vertex_block_start` on): they are not looked at one by one:
+    `_vertex_positions` takes them for ``v`` lines where they equal the neutral's and checks the others."""
+    rows = block.split("\n")
     if rows[-1] == "":
         rows.pop()
     return rows
 
+
+def _plain_vertex_block(block: str) -> np.ndarray | None:
+    """(N, 3) positions of a vertex block made only of ``v x y z`` lines (one space between words, each
+    line ending in a line feed), parsed by Arrow's CSV reader outside the interpreter lock (so that
+    `_read_shapes` reads several files at once); None for
+    anything else (another line, a fourth value, a comment, a number Arrow does not read, a non-finite
+    or too large coordinate), left to the line readers, which name the line.
+
+    Arrow reads a decimal number to the same float64 as Python's ``float`` (both round correctly);
+    what it refuses (``1_000``, non-ASCII digits) goes to the line readers.
+    """
+    import pyarrow as pa
+    from pyarrow import csv
+
+    kinds = {"keyword": pa.dictionary(pa.int32(), pa.string())} | dict.fromkeys("xyz", pa.float64())
+    try:
+        table = csv.read_csv(
+            pa.py_buffer(block.encode("ascii")),
+            read_options=csv.ReadOptions(column_names=list(kinds), use_threads=False),
+            parse_options=csv.ParseOptions(delimiter=" ", quote_char=False, ignore_empty_lines=False),
+            convert_options=csv.ConvertOptions(column_types=kinds, null_values=[], strings_can_be_null=False),
+        )
+    except pa.ArrowInvalid:
+        return None
+    keywords = {word for chunk in table.column("keyword").chunks for word in chunk.dictionary.to_pylist()}
+    if keywords != {"v"}:
+        return None
+    vertices = np.column_stack([table.column(axis).to_numpy() for axis in "xyz"])
+    if not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
+        return None
+    return vertices
+
+
+#: Blendshape files read at once by `load_obj_folder`.
+_READERS = min(4, os.cpu_count() or 1)
 
 #: Characters that send a file to the line-by-line reader: line continuations, and whitespace other than
 #: spaces and line ends (``str.split`` splits at it, so a keyword could hide behind it).
@@ -188,7 +233,9 @@ def _plain_mesh(text: str, source: str) -> ObjMesh | None:
         return None
     is_vertex = np.fromiter(map("v ".__eq__, starts), dtype=bool, count=len(starts))
     rows = list(compress(lines, is_vertex))
-    vertices = _read_rows(rows) if rows else None
+    vertices = _plain_vertex_block("\n".join(rows) + "\n") if rows else None
+    if vertices is None:
+        vertices = _read_rows(rows) if rows else None
     if vertices is None or not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
         return None
     is_face = np.fromiter(map("f ".__eq__, starts), dtype=bool, count=len(starts))
@@ -773,8 +820,7 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     edges = _VertexOrder(base.vertices, triangles, neutral_path)
     deltas = np.empty((len(shape_paths), n_vertices, 3))
     step = decimal_step(base.vertices)
-    for k, path in enumerate(shape_paths.values()):
-        shape = read_obj(path, with_faces=False, faces_of=base, root=folder)
+    for k, (path, shape) in enumerate(_read_shapes(shape_paths.values(), base, folder)):
         _check_same_mesh(base, shape, path, neutral_path)
         edges.check(shape.vertices, path)
         np.subtract(shape.vertices, base.vertices, out=deltas[k])
@@ -792,6 +838,39 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         faces=None if faces_are_triangles(base.faces) else base.faces,
         meta=meta,
     )
+
+
+def _read_shapes(paths: Iterable[Path], base: ObjMesh, folder: Path) -> Iterator[tuple[Path, ObjMesh]]:
+    """Each blendshape OBJ of ``paths`` read against the neutral ``base``, in order.
+
+    Up to `_READERS` files are read at once in threads, at most twice as many ahead of the caller (their
+    reading and parsing run mostly outside the interpreter lock); a file's error is raised when its turn
+    comes, so the first bad file in order is the one named.
+    """
+    paths = list(paths)
+    read = partial(read_obj, with_faces=False, faces_of=base, root=folder)
+    if _READERS < 2 or len(paths) < 2:
+        yield from ((path, read(path)) for path in paths)
+        return
+    waiting = iter(paths)
+    with ThreadPoolExecutor(_READERS) as pool:
+        reading: deque[tuple[Path, Future[ObjMesh]]] = deque()
+
+        def read_next() -> None:
+            for path in islice(waiting, 1):
+                reading.append((path, pool.submit(read, path)))
+
+        for _ in range(2 * _READERS):
+            read_next()
+        try:
+            while reading:
+                path, future = reading.popleft()
+                shape = future.result()
+                read_next()
+                yield path, shape
+        finally:
+            for _, future in reading:
+                future.cancel()
 
 
 class _VertexOrder:

@@ -1,7 +1,8 @@
 """The fast path for blendshape OBJ files reads exactly what the line-by-line reader reads, or steps aside.
 
-A blendshape file is compared with its neutral line by line: a ``v`` line written as the neutral's is the
-neutral's position, the others are read. Whatever a file holds, the result (positions, face lines, or the
+A blendshape file whose vertex lines are all plain ``v x y z`` is read in one go by Arrow; otherwise it is
+compared with its neutral line by line: a ``v`` line written as the neutral's is the neutral's position,
+the others are read. Whatever a file holds, the result (positions, face lines, or the
 error raised) must be the line-by-line reader's.
 """
 
@@ -17,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import _face_corners, parse_obj
+from rigs._obj import _face_corners, _plain_vertex_block, parse_obj
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
 TRIANGLES = [(a, a + 1, a + 4) for a in range(11) if a % 4 != 3]
@@ -200,3 +201,35 @@ def test_face_corners_read_as_line_by_line(lines) -> None:
     except RigError as error:
         found = str(error)
     assert found == _corners_line_by_line(lines)
+
+
+_DECIMALS = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False).map(repr),
+    st.from_regex(r"[+-]?[0-9]{1,25}(\.[0-9]{0,25})?([eE][+-]?[0-9]{1,3})?", fullmatch=True),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, len(GRID) - 1), st.tuples(_DECIMALS, _DECIMALS, _DECIMALS)), max_size=6)
+)
+def test_coordinates_in_any_decimal_notation_read_as_the_line_by_line_reader_reads_them(moves) -> None:
+    lines = NEUTRAL_TEXT.split("\n")
+    for vertex, words in moves:
+        lines[1 + vertex] = "v " + " ".join(words)
+    _agree("\n".join(lines))
+
+
+def test_a_plain_vertex_block_is_read_in_one_go_and_anything_else_is_left_to_the_line_readers() -> None:
+    block = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in GRID.tolist())
+    assert np.array_equal(_plain_vertex_block(block), GRID)
+    for unusual in (
+        "v 1 2 3 4\n",
+        "v 1 2 3 # c\n",
+        "vt 1 2 3\n",
+        "v 1  2 3\n",
+        "v 1 2 nan\n",
+        "\n",
+        "v 1 2 1e300\n",
+    ):
+        assert _plain_vertex_block(block + unusual) is None, unusual
