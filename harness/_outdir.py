@@ -34,7 +34,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from rigs import atomic_write
+from rigs import atomic_write, sync_folders
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
@@ -49,11 +49,11 @@ class ChangedFileWarning(UserWarning):
     """A file the harness wrote was changed since, so it is left in place instead of being removed."""
 
 
-def _write(path: Path, payload: bytes) -> Path:
+def _write(path: Path, payload: bytes, *, sync_folder: bool = True) -> Path:
     """`atomic_write` into the output folder, creating subfolders; a failure is one `OutputFolderError`."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        return atomic_write(path, payload)
+        return atomic_write(path, payload, sync_folder=sync_folder)
     except OSError as error:
         raise OutputFolderError(
             f"{path}: cannot write ({error.strerror or error}); check the free space and permissions"
@@ -125,7 +125,8 @@ class OutputFolder:
         try:
             self.save()
             for name, payload in payloads.items():
-                written.append(_write(self.path / name, payload))
+                written.append(_write(self.path / name, payload, sync_folder=False))
+            sync_folders(written)
         except OutputFolderError:
             for name in list(payloads)[len(written) :]:
                 if earlier[name] is None:

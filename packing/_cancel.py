@@ -81,13 +81,14 @@ def find_cancellations(
 
     Notes
     -----
-    Only pairs whose displacements share a moving vertex can cancel; for those, O(N) per pair.
+    Only pairs whose displacements share a moving vertex can cancel; per group of g shapes, O(g N) to find
+    them and O(N) for each.
     """
-    found, motion = [], _Motion(rig)
+    found = []
     for number, group in enumerate(groups, start=1):
         found += [
             replace(cancellation, expression=number)
-            for cancellation in _cancelling(rig, combinations(sorted(set(group)), 2), ratio, motion)
+            for cancellation in _cancelling(rig, list(combinations(sorted(set(group)), 2)), ratio)
         ]
     return found
 
@@ -98,42 +99,28 @@ def cancelling_twins(
     """Left/right-named twins (`rigs.mirror_name_pairs`) and further candidate ``pairs`` that would cancel
     if combined in one expression, for `harness rigs info`."""
     candidates = dict.fromkeys([*mirror_name_pairs(rig.names), *map(tuple, pairs)])
-    return _cancelling(rig, candidates, ratio)
+    return [found for pair in candidates for found in _cancelling(rig, [pair], ratio)]
 
 
-class _Motion:
-    """Per shape, computed once: peak displacement, vertices that move at all, and those that move more
-    than ``still`` (1e-9 of the rig's diagonal)."""
-
-    def __init__(self, rig: Rig) -> None:
-        self.rig = rig
-        self.still = 1e-9 * rig.diagonal()  # displacements below this move nothing
-        self._found: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}
-
-    def __call__(self, name: str) -> tuple[float, np.ndarray, np.ndarray]:
-        if name not in self._found:
-            lengths = vector_lengths(self.rig.deltas[self.rig.index(name)])
-            moved = np.flatnonzero(lengths)
-            strong = moved[lengths[moved] > self.still]
-            self._found[name] = float(lengths.max(initial=0.0)), moved, strong
-        return self._found[name]
-
-
-def _cancelling(
-    rig: Rig, pairs: Iterable[tuple[str, str]], ratio: float, motion: _Motion | None = None
-) -> list[Cancellation]:
-    """The pairs whose sum cancels: a pair's sum is taken only where one of the two moves at all
-    (elsewhere it is exactly zero), and only pairs that both move some vertex can cancel."""
-    motion = _Motion(rig) if motion is None else motion
+def _cancelling(rig: Rig, pairs: Sequence[tuple[str, str]], ratio: float) -> list[Cancellation]:
+    """The ``pairs`` whose sum cancels, among a few shapes (an expression's): only pairs that both move
+    some vertex by more than 1e-9 of the rig's diagonal can cancel."""
+    names = list(dict.fromkeys(name for pair in pairs for name in pair))
+    if not names:
+        return []
+    row = {name: k for k, name in enumerate(names)}
+    deltas = rig.deltas[rig.indices(names)]  # (g, N, 3)
+    lengths = vector_lengths(deltas)
+    peaks = lengths.max(axis=1, initial=0.0)
+    strong = (lengths > 1e-9 * rig.diagonal()).astype(np.float32)
+    shared = (strong @ strong.T) > 0  # (g, g): the two move a vertex in common
     found = []
     for a, b in pairs:
-        (peak_a, moved_a, strong_a), (peak_b, moved_b, strong_b) = motion(a), motion(b)
-        if not np.intersect1d(strong_a, strong_b, assume_unique=True).size:
+        i, j = row[a], row[b]
+        if not shared[i, j]:
             continue
-        where = np.union1d(moved_a, moved_b)
-        summed = rig.deltas[rig.index(a), where] + rig.deltas[rig.index(b), where]
-        peak_sum = float(np.sqrt(np.einsum("ij,ij->i", summed, summed).max(initial=0.0)))
-        peak_parts = max(peak_a, peak_b)
+        peak_sum = float(vector_lengths(deltas[i] + deltas[j]).max(initial=0.0))
+        peak_parts = float(max(peaks[i], peaks[j]))
         if peak_sum < ratio * peak_parts:
             found.append(Cancellation((a, b), peak_sum, peak_parts))
     return found

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import BinaryIO
 
@@ -25,7 +25,9 @@ def _current_umask() -> int:
 NEW_FILE_MODE = 0o666 & ~_current_umask()
 
 
-def atomic_write(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None]) -> Path:
+def atomic_write(
+    path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None], *, sync_folder: bool = True
+) -> Path:
     """Write ``data`` to ``path`` atomically.
 
     Parameters
@@ -35,6 +37,9 @@ def atomic_write(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO
     data : bytes, str or callable
         The content (text is written as UTF-8), or a function that writes it to the binary stream it is
         given (for writers such as ``numpy.savez_compressed`` that stream their output).
+    sync_folder : bool
+        Flush the folder's entry of the file too. A caller writing many files into one folder passes
+        False and calls `sync_folders` once they are all written.
 
     Returns
     -------
@@ -62,8 +67,16 @@ def atomic_write(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-    _sync_folder(path.parent)
+    if sync_folder:
+        _sync_folder(path.parent)
     return path
+
+
+def sync_folders(paths: Iterable[str | os.PathLike]) -> None:
+    """Flush the folder entries of files written with ``atomic_write(..., sync_folder=False)``, each
+    folder once."""
+    for folder in dict.fromkeys(Path(path).parent for path in paths):
+        _sync_folder(folder)
 
 
 def _sync_folder(folder: Path) -> None:

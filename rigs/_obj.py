@@ -1115,8 +1115,9 @@ def _check_same_mesh(base: ObjMesh, shape: ObjMesh, path: Path, neutral_path: Pa
             )
 
 
-def _face_text(faces: Sequence[np.ndarray]) -> str:
-    if faces_are_triangles(faces):
+def _face_text(faces: np.ndarray | Sequence[np.ndarray]) -> str:
+    """``f`` lines (1-based) of a (T, 3) array of triangles or of a sequence of polygons."""
+    if isinstance(faces, np.ndarray) or faces_are_triangles(faces):
         one_based = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
         return ("f %d %d %d\n" * len(one_based)) % tuple(one_based.ravel().tolist())
     return "".join("f " + " ".join(map(str, (face + 1).tolist())) + "\n" for face in faces)
@@ -1180,8 +1181,7 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
             listed = ", ".join(strangers[:3])
             raise RigError(f"{folder}: already holds other OBJ files ({listed}); choose an empty folder")
     folder.mkdir(parents=True, exist_ok=True)
-    faces = rig.faces if rig.faces is not None else tuple(rig.triangles)
-    face_text = _face_text(faces)
+    face_text = _face_text(rig.faces if rig.faces is not None else rig.triangles)
     source = rig.meta.get("source", "rig")
     (folder / "neutral.obj").write_text(
         f"# neutral of {source}\n" + shortest_vertex_text(rig.neutral) + face_text
@@ -1519,7 +1519,7 @@ def _corner(row: list[int], renumber: dict[str, np.ndarray]) -> str:
 def plain_surface(rig: Rig) -> ObjSurface:
     """The `ObjSurface` of what a rig itself holds: its vertices and its polygons (``rig.faces``, else the
     triangles), for rigs that do not come from an OBJ."""
-    faces = rig.faces if rig.faces is not None else tuple(rig.triangles)
+    faces = rig.faces if rig.faces is not None else rig.triangles
     lines = ["v 0 0 0"] * rig.n_vertices + _face_text(faces).splitlines()
     source = str(rig.meta.get("source", "rig"))
     return ObjSurface(tuple(lines), np.arange(rig.n_vertices), ("",) * rig.n_vertices, source)

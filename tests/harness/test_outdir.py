@@ -23,6 +23,7 @@ from harness._outdir import (
     claim,
     file_sha256,
 )
+from rigs import _atomic as atomic
 
 
 def test_a_new_folder_is_claimed_and_its_files_listed_with_kind_and_hash(tmp_path) -> None:
@@ -288,12 +289,12 @@ def test_a_write_failing_midway_keeps_the_earlier_entries_of_the_files_not_writt
     writes = 0
     original_write = outdir._write
 
-    def fail_on_the_second_file(path: Path, payload: bytes) -> Path:
+    def fail_on_the_second_file(path: Path, payload: bytes, **options: bool) -> Path:
         nonlocal writes
         writes += path.name != MANIFEST_NAME
         if writes == 2 and path.name != MANIFEST_NAME:
             raise OutputFolderError(f"{path}: cannot write (No space left on device)")
-        return original_write(path, payload)
+        return original_write(path, payload, **options)
 
     monkeypatch.setattr(outdir, "_write", fail_on_the_second_file)
     with pytest.raises(OutputFolderError, match="second.obj: cannot write"):
@@ -302,3 +303,12 @@ def test_a_write_failing_midway_keeps_the_earlier_entries_of_the_files_not_writt
     assert (out / "second.obj").read_text() == "old second\n" and folder.owns("second.obj")
     assert folder.files["second.obj"] == before["second.obj"] and "third.obj" not in folder.files
     assert _listed(out) == folder.files
+
+
+def test_several_files_sync_their_folders_once_each(tmp_path, monkeypatch) -> None:
+    folder = claim(tmp_path / "out", kind="pack", force=False)
+    synced: list[Path] = []
+    monkeypatch.setattr(atomic, "_sync_folder", synced.append)
+    folder.write_files({"a.obj": "a\n", "b.obj": "b\n", "sub/c.obj": "c\n", "sub/d.obj": "d\n"})
+    # the manifest's save, then the two folders of the four files once each
+    assert synced == [folder.path, folder.path, folder.path / "sub"]
