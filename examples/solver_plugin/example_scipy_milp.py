@@ -19,9 +19,9 @@ class ScipyMilpSolver(ExactSolver):
     def solve_model(self, model, *, time_limit, seed):
         from scipy.optimize import milp
 
-        limit = {} if time_limit is None else {"time_limit": time_limit}
-        found = milp(-model.weights, integrality=1, bounds=(0, 1), constraints=model.constraint(),
-                     options={"mip_rel_gap": 0.0, **limit})
+        rows, options = model.constraint(), {"mip_rel_gap": 0.0}
+        options |= {} if time_limit is None else {"time_limit": time_limit}
+        found = milp(-model.weights, integrality=1, bounds=(0, 1), constraints=rows, options=options)
         if found.x is None:
             return Result((), Termination.ERROR, message=found.message)
         stopped = Termination.OPTIMAL if found.status == 0 else Termination.TIME_LIMIT
