@@ -10,13 +10,13 @@ checked against the rig by `packing` (an unknown name is a one-line error with t
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypedDict
 
 import click
 
-Command = TypeVar("Command", bound=Callable[..., Any])
+from harness._cli_types import Command
 
 
 class ShapePair(click.ParamType):
@@ -25,14 +25,14 @@ class ShapePair(click.ParamType):
     name = "A,B"
 
     def convert(
-        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
     ) -> tuple[str, str]:
         if isinstance(value, tuple):
             return value
         import packing
 
         try:
-            return packing.parse_pair(value)
+            return packing.parse_pair(str(value))
         except ValueError as error:
             self.fail(str(error), param, ctx)
 
@@ -75,12 +75,20 @@ def constraint_options(command: Command) -> Command:
     return command
 
 
+class ConstraintParams(TypedDict):
+    """The packing parameters (`packing.PackingParams` fields) the constraint options give."""
+
+    together: tuple[tuple[str, str], ...]
+    apart: tuple[tuple[str, str], ...]
+    regions: str | None
+
+
 def constraint_params(
     together: Iterable[tuple[str, str]],
     apart: Iterable[tuple[str, str]],
     constraints: Path | None,
     regions: Path | None,
-) -> dict[str, Any]:
+) -> ConstraintParams:
     """The packing parameters ``together``, ``apart`` and ``regions`` from the options of
     `constraint_options`: the file's pairs first, then the options', each pair once.
 

@@ -7,12 +7,15 @@ the records store, so that it answers at once.
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from harness import _plugins as plugins
 from harness._cli_types import terminal
+
+if TYPE_CHECKING:
+    from rich.table import Table
 
 
 def catalogue() -> dict[str, Any]:
@@ -45,7 +48,7 @@ def list_command(as_json: bool) -> None:
     terminal().print(f"run presets: {', '.join(found['run_presets'])}")
 
 
-def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Any:
+def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Table:
     """One row per plugin: name, available, version, description, and its true capabilities or, when it
     cannot run, the reason."""
     from rich.markup import escape

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.markup import escape
@@ -13,6 +14,18 @@ from harness._cli_types import DURATION, terminal
 from harness._pack import EXPRESSIONS_FILE, parse_rejections
 from harness._pack import pack as pack_rig
 from harness._session import SHEET_FILE
+
+if TYPE_CHECKING:
+    from rich.console import JustifyMethod
+
+#: The columns of the expressions table and how each is aligned.
+_COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
+    ("#", "right"),
+    ("shapes", "right"),
+    ("objective", "right"),
+    ("status", "left"),
+    ("blendshapes", "left"),
+)
 
 
 @click.command("pack")
@@ -158,14 +171,8 @@ def pack(
     )
     by = "--minimum (cpsat)" if minimum else solver
     table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {by}"))
-    for column, justify in (
-        ("#", "right"),
-        ("shapes", "right"),
-        ("objective", "right"),
-        ("status", "left"),
-        ("blendshapes", "left"),
-    ):
-        table.add_column(column, justify=justify)  # type: ignore[arg-type]
+    for column, justify in _COLUMNS:
+        table.add_column(column, justify=justify)
     for index, expression in enumerate(result.document["expressions"], start=1):
         names = escape(", ".join(expression["shapes"]))
         if expression["extra_examples"]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
@@ -13,6 +13,10 @@ from rich.table import Table
 
 from harness._cli_types import terminal
 from harness._rigspec import FETCHED_RIGS, fetched_path, resolve_rig
+
+if TYPE_CHECKING:
+    from packing import Cancellation
+    from rigs import Rig
 
 
 @click.group("rigs")
@@ -50,7 +54,7 @@ def generate(preset: str, seed: int, out: Path) -> None:
     terminal().print(f"wrote {out}: {_one_line(rig)}")
 
 
-def rig_summary(rig: Any) -> dict[str, Any]:
+def rig_summary(rig: Rig) -> dict[str, Any]:
     """What ``harness rigs info`` shows, as JSON-ready values."""
     low, high = rig.bounding_box()
     return {
@@ -70,20 +74,20 @@ def rig_summary(rig: Any) -> dict[str, Any]:
     }
 
 
-def _cancelling_twins(rig: Any) -> list[Any]:
+def _cancelling_twins(rig: Rig) -> list[Cancellation]:
     """Left/right twins that would cancel in one expression (sec. 4.4.1), `packing.cancelling_twins`."""
     import packing
 
     return packing.cancelling_twins(rig)
 
 
-def _empty_shapes(rig: Any) -> tuple[str, ...]:
+def _empty_shapes(rig: Rig) -> tuple[str, ...]:
     import packing
 
     return tuple(packing.empty_shapes(rig))
 
 
-def _one_line(rig: Any) -> str:
+def _one_line(rig: Rig) -> str:
     return f"N={rig.n_vertices} K={rig.n_shapes} T={rig.n_triangles}"
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import os
 import sys
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,7 @@ import click
 from click.core import ParameterSource
 from rich.markup import escape
 
-from harness._cli_types import CAPS, DURATION, FLOATS, NAMES, POSITIVE_INTS, SWITCH, terminal
+from harness._cli_types import CAPS, DURATION, FLOATS, NAMES, POSITIVE_INTS, SWITCH, Command, terminal
 from harness._durations import format_duration
 from harness._executors import DaskExecutor, Executor, LocalExecutor
 from harness._grid import (
@@ -54,6 +55,18 @@ def _preset_help(key: str) -> str:
     return "; ".join(f"{name}: {show(_preset_value(name, key))}" for name in PRESETS)
 
 
+def _switch_options(name: str, help_text: str) -> Callable[[Command], Command]:
+    """Add ``--NAME`` (on, off or both: a grid axis; alone it means on) and ``--no-NAME`` (the same as
+    ``--NAME off``) to a click command; its callback receives ``NAME`` and ``no_NAME``."""
+
+    def add(command: Command) -> Command:
+        switch = click.option(f"--{name}", type=SWITCH, is_flag=False, flag_value="on", help=help_text)
+        negation = click.option(f"--no-{name}", f"no_{name}", is_flag=True, help=f"Same as --{name} off.")
+        return switch(negation(command))
+
+    return add
+
+
 class RunReporter(RichReporter):
     """`RichReporter` that also prints notices (broken part files set aside) and lost cells."""
 
@@ -86,7 +99,7 @@ def _constraints(
     return pairs
 
 
-def _given(ctx: click.Context, grid: dict[str, Any]) -> dict[str, Any]:
+def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     """The grid options given on the command line (not their defaults)."""
     return {
         name: value
@@ -125,22 +138,11 @@ def _given(ctx: click.Context, grid: dict[str, Any]) -> dict[str, Any]:
 @click.option("--mu", type=FLOATS, help="Binary blendshape threshold(s), eq. 2. [default: 0.3]")
 @click.option("--alpha", type=FLOATS, help="Importance mix(es), eq. 4. [default: 0.5]")
 @click.option("--beta", type=FLOATS, help="Uniqueness weight(s), eq. 4. [default: 0]")
-@click.option(
-    "--symmetry",
-    type=SWITCH,
-    is_flag=False,
-    flag_value="on",
-    help="Symmetry pairs (sec. 4.4): on, off or both (a grid axis). [default: on]",
+@_switch_options("symmetry", "Symmetry pairs (sec. 4.4): on, off or both (a grid axis). [default: on]")
+@_switch_options(
+    "importance",
+    "Importance weights (eq. 4): on, off (every weight 1) or both. [default: on; full: both]",
 )
-@click.option("--no-symmetry", "no_symmetry", is_flag=True, help="Same as --symmetry off.")
-@click.option(
-    "--importance",
-    type=SWITCH,
-    is_flag=False,
-    flag_value="on",
-    help="Importance weights (eq. 4): on, off (every weight 1) or both. [default: on; full: both]",
-)
-@click.option("--no-importance", "no_importance", is_flag=True, help="Same as --importance off.")
 @click.option(
     "--cap", type=CAPS, help="Most shapes per expression (sec. 6), comma list; none = no cap. [default: none]"
 )
@@ -260,7 +262,7 @@ def run(
     resume: Path | None,
     force: bool,
     quiet: bool,
-    **grid: Any,
+    **grid: object,
 ) -> None:
     """Run the grid rigs x warps x solvers x packing parameters x repetitions; record every cell.
 

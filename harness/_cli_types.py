@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import click
 
@@ -14,24 +14,29 @@ if TYPE_CHECKING:
 
 NONE_WORDS = ("none", "off", "no")
 
+#: A command's callback, as click's option decorators take and return it.
+Command = TypeVar("Command", bound=Callable[..., object])
+#: The type of the items of a `CommaList`.
+Item = TypeVar("Item")
 
-class CommaList(click.ParamType):
+
+class CommaList(click.ParamType, Generic[Item]):
     """``a,b,c`` -> tuple of items converted by ``item`` (``none`` -> None when ``allow_none``)."""
 
-    def __init__(self, item: Callable[[str], Any], name: str, *, allow_none: bool = False) -> None:
+    def __init__(self, item: Callable[[str], Item], name: str, *, allow_none: bool = False) -> None:
         self.item = item
         self.name = name
         self.allow_none = allow_none
 
     def convert(
-        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
-    ) -> tuple[Any, ...]:
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[Item | None, ...]:
         if isinstance(value, tuple):
             return value
         parts = [part.strip() for part in str(value).split(",") if part.strip()]
         if not parts:
             self.fail(f"expected a comma-separated list of {self.name}, got {value!r}", param, ctx)
-        converted = []
+        converted: list[Item | None] = []
         for part in parts:
             if self.allow_none and part.lower() in NONE_WORDS:
                 converted.append(None)
@@ -48,7 +53,9 @@ class Duration(click.ParamType):
 
     name = "duration"
 
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float | None:
+    def convert(
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
+    ) -> float | None:
         if value is None or isinstance(value, float):
             return value
         if str(value).strip().lower() in NONE_WORDS:
@@ -69,7 +76,7 @@ class Switch(click.ParamType):
     _VALUES = {"on": (True,), "off": (False,), "both": (True, False)}
 
     def convert(
-        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
     ) -> tuple[bool, ...]:
         if isinstance(value, tuple):
             return value

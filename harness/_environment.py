@@ -9,7 +9,6 @@ import socket
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
 
 #: Distributions whose versions every run records (solver backends included; missing ones record None).
 DISTRIBUTIONS: tuple[str, ...] = (
@@ -41,7 +40,7 @@ def versions() -> dict[str, str | None]:
     return found
 
 
-def git_state(directory: Path | None = None) -> dict[str, Any]:
+def git_state(directory: Path | None = None) -> dict[str, str | bool | None]:
     """Commit and dirtiness of the git checkout holding the harness package (None outside a checkout)."""
     directory = directory or Path(__file__).resolve().parent
 
@@ -59,7 +58,7 @@ def git_state(directory: Path | None = None) -> dict[str, Any]:
     return {"commit": commit, "dirty": None if status is None else bool(status)}
 
 
-def machine() -> dict[str, Any]:
+def machine() -> dict[str, str | int | None]:
     """Host name, platform, processor and core count."""
     return {
         "hostname": socket.gethostname(),

@@ -13,10 +13,10 @@ import itertools
 import json
 import os
 import stat
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
 #: whole sequence is always evaluated too.
@@ -35,9 +35,16 @@ RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart
 #: Setting fields a variation may change (`RunConfig.variations`).
 VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap")
 
+#: A setting field's value: mu, alpha and beta floats, symmetry and importance bools, cap an int or None.
+SettingValue = float | bool | int | None
+#: The ``(field, value)`` changes of one variation (`RunConfig.variations`).
+Variation = tuple[tuple[str, SettingValue], ...]
+#: One point of the setting axes, in `VARIATION_FIELDS` order.
+Setting = tuple[float, float, float, bool, bool, int | None]
+
 #: The one-at-a-time variations the paper's claims compare (Carrigan et al. 2020, sec. 5.2, Figs. 9-10):
 #: no importance, displacement-only and distortion-only importance (alpha 1 and 0), no symmetry.
-CLAIM_VARIATIONS: tuple[tuple[tuple[str, Any], ...], ...] = (
+CLAIM_VARIATIONS: tuple[Variation, ...] = (
     (("importance", False),),
     (("alpha", 0.0),),
     (("alpha", 1.0),),
@@ -52,6 +59,12 @@ CLAIM_TRANSFERS: tuple[str, ...] = ("ebfr", "dt", "delta")
 Pairs = tuple[tuple[str, str], ...]
 Regions = tuple[tuple[str, tuple[int, ...]], ...]
 _BLOCK = 1 << 20
+
+
+class _Digest(Protocol):
+    """What `rig_digest` feeds bytes to (a `hashlib.sha256` object)."""
+
+    def update(self, data: bytes, /) -> None: ...
 
 
 def rig_digest(argument: str, seed: int) -> str:
@@ -82,7 +95,7 @@ def rig_digest(argument: str, seed: int) -> str:
     return f"sha256:{digest.hexdigest()}"
 
 
-def _hash_file(digest: Any, path: Path, root: Path) -> None:
+def _hash_file(digest: _Digest, path: Path, root: Path) -> None:
     """Add one file's bytes; only regular files are read (never a FIFO or a device)."""
     try:
         mode = path.stat().st_mode
@@ -121,7 +134,7 @@ def _gltf_uris(path: Path) -> list[str]:
     return uris
 
 
-def _hash_folder(digest: Any, folder: Path) -> None:
+def _hash_folder(digest: _Digest, folder: Path) -> None:
     root = folder.resolve()
     for directory, subfolders, files in os.walk(folder):
         subfolders.sort()
@@ -145,7 +158,7 @@ def _plain(value: Any) -> Any:
     return [_plain(item) for item in value] if isinstance(value, list | tuple) else value
 
 
-def regions_tuple(regions: Mapping[str, Any] | Regions) -> Regions:
+def regions_tuple(regions: Mapping[str, Iterable[int]] | Regions) -> Regions:
     """Vertex regions as a sorted tuple of ``(name, vertex indices)`` (hashable, canonical)."""
     items = regions.items() if isinstance(regions, Mapping) else regions
     return tuple(sorted((str(name), tuple(sorted({int(i) for i in indices}))) for name, indices in items))
@@ -179,13 +192,17 @@ def read_regions(path: str | os.PathLike[str]) -> Regions:
     return regions_tuple(document)
 
 
-def _to_dict(value: Any) -> dict[str, Any]:
+#: The two specs `_to_dict` and `_from_dict` convert.
+_Spec = TypeVar("_Spec", "CellSpec", "RunConfig")
+
+
+def _to_dict(value: CellSpec | RunConfig) -> dict[str, Any]:
     data = {key: _plain(item) for key, item in asdict(value).items()}
     data["regions"] = {name: list(indices) for name, indices in value.regions}
     return data
 
 
-def _from_dict(cls: type, data: Mapping[str, Any]) -> Any:
+def _from_dict(cls: type[_Spec], data: Mapping[str, Any]) -> _Spec:
     values = {key: _frozen(item) for key, item in data.items()}
     if "regions" in data:
         values["regions"] = regions_tuple(data["regions"])
@@ -293,7 +310,7 @@ class RunConfig:
     apart: Pairs = ()
     regions: Regions = ()
     examples: str = "scan"
-    variations: tuple[tuple[tuple[str, Any], ...], ...] = ()
+    variations: tuple[Variation, ...] = ()
     variation_solvers: tuple[str, ...] = CLAIM_SOLVERS
     variation_transfers: tuple[str, ...] = CLAIM_TRANSFERS
 
@@ -346,7 +363,7 @@ class RunConfig:
         self,
         rig: str,
         warp: str,
-        setting: tuple[Any, ...],
+        setting: Setting,
         repetition: int,
         solver: str,
         digests: Mapping[str, str],
@@ -392,7 +409,7 @@ class RunConfig:
         # Runs written before ``examples`` existed trained every transfer on ideal expressions.
         return _from_dict(cls, {"examples": "ideal", **data})
 
-    def with_overrides(self, **overrides: Any) -> RunConfig:
+    def with_overrides(self, **overrides: object) -> RunConfig:
         """A copy with the given fields replaced (None values are ignored)."""
         return replace(self, **{key: value for key, value in overrides.items() if value is not None})
 

@@ -14,6 +14,7 @@ from harness._rigspec import is_rig_file
 
 if TYPE_CHECKING:
     from registry import PluginInfo
+    from solvers import LoadedSolver
 
 ALL = "all"
 
@@ -32,7 +33,7 @@ def transfer_names() -> list[str]:
     return list(transfer.names())
 
 
-def solver(name: str) -> Any:
+def solver(name: str) -> LoadedSolver:
     """The named solver plugin behind the framework's checks and normalisation (`solvers.get`)."""
     import solvers
 
@@ -69,7 +70,7 @@ def listing(info: PluginInfo) -> dict[str, Any]:
     return {**info.as_dict(), "description": f"{describe(plugin)} {clause}".strip(), "capabilities": declared}
 
 
-def describe(plugin: Any) -> str:
+def describe(plugin: object) -> str:
     """What a plugin is, in one line: its class's ``description`` attribute, else the first line of its
     class's own docstring (not one inherited from a base class), else an empty string."""
     cls = plugin if isinstance(plugin, type) else type(plugin)

@@ -5,7 +5,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from rigs import Rig
+    from rigs._warp import Warp
 
 #: Rigs ``harness rigs fetch NAME`` downloads and converts into the user cache, by name.
 FETCHED_RIGS = {
@@ -27,7 +31,7 @@ def is_rig_file(text: str) -> bool:
     return Path(text).exists()
 
 
-def resolve_rig(text: str, *, seed: int = 0) -> Any:
+def resolve_rig(text: str, *, seed: int = 0) -> Rig:
     """The rig a command-line argument names: a loadable file or folder, else a `rigs.PRESETS` name, else
     a fetched rig (`FETCHED_RIGS`) from the user cache.
 
@@ -85,7 +89,7 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
                 ) from None
 
 
-def _applies(warp: Any, rig: Any) -> bool:
+def _applies(warp: Warp, rig: Rig) -> bool:
     import rigs
 
     try:

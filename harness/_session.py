@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,8 +30,11 @@ from harness._session_render import (
     shape_colours,
     triangle_colours,
 )
-from harness._session_sheet import scan_sheet
+from harness._session_sheet import Card, Legend, scan_sheet
 from harness._session_words import plain_words
+
+if TYPE_CHECKING:
+    from rigs import Rig
 
 GLB_FILE = "expressions.glb"
 SHEET_FILE = "session.html"
@@ -40,7 +43,7 @@ VIEWS = {"front": 0.0, "three_quarter": 35.0}
 
 
 def session_files(
-    rig: Any,
+    rig: Rig,
     document: dict[str, Any],
     *,
     target: TargetMesh | None = None,
@@ -75,8 +78,8 @@ def session_files(
             expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
     if glb:
         files[GLB_FILE] = _glb(rig, expressions)
-    cards = []
-    legends = [_legend(rig, expression, document.get("pairs", ())) for expression in expressions]
+    cards: list[Card] = []
+    legends = [_legend(expression, document.get("pairs", ())) for expression in expressions]
     if pictures and expressions:
         files.update(_pictures(rig, expressions, legends, float(document["params"]["mu"])))
     for expression, legend in zip(expressions, legends, strict=True):
@@ -93,9 +96,7 @@ def session_files(
     return files
 
 
-def _legend(
-    rig: Any, expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]
-) -> list[tuple[str, str, np.ndarray, bool]]:
+def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Legend:
     """``(plain words, name, colour, extra?)`` of each shape of an expression, symmetry pairs side by side
     (the two tones of one hue), then the extra examples."""
     partner = {a: b for a, b in pairs} | {b: a for a, b in pairs}
@@ -118,7 +119,7 @@ def _legend(
 
 
 def _pictures(
-    rig: Any, expressions: Sequence[dict[str, Any]], legends: Sequence[list[Any]], mu: float
+    rig: Rig, expressions: Sequence[dict[str, Any]], legends: Sequence[Legend], mu: float
 ) -> dict[str, bytes]:
     """The two pictures of every expression; records them in each expression's ``files``."""
     import rigs
@@ -148,7 +149,7 @@ def _pictures(
     return pictures
 
 
-def _glb(rig: Any, expressions: Sequence[Mapping[str, Any]]) -> bytes:
+def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:
     """The template with one morph target per expression."""
     from rigs._gltf import glb_bytes
 

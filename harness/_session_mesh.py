@@ -21,9 +21,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rigs import ObjSurface, Rig
+    from rigs._gltf import GltfSurface
 
 NEUTRAL_FILE = "neutral.obj"
 ON_TARGET = "on_target"
@@ -71,10 +75,10 @@ class TargetMesh:
 
     path: Path
     vertices: np.ndarray
-    surface: Any | None
+    surface: ObjSurface | None
 
 
-def read_target(path: str | Path | None, rig: Any) -> TargetMesh | None:
+def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
     """The target neutral of ``path``: an OBJ (its ``v`` lines and surface) or any rig file (its neutral).
 
     Raises
@@ -102,7 +106,7 @@ def read_target(path: str | Path | None, rig: Any) -> TargetMesh | None:
     return TargetMesh(path, vertices, surface)
 
 
-def expression_poses(rig: Any, expressions: Sequence[Mapping[str, Any]]) -> np.ndarray:
+def expression_poses(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> np.ndarray:
     """(J, N, 3) template deltas of each expression: the sum of its shapes, extra examples included."""
     weights = np.zeros((len(expressions), rig.n_shapes))
     for row, expression in zip(weights, expressions, strict=True):
@@ -118,7 +122,7 @@ def expression_name(index: int, count: int) -> str:
 
 
 def session_meshes(
-    rig: Any, expressions: Sequence[Mapping[str, Any]], target: TargetMesh | None = None
+    rig: Rig, expressions: Sequence[Mapping[str, Any]], target: TargetMesh | None = None
 ) -> dict[str, str]:
     """File name -> OBJ text: ``neutral.obj``, ``expression_XX.obj`` and, with a target,
     ``on_target/expression_XX.obj``; ``materials.mtl`` (also in ``on_target/`` when those files use it)
@@ -151,11 +155,11 @@ def session_meshes(
     return texts
 
 
-def _text(surface: Any, vertices: np.ndarray, precision: Precision, comment: str) -> str:
+def _text(surface: ObjSurface, vertices: np.ndarray, precision: Precision, comment: str) -> str:
     return surface.text(vertices, step=precision.step, single=precision.single, comment=comment)
 
 
-def gltf_surface(rig: Any) -> tuple[Any, str | None] | None:
+def gltf_surface(rig: Rig) -> tuple[ObjSurface, str | None] | None:
     """The OBJ lines of a rig read from glTF with its texture coordinates, normals and materials, and the
     text of its material library (None without materials); None when the rig has no such data or its
     triangles are no longer those the data describes.
@@ -192,7 +196,7 @@ def gltf_surface(rig: Any) -> tuple[Any, str | None] | None:
     return obj, (_library(materials, source) if materials else None)
 
 
-def _describes(surface: Any, rig: Any) -> bool:
+def _describes(surface: GltfSurface, rig: Rig) -> bool:
     """Whether ``surface``'s triangles are ``rig``'s (the rig was not cut or re-triangulated since)."""
     corners, vertex_map = surface.corners, surface.vertex_map
     return (
@@ -215,7 +219,7 @@ _CORNERS = {0: "%d", 1: "%d//%d", 2: "%d/%d", 3: "%d/%d/%d"}
 
 
 def _face_lines(
-    surface: Any, uv_number: np.ndarray, normal_number: np.ndarray, names: Sequence[str]
+    surface: GltfSurface, uv_number: np.ndarray, normal_number: np.ndarray, names: Sequence[str]
 ) -> list[str]:
     """``usemtl`` and ``f v/vt/vn`` lines, a ``usemtl`` before each run of triangles of one material
     (when there are ``names``); a triangle has ``vt`` (``vn``) indices when all its corners have texture

@@ -11,7 +11,10 @@ lower bound and the cover's size.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from packing import Analysis, Expression
 
 #: Seconds for the proof (and each ordered step) when no ``--time-limit`` is given.
 DEFAULT_TIME_LIMIT = 60.0
@@ -33,7 +36,7 @@ class MinimumResult:
         Seconds the proof and each step were given.
     """
 
-    expressions: list[Any]
+    expressions: list[Expression]
     count: int
     lower_bound: int
     time_limit: float
@@ -43,7 +46,7 @@ class MinimumResult:
         """Whether ``count`` is proved to be the fewest."""
         return self.count == self.lower_bound
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> dict[str, int | float | bool]:
         """The ``sequence.minimum`` entry of ``expressions.json``."""
         return {
             "count": self.count,
@@ -66,7 +69,7 @@ class MinimumResult:
         )
 
 
-def minimum_sequence(analysis: Any, *, time_limit: float | None, seed: int) -> MinimumResult:
+def minimum_sequence(analysis: Analysis, *, time_limit: float | None, seed: int) -> MinimumResult:
     """The ordered minimum sequence of every packable shape of ``analysis``.
 
     Parameters

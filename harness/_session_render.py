@@ -20,9 +20,14 @@ import io
 from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from PIL import Image, ImageDraw, ImageFont
+
+    from rigs import Rig
 
 #: matplotlib's ``tab20`` colours (ten hues, a dark and a light tone each), without importing matplotlib.
 _TAB20 = (
@@ -81,7 +86,7 @@ def shape_colours(groups: Sequence[int]) -> np.ndarray:
     return np.asarray([colorsys.hsv_to_rgb(hue, 1.0, 0.85) for hue in hues]).reshape(count, 3)
 
 
-def active_vertices(rig: Any, mu: float = 0.3) -> np.ndarray:
+def active_vertices(rig: Rig, mu: float = 0.3) -> np.ndarray:
     """The binary blendshapes (eq. 2) exactly as `packing.analyse` makes them for packing.
 
     The noise floor is packing's (`packing.PackingParams.noise_floor`), relative to the rig's
@@ -424,7 +429,7 @@ def _over(image: np.ndarray, background: np.ndarray) -> np.ndarray:
     return np.round(mixed).astype(np.uint8)
 
 
-def _draw_text(image: Any, title: str, legend: Sequence[str], colours: np.ndarray, left: int) -> None:
+def _draw_text(image: Image.Image, title: str, legend: Sequence[str], colours: np.ndarray, left: int) -> None:
     """The title at the top left; the legend (a swatch and the words per line) right of ``left``,
     centred vertically, its text shrunk to fit the height and cut to fit the width."""
     from PIL import ImageDraw
@@ -455,7 +460,7 @@ def _draw_text(image: Any, title: str, legend: Sequence[str], colours: np.ndarra
         y += line
 
 
-def _fitted(draw: Any, words: str, font: Any, room: int) -> str:
+def _fitted(draw: ImageDraw.ImageDraw, words: str, font: ImageFont.FreeTypeFont, room: int) -> str:
     """``words``, cut and ended with an ellipsis when wider than ``room`` pixels."""
     if draw.textlength(words, font=font) <= room:
         return words
@@ -465,7 +470,7 @@ def _fitted(draw: Any, words: str, font: Any, room: int) -> str:
 
 
 @lru_cache(maxsize=8)
-def _font(pixels: int) -> Any:
+def _font(pixels: int) -> ImageFont.FreeTypeFont:
     """DejaVu Sans at ``pixels``: the font matplotlib ships (so every machine draws the same glyphs), found
     in its package data without importing it."""
     from PIL import ImageFont

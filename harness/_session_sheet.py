@@ -11,9 +11,22 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from html import escape
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
+
+#: Each shape of an expression as its picture shows it: ``(plain words, shape name, RGB colour, extra?)``.
+Legend = list[tuple[str, str, np.ndarray, bool]]
+
+
+class Card(TypedDict):
+    """One expression of the scan sheet: the relative path of its front picture (or None), its importance
+    (``objective``, eq. 3a) and its `Legend`."""
+
+    picture: str | None
+    objective: float
+    legend: Legend
+
 
 _STYLE = """
 @page { size: A4 portrait; margin: 9mm; }
@@ -69,7 +82,7 @@ def sheet_layout(cards: int, lines: int, aspect: float, notes: int = 0) -> tuple
 
 def scan_sheet(
     document: Mapping[str, Any],
-    cards: Sequence[Mapping[str, Any]],
+    cards: Sequence[Card],
     *,
     title: str,
     face: tuple[float, float] = (1.0, 1.0),
@@ -81,9 +94,8 @@ def scan_sheet(
     ----------
     document : mapping
         ``expressions.json`` (its solver and parameters are summarised in the header).
-    cards : sequence of mappings
-        Per expression, in priority order: ``picture`` (relative path of its front picture, or None),
-        ``objective`` (eq. 3a), ``legend`` (list of ``(plain words, shape name, RGB, extra?)``).
+    cards : sequence of Card
+        Per expression, in priority order.
     title : str
         The rig's name.
     face : (share of width, aspect)
@@ -135,7 +147,7 @@ def _summary(document: Mapping[str, Any], count: int) -> str:
     return "; ".join(words) + "."
 
 
-def _card(priority: int, card: Mapping[str, Any]) -> str:
+def _card(priority: int, card: Card) -> str:
     lines = [
         '<section class="card">',
         f"<h2>Priority {priority} <small>importance {float(card['objective']):.3g}</small></h2>",

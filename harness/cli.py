@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib.metadata
 import sys
 from dataclasses import dataclass
-from typing import Any
+from typing import IO
 
 import click
 
@@ -78,7 +78,7 @@ class UserError(click.ClickException):
 
     exit_code = 2
 
-    def show(self, file: Any = None) -> None:
+    def show(self, file: IO[str] | None = None) -> None:
         from rich.markup import escape
 
         terminal(stderr=True).print(f"[bold red]error:[/] {escape(self.format_message())}")
@@ -91,7 +91,7 @@ def _plugin_entry_points() -> dict[str, importlib.metadata.EntryPoint]:
     return collect(importlib.metadata.entry_points(group=COMMANDS_GROUP), "command")
 
 
-def _as_click_command(name: str, value: Any) -> click.Command:
+def _as_click_command(name: str, value: object) -> click.Command:
     """The click command a plugin's entry point names: a click command, or a typer app (the plugin that
     made one has typer installed; the harness itself does not need it)."""
     if isinstance(value, click.Command):
@@ -105,7 +105,7 @@ def _as_click_command(name: str, value: Any) -> click.Command:
 def _broken_command(name: str, message: str) -> click.Command:
     """Stand-in for a plugin command that failed to load: listed as such, and says why when run."""
 
-    def fail(**_: Any) -> None:
+    def fail(**_: object) -> None:
         raise UserError(message)
 
     return click.Command(
@@ -158,7 +158,7 @@ class HarnessGroup(click.Group):
             with formatter.section("Commands"):
                 formatter.write_dl(rows)
 
-    def invoke(self, ctx: click.Context) -> Any:
+    def invoke(self, ctx: click.Context) -> object:
         try:
             return super().invoke(ctx)
         except OSError as error:
