@@ -244,8 +244,24 @@ def _case_style(index: int) -> dict:
     }
 
 
+def _history_lines(rows: pd.DataFrame) -> pd.Series:
+    """The legend label of each history row's case: its ``case`` label, numbered (``label [2]``) where
+    cases of other grids share it. A row written before ``case_id`` joins the one case of its label when
+    there is one (`reports.identify_legacy_rows`), else stands alone under its label."""
+    known = rows[rows["case_id"] != ""].drop_duplicates("case_id")
+    only = known.groupby("case")["case_id"].agg(lambda ids: ids.iloc[0] if len(ids) == 1 else "")
+    identity = rows["case_id"].where(rows["case_id"] != "", rows["case"].map(only).fillna(""))
+    identity = identity.where(identity != "", "label:" + rows["case"])
+    labels = {}
+    for case, ids in pd.DataFrame({"case": rows["case"], "id": identity}).groupby("case", sort=True)["id"]:
+        for number, key in enumerate(dict.fromkeys(ids), start=1):
+            labels[key] = case if number == 1 else f"{case} [{number}]"
+    return identity.map(labels)
+
+
 def history_figure(history: pd.DataFrame) -> Figure:
-    """Each figure's ratio to the reference solver over the CI runs: a panel per figure, a line per case.
+    """Each figure's ratio to the reference solver over the CI runs: a panel per figure, a line per case
+    (per ``case_id``; see `_history_lines`).
 
     Parameters
     ----------
@@ -268,14 +284,15 @@ def history_figure(history: pd.DataFrame) -> Figure:
     runs = rows.drop_duplicates(list(RUN_COLUMNS)).sort_values("date", kind="stable").reset_index(drop=True)
     order = {key: i for i, key in enumerate(runs[list(RUN_COLUMNS)].itertuples(index=False, name=None))}
     rows = rows.assign(run=[order[key] for key in rows[list(RUN_COLUMNS)].itertuples(index=False, name=None)])
+    rows = rows.assign(line=_history_lines(rows))
     figures = sorted(rows["figure"].unique())
-    cases = sorted(rows["case"].unique())
+    cases = sorted(rows["line"].unique())
     positions, labels = _run_ticks(runs)
     with report_style():
         figure = Figure(figsize=(10.0, 3.4 * len(figures) + 0.15 * len(cases) + 0.6), layout="constrained")
         for ax, name in zip(figure.subplots(len(figures), 1, squeeze=False)[:, 0], figures, strict=True):
             of_figure = rows[rows["figure"] == name]
-            for case, line in of_figure.groupby("case", sort=True):
+            for case, line in of_figure.groupby("line", sort=True):
                 line = line.sort_values("run")
                 ax.plot(
                     line["run"].to_numpy(dtype=float),

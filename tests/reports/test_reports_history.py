@@ -23,6 +23,7 @@ from reports import (
     read_history,
     run_figures,
 )
+from reports._figures import _history_lines, history_figure
 from reports._history import LEGACY_COLUMNS, identify_legacy_rows, spreads
 from reports.cli import compare as compare_command
 from reports.cli import report as report_command
@@ -275,3 +276,29 @@ def test_a_run_with_regressions_is_not_appended_to_the_history(make_run, fabric,
     result = _invoke(compare_command, old, new, "--history", path, "--append")
     assert result.exit_code == 1 and "regressions" in result.output
     assert path.read_bytes() == before
+
+
+def test_the_history_figure_draws_cases_labelled_alike_apart_and_old_rows_with_their_case(make_run, tmp_path):
+    rows = pd.DataFrame(
+        {
+            "case": ["face/highs", "face/highs", "face/highs", "face/cpsat"],
+            "case_id": ["rig=face; importance=True", "rig=face; importance=False", "", ""],
+        }
+    )
+    lines = _history_lines(rows)
+    assert list(lines) == [
+        "face/highs",
+        "face/highs [2]",
+        "face/highs [3]",
+        "face/cpsat",
+    ]  # (ambiguous: apart)
+    rows.loc[1, "case"] = "face/cpsat"  # one known case per label: the old rows join it
+    assert list(_history_lines(rows)) == ["face/highs", "face/cpsat", "face/highs", "face/cpsat"]
+    on, off = make_run("importance-on"), make_run("importance-off", importance=(False,))
+    history = pd.concat(
+        [_history(tmp_path / "on.csv", on, STEADY[:2]), _history(tmp_path / "off.csv", off, STEADY)]
+    )
+    labels = [text.get_text() for text in history_figure(history).legends[0].get_texts()]
+    cases = set(run_figures(on)["case"])
+    assert set(run_figures(off)["case"]) == cases  # the two grids label their cases alike
+    assert len(labels) == len(set(labels)) == 2 * len(cases)
