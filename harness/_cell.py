@@ -281,7 +281,7 @@ def _expression_rows(
                 "n_chosen": len(shapes),
                 "extra_examples": [str(name) for name in expression.extra_examples],
                 "objective": float(expression.objective),
-                "weight": float(expression.weight),
+                "weight": float(expression.objective),
                 "bound": _optional_float(expression.bound),
                 "status": str(expression.status),
                 "termination": str(expression.termination),

@@ -97,22 +97,24 @@ def minimum_sequence(analysis: Analysis, *, time_limit: float | None, seed: int)
         zip(ordered.expressions, ordered.terminations, strict=True), start=1
     ):
         objective = float(problem.unperturbed_objective(items))
-        optimal = termination is packing.Termination.OPTIMAL
+        solution = packing.Solution(
+            items=tuple(items),
+            shapes=tuple(problem.shapes_of(items)),
+            objective=objective,
+            bound=None,
+            termination=termination,
+            solve_time=ordered.solve_time if index == 1 else 0.0,
+            backend="minimum",
+            version=minimum.version,
+        )
         expressions.append(
             packing.Expression(
                 index=index,
-                shapes=tuple(problem.shapes_of(items)),
+                shapes=solution.shapes,
                 items=tuple(problem.item_label(item) for item in items),
                 objective=objective,
-                weight=objective,
-                bound=None,
-                termination=termination,
-                status=packing.SolutionStatus.OPTIMAL if optimal else packing.SolutionStatus.FEASIBLE,
+                solution=solution,
                 presolve_time=0.0,
-                build_time=0.0,
-                solve_time=ordered.solve_time if index == 1 else 0.0,
-                backend="minimum",
-                version=minimum.version,
                 n_items=problem.n_items,
                 vertex_rows=problem.n_vertex_rows,
                 clique_rows=len(problem.cliques),

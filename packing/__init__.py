@@ -26,8 +26,8 @@ if TYPE_CHECKING:
     from packing._importance import DegenerateDistortionWarning, MissingTargetWarning, importance
     from packing._params import DEFAULT_REGION_PAIRS, PackingParams
     from packing._problem import PackingProblem, problem_from_incidence
-    from packing._sequence import Expression, PackingSolver, sequence
-    from packing._solution import Solution, SolutionStatus, Termination
+    from packing._sequence import PackingSolver, sequence
+    from packing._solution import Expression, Solution, SolutionStatus, Termination
     from packing._symmetry import SymmetryResult, find_symmetry_pairs
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -48,8 +48,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_importance": ["DegenerateDistortionWarning", "MissingTargetWarning", "importance"],
         "_params": ["DEFAULT_REGION_PAIRS", "PackingParams"],
         "_problem": ["PackingProblem", "problem_from_incidence"],
-        "_sequence": ["Expression", "PackingSolver", "sequence"],
-        "_solution": ["Solution", "SolutionStatus", "Termination"],
+        "_sequence": ["PackingSolver", "sequence"],
+        "_solution": ["Expression", "Solution", "SolutionStatus", "Termination"],
         "_symmetry": ["SymmetryResult", "find_symmetry_pairs"],
     },
 )

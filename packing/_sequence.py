@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any, Protocol
 
 import numpy as np
 
 from packing._analysis import Analysis, analyse
 from packing._problem import PackingProblem, with_meta
-from packing._solution import Solution, SolutionStatus, Termination
+from packing._solution import Expression, Solution
 from rigs import Rig
 
 
@@ -21,68 +21,6 @@ class PackingSolver(Protocol):
     def solve(
         self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0
     ) -> Solution: ...
-
-
-@dataclass(frozen=True)
-class Expression:
-    """One reference expression of the sequence.
-
-    Attributes
-    ----------
-    index : int
-        1-based position in the sequence.
-    shapes : tuple of str
-        Blendshapes this expression is the primary example of (both shapes of a pair).
-    items : tuple of str
-        Labels of the chosen items (``a+b`` for a pair).
-    objective : float
-        Eq. 3a: the importance (eq. 4) of the chosen shapes, without the tie-break perturbation.
-    weight : float
-        The same value (kept for the records' ``weight`` column).
-    bound : float or None
-        The solver's best bound on the objective (None for heuristics).
-    termination : Termination
-        Why the solver stopped.
-    status : SolutionStatus
-        Optimal, feasible or none.
-    presolve_time : float
-        Seconds to derive this expression's problem from the analysis (restrict and presolve).
-    build_time, solve_time : float
-        The solver's model build and solve seconds.
-    backend, version : str
-        Solver plugin and backend version.
-    n_items : int
-        Items available to this expression.
-    vertex_rows, clique_rows : int
-        Conflict rows before presolve (one per vertex active in an available item, eq. 3b) and after
-        (maximal conflict sets).
-    extra_examples : tuple of str
-        Shapes already used earlier and added again by the second pass of sec. 6.
-    extra_time : float
-        Seconds spent by the solver choosing the extra examples.
-    message : str
-        The solver's message, if any.
-    """
-
-    index: int
-    shapes: tuple[str, ...]
-    items: tuple[str, ...]
-    objective: float
-    weight: float
-    bound: float | None
-    termination: Termination
-    status: SolutionStatus
-    presolve_time: float
-    build_time: float
-    solve_time: float
-    backend: str
-    version: str
-    n_items: int
-    vertex_rows: int
-    clique_rows: int
-    extra_examples: tuple[str, ...] = ()
-    extra_time: float = 0.0
-    message: str = ""
 
 
 def sequence(
@@ -177,21 +115,13 @@ def sequence(
                 shapes=shapes,
                 items=tuple(problem.item_label(i) for i in chosen),
                 objective=problem.unperturbed_objective(chosen),
-                weight=problem.unperturbed_objective(chosen),
-                bound=solution.bound,
-                termination=solution.termination,
-                status=solution.status,
+                solution=solution,
                 presolve_time=presolve_time,
-                build_time=solution.build_time,
-                solve_time=solution.solve_time,
-                backend=solution.backend,
-                version=solution.version,
                 n_items=problem.n_items,
                 vertex_rows=problem.n_vertex_rows,
                 clique_rows=len(problem.cliques),
                 extra_examples=extra,
                 extra_time=extra_time,
-                message=solution.message,
             )
         )
         if not shapes:

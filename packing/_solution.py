@@ -1,4 +1,5 @@
-"""What a solver returns for one packing problem: chosen items, objective, bound and why it stopped."""
+"""What a solver returns for one packing problem (chosen items, objective, bound and why it stopped), and
+the expression of the sequence (Algorithm 1) made from it."""
 
 from __future__ import annotations
 
@@ -71,3 +72,91 @@ class Solution:
             if self.items or self.termination is Termination.COMPLETED
             else SolutionStatus.NONE
         )
+
+
+@dataclass(frozen=True)
+class Expression:
+    """One reference expression of the sequence (Carrigan et al. 2020, Algorithm 1): the solver's `Solution`
+    of its problem, with what the sequence derived from it.
+
+    The solution's attributes read through the expression (``expression.bound`` is
+    ``expression.solution.bound``), except those the sequence derives again from its own problem:
+    ``shapes``, ``items`` and ``objective``.
+
+    Attributes
+    ----------
+    index : int
+        1-based position in the sequence.
+    shapes : tuple of str
+        Blendshapes this expression is the primary example of (both shapes of a pair).
+    items : tuple of str
+        Labels of the chosen items (``a+b`` for a pair).
+    objective : float
+        Eq. 3a: the importance (eq. 4) of the chosen shapes, without the tie-break perturbation, evaluated
+        on the expression's problem (not taken from the solver).
+    solution : Solution
+        The solver's answer to the expression's problem (its ``items`` index that problem's items).
+    presolve_time : float
+        Seconds to derive this expression's problem from the analysis (restrict and presolve).
+    n_items : int
+        Items available to this expression.
+    vertex_rows, clique_rows : int
+        Conflict rows before presolve (one per vertex active in an available item, eq. 3b) and after
+        (maximal conflict sets).
+    extra_examples : tuple of str
+        Shapes already used earlier and added again by the second pass of sec. 6.
+    extra_time : float
+        Seconds spent by the solver choosing the extra examples.
+    """
+
+    index: int
+    shapes: tuple[str, ...]
+    items: tuple[str, ...]
+    objective: float
+    solution: Solution
+    presolve_time: float
+    n_items: int
+    vertex_rows: int
+    clique_rows: int
+    extra_examples: tuple[str, ...] = ()
+    extra_time: float = 0.0
+
+    @property
+    def bound(self) -> float | None:
+        """The solver's best bound on the objective (None for heuristics)."""
+        return self.solution.bound
+
+    @property
+    def termination(self) -> Termination:
+        """Why the solver stopped."""
+        return self.solution.termination
+
+    @property
+    def status(self) -> SolutionStatus:
+        """Optimal, feasible or none (`Solution.status`)."""
+        return self.solution.status
+
+    @property
+    def build_time(self) -> float:
+        """Seconds the solver spent building its backend model."""
+        return self.solution.build_time
+
+    @property
+    def solve_time(self) -> float:
+        """Seconds the solver spent solving."""
+        return self.solution.solve_time
+
+    @property
+    def backend(self) -> str:
+        """Solver plugin name."""
+        return self.solution.backend
+
+    @property
+    def version(self) -> str:
+        """Backend library version."""
+        return self.solution.version
+
+    @property
+    def message(self) -> str:
+        """The solver's message, if any."""
+        return self.solution.message

@@ -148,8 +148,14 @@ def test_unreadable_expression_is_a_type_error(face):
 
 
 def _solved(expression, **changes):
-    """An expression of a real sequence with some fields changed (a lying or lazy solver's answer)."""
-    return dataclasses.replace(expression, **changes)
+    """An expression of a real sequence with some fields, of it or of its solution, changed (a lying or
+    lazy solver's answer)."""
+    own_fields = {field.name for field in dataclasses.fields(packing.Expression)}
+    own = {name: value for name, value in changes.items() if name in own_fields}
+    solution = {name: value for name, value in changes.items() if name not in own_fields}
+    return dataclasses.replace(
+        expression, solution=dataclasses.replace(expression.solution, **solution), **own
+    )
 
 
 def test_a_bound_below_the_objective_is_rejected(face, exact_solver):

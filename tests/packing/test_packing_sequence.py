@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import typing
 import warnings
 
 import numpy as np
@@ -9,7 +11,7 @@ import pytest
 
 import packing
 import rigs
-from packing import Solution, SolutionStatus, Termination
+from packing import Expression, Solution, SolutionStatus, Termination
 
 
 @pytest.fixture(autouse=True)
@@ -62,10 +64,41 @@ def test_sequence_uses_every_shape_once_with_optimal_expressions(crowded, kit, e
         assert expression.vertex_rows == problem.n_vertex_rows and expression.clique_rows == len(
             problem.cliques
         )
-        assert expression.weight == expression.objective
         assert expression.backend == "test-exact"
         used.extend(expression.shapes)
     packing.check(crowded, expressions)
+
+
+def test_an_expression_reads_its_solution_through(crowded, exact_solver):
+    """Every attribute of the solution the expression does not derive itself reads through, with the
+    solution's annotation (the records columns are typed by it)."""
+    expression = packing.sequence(crowded, exact_solver, jmax=1)[0]
+    own = {field.name for field in dataclasses.fields(Expression)}
+    hints = typing.get_type_hints(Solution)
+    read_through = {field.name: hints[field.name] for field in dataclasses.fields(Solution)}
+    read_through["status"] = typing.get_type_hints(Solution.status.fget)["return"]
+    assert own & read_through.keys() == {"items", "shapes", "objective"}
+    for name, annotation in read_through.items():
+        if name not in own:
+            assert getattr(expression, name) == getattr(expression.solution, name), name
+            assert typing.get_type_hints(getattr(Expression, name).fget)["return"] == annotation, name
+
+
+def test_shapes_items_and_objective_are_the_sequences_own(crowded, exact_solver):
+    """The sequence names the chosen items and evaluates eq. 3a on its own problem; what the solver claims
+    stays in the solution."""
+
+    class Boasting:
+        def solve(self, problem, *, time_limit=None, seed=0):
+            found = exact_solver.solve(problem, time_limit=time_limit, seed=seed)
+            return dataclasses.replace(found, shapes=("nonsense",), objective=1e9)
+
+    honest = packing.sequence(crowded, exact_solver)
+    boasted = packing.sequence(crowded, Boasting())
+    assert [e.shapes for e in boasted] == [e.shapes for e in honest]
+    assert [e.items for e in boasted] == [e.items for e in honest]
+    assert [e.objective for e in boasted] == [e.objective for e in honest]
+    assert {e.solution.objective for e in boasted} == {1e9}
 
 
 def test_jmax_stops_early(crowded, exact_solver):
