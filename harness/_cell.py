@@ -14,37 +14,59 @@ the objective is rejected, and an expression of a solver that ran to its end mus
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
+import enum
 import functools
 import os
 import socket
 import threading
 import time
+import types
+import typing
 import warnings
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+import packing
+import rigs
+import solvers
 from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec, rig_digest
 from harness._rigspec import is_rig_file, resolve_rig
+from packing import Expression, Termination
 
 if TYPE_CHECKING:
-    from packing import Analysis, Expression
+    from packing import Analysis
     from rigs import Rig
     from solvers import LoadedSolver
-    from transfer import Transfer
+
+#: A value of one records column (`harness._records`): a plain number, string, flag, list or null.
+RecordValue = str | int | float | bool | list[str] | list[float] | None
+#: One row of the records table, by column name.
+Row = dict[str, RecordValue]
+#: The plain Python type of a records column: ``bool``, ``int``, ``float``, ``str`` or a list of one.
+ColumnType = type | types.GenericAlias
+
+#: Attributes of `packing.Expression` its ``expression`` row does not record: the item labels name its
+#: shapes again, the solution is recorded through the attributes the expression reads from it, and the
+#: solver's backend and version are the cell row's ``backend_version``.
+UNRECORDED_ATTRIBUTES = frozenset({"items", "solution", "backend", "version"})
+#: Records columns named otherwise than the `packing.Expression` attribute they record.
+_COLUMN_NAMES = {"index": "expression"}
+_SCALAR_TYPES = (bool, int, float, str)
 
 _CACHE_SIZE = 4
 _cache_lock = threading.Lock()
 _rig_cache: OrderedDict[tuple[str, str, int, str], Rig] = OrderedDict()
 _warmed_up: set[str] = set()
 _MEMO_SIZE = 512
-_transfer_memo: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
-_estimate_memo: dict[tuple[Any, ...], np.ndarray] = {}
+_transfer_memo: OrderedDict[tuple[Hashable, ...], Row] = OrderedDict()
+_estimate_memo: dict[tuple[str, str, int, str, str], np.ndarray] = {}
 #: Shapes with the largest transfer error recorded per transfer row.
 _WORST_SHAPES = 5
 
@@ -85,7 +107,6 @@ def rig_pair(spec: CellSpec) -> tuple[Rig, Rig]:
     RigChangedError
         When a rig file no longer has the content digest of ``spec.rig_digest``.
     """
-    import rigs
 
     def cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
         with _cache_lock:
@@ -107,9 +128,9 @@ def rig_pair(spec: CellSpec) -> tuple[Rig, Rig]:
     return template, target
 
 
-def packing_params(spec: CellSpec) -> dict[str, Any]:
+def packing_params(spec: CellSpec) -> dict[str, object]:
     """Keyword arguments of `packing.analyse` / `packing.check` for a cell (`packing.PackingParams`)."""
-    params: dict[str, Any] = {
+    params: dict[str, object] = {
         "mu": spec.mu,
         "alpha": spec.alpha,
         "beta": spec.beta,
@@ -131,9 +152,6 @@ def warm_up(solver_name: str) -> None:
         return
     _warmed_up.add(solver_name)
     try:
-        import packing
-        import rigs
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", packing.MissingTargetWarning)
             problem = packing.build_problem(rigs.generate("tiny"))
@@ -142,15 +160,15 @@ def warm_up(solver_name: str) -> None:
         pass
 
 
-def run_cell(spec: CellSpec) -> list[dict[str, Any]] | Lost:
+def run_cell(spec: CellSpec) -> list[Row] | Lost:
     """Run one cell and return its record rows (the ``cell`` row first).
 
     Never raises for a failing rig, solver, check or transfer: the failure becomes the ``status`` and
     ``message`` of the rows, as the records schema describes. A rig file whose content changed since the
     run started gives `Lost` (no result for this run's cell).
     """
-    base = spec.record_fields()
-    cell_row: dict[str, Any] = {
+    base: Row = spec.record_fields()
+    cell_row: Row = {
         **base,
         "kind": "cell",
         "status": "ok",
@@ -168,7 +186,7 @@ def run_cell(spec: CellSpec) -> list[dict[str, Any]] | Lost:
 
     started = time.perf_counter()
 
-    def stop(status: str, message: str) -> list[dict[str, Any]]:
+    def stop(status: str, message: str) -> list[Row]:
         return [_finish(cell_row, status=status, message=message, cell_time=time.perf_counter() - started)]
 
     try:
@@ -199,11 +217,9 @@ def run_cell(spec: CellSpec) -> list[dict[str, Any]] | Lost:
 
 def _pack(
     spec: CellSpec, solver: LoadedSolver, template: Rig, target: Rig
-) -> tuple[Analysis, list[Expression], dict[str, Any]]:
+) -> tuple[Analysis, list[Expression], Row]:
     """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
     bounds on the number of expressions."""
-    import packing
-
     target_neutral = None if spec.warp == NO_WARP else target.neutral
     with warnings.catch_warnings():
         # Without a warp there is no target: distortion importance is 0 by design, not by mistake.
@@ -225,11 +241,9 @@ def _pack(
     return analysis, expressions, facts
 
 
-def _minimum(spec: CellSpec, analysis: Analysis) -> dict[str, Any]:
+def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
     """The fewest expressions covering every shape, for cells whose solver declares that exact mode
     (``capabilities.minimum_cover``)."""
-    import solvers
-
     if not solvers.solver_class(spec.solver).capabilities.minimum_cover:
         return {}
     found = solvers.minimum_expressions(
@@ -245,8 +259,6 @@ def _check(
     harness's own analysis, the overlap the solver declares (``capabilities.max_overlap``, 0 for eq. 3b)
     and no other, bounds at least the objectives, and maximal expressions where the solver ran to its
     end."""
-    import packing
-
     packing.check(
         template,
         expressions,
@@ -259,50 +271,100 @@ def _check(
 
 def _failed_expression(expressions: list[Expression]) -> Expression | None:
     """The first expression whose solver reported an error (the sequence stops there)."""
-    from packing import Termination
-
     return next((e for e in expressions if e.termination is Termination.ERROR), None)
 
 
-def _expression_rows(
-    base: dict[str, Any], expressions: list[Expression], n_shapes: int
-) -> list[dict[str, Any]]:
+def column_type(annotation: object) -> ColumnType:
+    """The plain Python type of the records column recording values annotated ``annotation``.
+
+    ``X | None`` is recorded as X (every column is nullable), ``tuple[X, ...]`` as ``list[X]`` and a string
+    enumeration (`packing.Termination`, `packing.SolutionStatus`) as ``str``; ``bool``, ``int``, ``float``
+    and ``str`` as themselves.
+
+    Raises
+    ------
+    TypeError
+        For any other annotation: a records column holds no arrays, mappings or objects.
+    """
+    origin, arguments = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (types.UnionType, typing.Union) and len(arguments) == 2 and type(None) in arguments:
+        return column_type(next(argument for argument in arguments if argument is not type(None)))
+    if origin is tuple and len(arguments) == 2 and arguments[1] is Ellipsis and arguments[0] in _SCALAR_TYPES:
+        return list[arguments[0]]
+    if isinstance(annotation, type) and issubclass(annotation, enum.StrEnum):
+        return str
+    if annotation in _SCALAR_TYPES:
+        return annotation
+    raise TypeError(f"a records column cannot hold values annotated {annotation!r}")
+
+
+@functools.cache
+def expression_columns(
+    expression_type: type[Expression] = Expression,
+) -> Mapping[str, tuple[str, ColumnType]]:
+    """The ``expression`` record columns an expression fills: column -> (attribute, plain type).
+
+    Every field and public property of ``expression_type`` (`packing.Expression`, whose properties read
+    its `packing.Solution`) but `UNRECORDED_ATTRIBUTES` is one column, named as the attribute (``index``
+    is ``expression``) and typed by its annotation (`column_type`): a field added to the dataclass is
+    recorded with no column list to update (`harness._records` places its column after the others).
+    """
+    hints = typing.get_type_hints(expression_type)
+    annotations = {field.name: hints[field.name] for field in dataclasses.fields(expression_type)}
+    for owner in reversed(expression_type.__mro__):
+        for name, member in vars(owner).items():
+            if isinstance(member, property) and not name.startswith("_"):
+                annotations[name] = typing.get_type_hints(member.fget)["return"]
+    return {
+        _COLUMN_NAMES.get(name, name): (name, column_type(annotation))
+        for name, annotation in annotations.items()
+        if name not in UNRECORDED_ATTRIBUTES
+    }
+
+
+def expression_record(expression: Expression) -> Row:
+    """The values of an expression's `expression_columns`, as plain Python values of the column types."""
+    return {
+        column: _plain(getattr(expression, attribute), kind)
+        for column, (attribute, kind) in expression_columns().items()
+    }
+
+
+def _plain(value: object, kind: ColumnType) -> RecordValue:
+    if value is None:
+        return None
+    if isinstance(kind, types.GenericAlias):
+        (item,) = typing.get_args(kind)
+        return [item(element) for element in value]
+    return kind(value)
+
+
+def _expression_rows(base: Row, expressions: list[Expression], n_shapes: int) -> list[Row]:
+    """One row per expression: its `expression_record`, with what the cell computes from the sequence
+    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``) and ``weight`` (the objective
+    again, kept for readers of the column)."""
     rows = []
     covered: set[str] = set()
-    for index, expression in enumerate(expressions, start=1):
-        shapes = [str(name) for name in expression.shapes]
-        covered.update(shapes)
+    for expression in expressions:
+        record = expression_record(expression)
+        covered.update(record["shapes"])
         rows.append(
             {
                 **base,
                 "kind": "expression",
-                "expression": index,
-                "shapes": shapes,
-                "n_chosen": len(shapes),
-                "extra_examples": [str(name) for name in expression.extra_examples],
-                "objective": float(expression.objective),
-                "weight": float(expression.objective),
-                "bound": _optional_float(expression.bound),
-                "status": str(expression.status),
-                "termination": str(expression.termination),
-                "presolve_time": float(expression.presolve_time),
-                "build_time": float(expression.build_time),
-                "solve_time": float(expression.solve_time),
-                "extra_time": float(expression.extra_time),
-                "n_items": int(expression.n_items),
-                "vertex_rows": int(expression.vertex_rows),
-                "clique_rows": int(expression.clique_rows),
+                **record,
+                "n_chosen": len(record["shapes"]),
+                "weight": record["objective"],
                 "covered": len(covered),
                 "coverage": len(covered) / n_shapes if n_shapes else 0.0,
-                "message": str(expression.message or ""),
             }
         )
     return rows
 
 
 def _transfer_rows(
-    base: dict[str, Any], spec: CellSpec, template: Rig, target: Rig, expressions: list[Expression]
-) -> list[dict[str, Any]]:
+    base: Row, spec: CellSpec, template: Rig, target: Rig, expressions: list[Expression]
+) -> list[Row]:
     import transfer
 
     rows = []
@@ -311,7 +373,7 @@ def _transfer_rows(
     for name in spec.transfers:
         first = _FirstExpressions(transfer, name, template, target, expressions, examples)
         for j in j_values:
-            row: dict[str, Any] = {
+            row: Row = {
                 **base,
                 "kind": "transfer",
                 "transfer": name,
@@ -343,12 +405,12 @@ class _FirstExpressions:
 
     def __init__(
         self,
-        transfer: Transfer,
+        transfer: types.ModuleType,
         name: str,
         template: Rig,
         target: Rig,
         expressions: list[Expression],
-        examples: list[Any],
+        examples: list[np.ndarray],
     ) -> None:
         self.transfer, self.name, self.template, self.target = transfer, name, template, target
         self.expressions, self.examples = expressions, examples
@@ -373,14 +435,14 @@ def _examples(spec: CellSpec, target: Rig, weights: np.ndarray) -> np.ndarray:
 
 
 def _transfer_metrics(
-    transfer: Transfer,
+    transfer: types.ModuleType,
     name: str,
     spec: CellSpec,
     template: Rig,
     target: Rig,
     weights: np.ndarray,
     estimate_first: Callable[[], np.ndarray],
-) -> dict[str, Any]:
+) -> Row:
     """Errors of one transfer (``estimate_first`` computes it from the first J expressions), memoised per
     process: on (rig, warp, method, examples mode and seed, weights), so that solvers that agree on a
     sequence share one computation, and for a method that ignores the training expressions
@@ -435,14 +497,10 @@ def _finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
-def _finish(row: dict[str, Any], **updates: Any) -> dict[str, Any]:
+def _finish(row: Row, **updates: RecordValue) -> Row:
     row.update(updates)
     row["finished"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     return row
-
-
-def _optional_float(value: Any) -> float | None:
-    return None if value is None else float(value)
 
 
 def _describe(error: BaseException) -> str:
@@ -454,6 +512,6 @@ def _worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def failure_rows(spec: CellSpec, status: str, message: str) -> list[dict[str, Any]]:
+def failure_rows(spec: CellSpec, status: str, message: str) -> list[Row]:
     """The single ``cell`` row recorded for a cell without results (a timeout, an unavailable solver)."""
     return [_finish({**spec.record_fields(), "kind": "cell", "status": status, "message": message})]

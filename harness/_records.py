@@ -69,15 +69,17 @@ worker           string         ``host:pid`` of the process that ran the cell
 finished         string         ISO 8601 time the cell finished
 ================ ============== ==============================================================================
 
-``kind == "expression"``, one per (cell, expression):
+``kind == "expression"``, one per (cell, expression). Its columns record the attributes of the
+`packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``weight``, ``covered``
+and ``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
 
 ================ ============== ==============================================================================
 expression       int64          1-based position in the sequence
 shapes           list<string>   primary shapes of the expression (a symmetry pair contributes both)
 n_chosen         int64          number of primary shapes
 extra_examples   list<string>   already-used shapes added by the sec. 6 second pass
-objective        float64        eq. 3a value the solver maximised (weights carry packing's tie-break)
-weight           float64        the same without the tie-break: importance (eq. 4) of the chosen shapes
+objective        float64        eq. 3a: importance (eq. 4) of the chosen shapes, without packing's tie-break
+weight           float64        the same value (kept for readers of the column)
 bound            float64, null  best proved bound (null for heuristics)
 status           string         ``optimal``, ``feasible`` or ``none`` (what the solution is)
 termination      string         ``optimal``, ``completed``, ``time_limit``, ``infeasible``, ``error``
@@ -111,8 +113,8 @@ transfer_reused  bool           the estimate came from an identical earlier tran
 status           string         ``ok`` or ``error`` (message says why)
 ================ ============== ==============================================================================
 
-The columns in `TIMING_COLUMNS` change from run to run; two runs of one configuration agree on all others,
-whichever executor ran them.
+The columns in `TIMING_COLUMNS` (every ``*_time`` column, ``transfer_reused``, ``worker`` and ``finished``)
+change from run to run; two runs of one configuration agree on all others, whichever executor ran them.
 """
 
 from __future__ import annotations
@@ -121,20 +123,33 @@ import errno
 import hashlib
 import os
 import re
-from collections.abc import Iterable, Mapping
+import types
+import typing
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from harness._cell import ColumnType, RecordValue, expression_columns
 from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, atomic_write, claim
+from packing import Expression
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _STRINGS = pa.list_(pa.string())
+_ARROW_TYPES: dict[type, pa.DataType] = {
+    bool: pa.bool_(),
+    int: pa.int64(),
+    float: pa.float64(),
+    str: pa.string(),
+}
 
-#: Column name -> Arrow type of the records table, in file order.
-RECORD_COLUMNS: dict[str, pa.DataType] = {
+#: Columns of every row, then of ``kind == "cell"`` rows, in file order.
+_CELL_COLUMNS: dict[str, pa.DataType] = {
     "cell": pa.string(),
     "kind": pa.string(),
     "rig": pa.string(),
@@ -170,25 +185,39 @@ RECORD_COLUMNS: dict[str, pa.DataType] = {
     "backend_version": pa.string(),
     "worker": pa.string(),
     "finished": pa.string(),
-    # kind == "expression"
-    "expression": pa.int64(),
-    "shapes": _STRINGS,
+}
+
+#: The ``kind == "expression"`` columns in file order: `harness._cell.expression_columns`, typed by the
+#: annotations of `packing.Expression`, and `_SEQUENCE_COLUMNS`.
+_EXPRESSION_ORDER: tuple[str, ...] = (
+    "expression",
+    "shapes",
+    "n_chosen",
+    "extra_examples",
+    "objective",
+    "weight",
+    "bound",
+    "termination",
+    "presolve_time",
+    "build_time",
+    "solve_time",
+    "extra_time",
+    "n_items",
+    "vertex_rows",
+    "clique_rows",
+    "covered",
+    "coverage",
+)
+#: ``kind == "expression"`` columns the cell computes from the sequence (`harness._cell`).
+_SEQUENCE_COLUMNS: dict[str, pa.DataType] = {
     "n_chosen": pa.int64(),
-    "extra_examples": _STRINGS,
-    "objective": pa.float64(),
     "weight": pa.float64(),
-    "bound": pa.float64(),
-    "termination": pa.string(),
-    "presolve_time": pa.float64(),
-    "build_time": pa.float64(),
-    "solve_time": pa.float64(),
-    "extra_time": pa.float64(),
-    "n_items": pa.int64(),
-    "vertex_rows": pa.int64(),
-    "clique_rows": pa.int64(),
     "covered": pa.int64(),
     "coverage": pa.float64(),
-    # kind == "transfer"
+}
+
+#: The ``kind == "transfer"`` columns in file order.
+_TRANSFER_COLUMNS: dict[str, pa.DataType] = {
     "transfer": pa.string(),
     "j": pa.int64(),
     "rms": pa.float64(),
@@ -199,18 +228,47 @@ RECORD_COLUMNS: dict[str, pa.DataType] = {
     "transfer_time": pa.float64(),
     "transfer_reused": pa.bool_(),
 }
+
+
+def arrow_type(kind: ColumnType) -> pa.DataType:
+    """The Arrow type of a records column of plain Python type ``kind`` (`harness._cell.column_type`)."""
+    if isinstance(kind, types.GenericAlias):
+        (item,) = typing.get_args(kind)
+        return pa.list_(_ARROW_TYPES[item])
+    return _ARROW_TYPES[kind]
+
+
+def expression_section(
+    expression_type: type[Expression] = Expression, shared: Sequence[str] = tuple(_CELL_COLUMNS)
+) -> dict[str, pa.DataType]:
+    """The ``kind == "expression"`` columns, derived from the attributes of ``expression_type``.
+
+    `_EXPRESSION_ORDER` keeps the order of the files written so far; a recorded attribute it does not name
+    (a field added to `packing.Expression`) follows it. Attributes every row records (``status``,
+    ``message``) keep their ``shared`` column.
+
+    Raises
+    ------
+    TypeError
+        When an ordered column is neither computed by the cell nor an attribute of the expression.
+    """
+    recorded = {column: arrow_type(kind) for column, (_, kind) in expression_columns(expression_type).items()}
+    known = {**recorded, **_SEQUENCE_COLUMNS}
+    missing = [column for column in _EXPRESSION_ORDER if column not in known]
+    if missing:
+        raise TypeError(f"records columns {missing} are no attribute of {expression_type.__qualname__}")
+    added = [column for column in recorded if column not in (*_EXPRESSION_ORDER, *shared)]
+    return {column: known[column] for column in (*_EXPRESSION_ORDER, *added)}
+
+
+#: Column name -> Arrow type of the records table, in file order.
+RECORD_COLUMNS: dict[str, pa.DataType] = {**_CELL_COLUMNS, **expression_section(), **_TRANSFER_COLUMNS}
 RECORD_SCHEMA = pa.schema(list(RECORD_COLUMNS.items()))
 
-#: Columns that differ between two runs of one configuration (times, places, in-worker reuse).
+#: Columns that differ between two runs of one configuration: the seconds (``*_time``), the in-worker
+#: reuse of a transfer, and where and when a cell ran.
 TIMING_COLUMNS: tuple[str, ...] = (
-    "analysis_time",
-    "sequence_time",
-    "cell_time",
-    "presolve_time",
-    "build_time",
-    "solve_time",
-    "extra_time",
-    "transfer_time",
+    *(name for name in RECORD_COLUMNS if name.endswith("_time")),
     "transfer_reused",
     "worker",
     "finished",
@@ -240,7 +298,7 @@ class RecordsReadError(ValueError):
     """A part file does not read back as the records of its cell."""
 
 
-def records_table(rows: Iterable[Mapping[str, Any]]) -> pa.Table:
+def records_table(rows: Iterable[Mapping[str, RecordValue]]) -> pa.Table:
     """Arrow table of record rows in the full records schema; absent columns are null.
 
     Raises
@@ -263,7 +321,7 @@ def parquet_bytes(table: pa.Table) -> bytes:
     return sink.getvalue().to_pybytes()
 
 
-def part_bytes(cell: str, rows: Iterable[Mapping[str, Any]]) -> bytes:
+def part_bytes(cell: str, rows: Iterable[Mapping[str, RecordValue]]) -> bytes:
     """The part file of one finished cell: its rows, with the cell id and row count in the metadata."""
     table = records_table(rows)
     table = table.replace_schema_metadata({_CELL_KEY: cell.encode(), _ROWS_KEY: str(table.num_rows).encode()})
@@ -294,7 +352,7 @@ def part_path(out: Path, cell: str) -> Path:
     return Path(out) / RECORDS_DIR / f"{cell}.parquet"
 
 
-def write_part(out: Path, cell: str, rows: Iterable[Mapping[str, Any]]) -> Path:
+def write_part(out: Path, cell: str, rows: Iterable[Mapping[str, RecordValue]]) -> Path:
     """Write the rows of one finished cell as its part file, atomically."""
     return write_atomically(part_path(out, cell), part_bytes(cell, rows))
 
@@ -520,9 +578,9 @@ def _first_line(error: BaseException) -> str:
     return lines[0].strip() if lines else type(error).__name__
 
 
-def _nullable_types(arrow_type: pa.DataType) -> Any:
-    return {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}.get(arrow_type)
+def _nullable_types(column: pa.DataType) -> pd.api.extensions.ExtensionDtype | None:
+    return {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}.get(column)
 
 
-def _as_list(value: Any) -> list[Any] | None:
+def _as_list(value: np.ndarray | list[str] | list[float] | None) -> list[str] | list[float] | None:
     return None if value is None else list(value.tolist() if hasattr(value, "tolist") else value)
