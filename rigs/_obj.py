@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs._arrow_lines import read_vertex_lines, vertex_lines_text
 from rigs._rig import LARGEST_COORDINATE, Rig, RigError, RigWarning
 from rigs._safe import UnreadableFile, check_budget, named_path, read_text, regular_file, rig_entries
 
@@ -162,33 +163,11 @@ def _vertex_block(block: str) -> list[str]:
 
 
 def _plain_vertex_block(block: str) -> np.ndarray | None:
-    """(N, 3) positions of a vertex block made only of ``v x y z`` lines (one space between words, each
-    line ending in a line feed), parsed by Arrow's CSV reader outside the interpreter lock (so that
-    `_read_shapes` reads several files at once); None for
-    anything else (another line, a fourth value, a comment, a number Arrow does not read, a non-finite
-    or too large coordinate), left to the line readers, which name the line.
-
-    Arrow reads a decimal number to the same float64 as Python's ``float`` (both round correctly);
-    what it refuses (``1_000``, non-ASCII digits) goes to the line readers.
-    """
-    import pyarrow as pa
-    from pyarrow import csv
-
-    kinds = {"keyword": pa.dictionary(pa.int32(), pa.string())} | dict.fromkeys("xyz", pa.float64())
-    try:
-        table = csv.read_csv(
-            pa.py_buffer(block.encode("ascii")),
-            read_options=csv.ReadOptions(column_names=list(kinds), use_threads=False),
-            parse_options=csv.ParseOptions(delimiter=" ", quote_char=False, ignore_empty_lines=False),
-            convert_options=csv.ConvertOptions(column_types=kinds, null_values=[], strings_can_be_null=False),
-        )
-    except pa.ArrowInvalid:
-        return None
-    keywords = {word for chunk in table.column("keyword").chunks for word in chunk.dictionary.to_pylist()}
-    if keywords != {"v"}:
-        return None
-    vertices = np.column_stack([table.column(axis).to_numpy() for axis in "xyz"])
-    if not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
+    """(N, 3) positions of a vertex block of plain ``v x y z`` lines read in one go (`read_vertex_lines`,
+    outside the interpreter lock, so that `_read_shapes` reads several files at once); None for any other
+    line or a non-finite or too large coordinate, left to the line readers, which name the line."""
+    vertices = read_vertex_lines(block)
+    if vertices is None or not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
         return None
     return vertices
 
@@ -1123,34 +1102,13 @@ def _face_text(faces: np.ndarray | Sequence[np.ndarray]) -> str:
     return "".join("f " + " ".join(map(str, (face + 1).tolist())) + "\n" for face in faces)
 
 
-def shortest_vertex_text(vertices: np.ndarray, *, single: bool = False) -> str:
-    """``v x y z`` lines (each ending in a line feed) with every coordinate written as the shortest text
-    that reads back as the same float64, or with ``single`` the same float32 (``1`` for 1.0, ``1e+20``,
-    ``0.00001``).
-
-    Formatted by Arrow's CSV writer, several times faster than Python's ``repr`` on the tens of thousands
-    of vertices of a production head.
-    """
-    import pyarrow as pa
-    from pyarrow import csv
-
-    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    kind = pa.float32() if single else pa.float64()
-    columns = {"keyword": pa.array(["v"] * len(vertices), pa.string())}
-    columns.update({axis: pa.array(vertices[:, k], kind) for k, axis in enumerate("xyz")})
-    sink = pa.BufferOutputStream()
-    options = csv.WriteOptions(include_header=False, delimiter=" ", quoting_style="none")
-    csv.write_csv(pa.table(columns), sink, options)
-    return sink.getvalue().to_pybytes().decode("ascii")
-
-
 def write_obj(
     path: str | Path, vertices: np.ndarray, faces: Sequence[np.ndarray], *, comment: str = ""
 ) -> None:
     """Write one OBJ: ``v`` lines with shortest round-trip floats, then 1-based ``f`` lines."""
     header = "".join(f"# {line}\n" for line in comment.splitlines())
     Path(path).write_text(
-        header + shortest_vertex_text(np.asarray(vertices)) + _face_text(faces), encoding="utf-8"
+        header + vertex_lines_text(np.asarray(vertices)) + _face_text(faces), encoding="utf-8"
     )
 
 
@@ -1184,10 +1142,10 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
     face_text = _face_text(rig.faces if rig.faces is not None else rig.triangles)
     source = rig.meta.get("source", "rig")
     (folder / "neutral.obj").write_text(
-        f"# neutral of {source}\n" + shortest_vertex_text(rig.neutral) + face_text
+        f"# neutral of {source}\n" + vertex_lines_text(rig.neutral) + face_text
     )
     for name, delta in zip(rig.names, rig.deltas, strict=True):
-        text = f"# blendshape {name} of {source}\n" + shortest_vertex_text(rig.neutral + delta) + face_text
+        text = f"# blendshape {name} of {source}\n" + vertex_lines_text(rig.neutral + delta) + face_text
         (folder / f"{name}.obj").write_text(text, encoding="utf-8")
     manifest = {
         "format": "obj-folder",
@@ -1375,7 +1333,7 @@ def coordinate_lines(vertices: np.ndarray, *, step: float = 0.0, single: bool = 
         return (f"v %.{decimals}f %.{decimals}f %.{decimals}f\n" * len(values) % tuple(values.ravel())).split(
             "\n"
         )[:-1]
-    return shortest_vertex_text(vertices, single=single).split("\n")[:-1]
+    return vertex_lines_text(vertices, single=single).split("\n")[:-1]
 
 
 def rig_surface(rig: Rig) -> ObjSurface | None:
