@@ -31,6 +31,7 @@ import json
 import os
 import warnings
 from collections.abc import Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 from typing import Any
 
@@ -47,6 +48,14 @@ class OutputFolderError(ValueError):
 
 class ChangedFileWarning(UserWarning):
     """A file the harness wrote was changed since, so it is left in place instead of being removed."""
+
+
+#: Output files hashed and written at once.
+FILE_WRITERS = min(4, os.cpu_count() or 1)
+
+
+def _sha256(payload: bytes) -> str:
+    return hashlib.sha256(payload).hexdigest()
 
 
 def _write(path: Path, payload: bytes, *, sync_folder: bool = True) -> Path:
@@ -97,8 +106,9 @@ class OutputFolder:
         The manifest lists the files before they are written, with the SHA-256 of what is about to be
         written: an interrupted write leaves every file either listed with its content or holding other
         content, which `owns` then does not claim, so the harness never later replaces or removes a file
-        it did not write. When a write fails (the manifest's or a file's), the files not written keep their
-        earlier entries.
+        it did not write. The files are hashed and written several at a time (`FILE_WRITERS`); when a write
+        fails (the manifest's or a file's), the files not written keep their earlier entries and the first
+        failure in order is raised.
 
         Returns
         -------
@@ -119,24 +129,37 @@ class OutputFolder:
         for name in payloads:
             self._check_inside(name)
         earlier = {name: self.files.get(name) for name in payloads}
-        for name, payload in payloads.items():
-            self.files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
-        written: list[Path] = []
-        try:
-            self.save()
-            for name, payload in payloads.items():
-                written.append(_write(self.path / name, payload, sync_folder=False))
-            sync_folders(written)
-        except OutputFolderError:
-            for name in list(payloads)[len(written) :]:
-                if earlier[name] is None:
-                    del self.files[name]
-                else:
-                    self.files[name] = earlier[name]
-            with contextlib.suppress(OutputFolderError):
+        with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
+            digests = list(pool.map(_sha256, payloads.values()))
+            for name, digest in zip(payloads, digests, strict=True):
+                self.files[name] = {"kind": self.kind, "sha256": digest}
+            try:
                 self.save()
-            raise
+            except OutputFolderError:
+                self._restore(earlier, list(payloads))
+                raise
+            writes = {
+                name: pool.submit(_write, self.path / name, payload, sync_folder=False)
+                for name, payload in payloads.items()
+            }
+        failed = [name for name, write in writes.items() if write.exception() is not None]
+        if failed:
+            self._restore(earlier, failed)
+            raise writes[failed[0]].exception()  # type: ignore[misc]
+        written = [write.result() for write in writes.values()]
+        sync_folders(written)
         return written
+
+    def _restore(self, earlier: Mapping[str, dict[str, str] | None], names: Iterable[str]) -> None:
+        """Give ``names`` back their ``earlier`` entries (none: unlisted) and save the manifest if it can
+        be."""
+        for name in names:
+            if earlier[name] is None:
+                del self.files[name]
+            else:
+                self.files[name] = earlier[name]
+        with contextlib.suppress(OutputFolderError):
+            self.save()
 
     def record(self, path: Path | str) -> str:
         """List a file the caller wrote into the folder by other means; `save` persists the manifest.

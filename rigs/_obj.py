@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs._arrow_lines import read_vertex_lines, vertex_lines_text
-from rigs._rig import LARGEST_COORDINATE, Rig, RigError, RigWarning
+from rigs._rig import LARGEST_COORDINATE, Rig, RigError, RigWarning, vector_lengths
 from rigs._safe import UnreadableFile, check_budget, named_path, read_text, regular_file, rig_entries
 
 MANIFEST = "rig.json"
@@ -878,7 +878,7 @@ class _VertexOrder:
         pairs = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
         keys = np.unique(pairs[:, 0] * len(neutral) + pairs[:, 1])  # (sorted as the pairs are)
         edges = np.stack([keys // len(neutral), keys % len(neutral)], axis=1)
-        rest = np.linalg.norm(neutral[edges[:, 0]] - neutral[edges[:, 1]], axis=1)
+        rest = vector_lengths(neutral[edges[:, 0]] - neutral[edges[:, 1]])
         self.edges, self.rest = edges[rest > 0], rest[rest > 0]
         self.neutral = neutral
         self.far = self.FAR * float(np.linalg.norm(np.ptp(neutral, axis=0)))
@@ -892,7 +892,7 @@ class _VertexOrder:
         moved = (shape != self.neutral).any(axis=1)
         touched = moved[self.edges[:, 0]] | moved[self.edges[:, 1]]
         edges = self.edges[touched]
-        length = np.linalg.norm(shape[edges[:, 0]] - shape[edges[:, 1]], axis=1)
+        length = vector_lengths(shape[edges[:, 0]] - shape[edges[:, 1]])
         with np.errstate(divide="ignore"):
             change = np.abs(np.log(length / self.rest[touched]))
         permuted = np.count_nonzero(change > np.log(self.PERMUTED)) / len(self.edges)
@@ -903,7 +903,7 @@ class _VertexOrder:
                 "a blendshape must list the neutral's vertices in the same order"
             )
         doubtful = np.count_nonzero(change > np.log(self.DOUBTFUL)) / len(self.edges)
-        distance = np.linalg.norm(shape[moved] - self.neutral[moved], axis=1)
+        distance = vector_lengths(shape[moved] - self.neutral[moved])
         far = np.count_nonzero(distance > self.far) / len(shape)
         if far > 0.5:
             warnings.warn(
@@ -1195,10 +1195,8 @@ class ObjSurface:
     vertex_rows: np.ndarray
     vertex_tails: tuple[str, ...]
     source: str
-    #: (step, single) -> the first positions written with those settings and their ``v`` lines.
-    _written: dict[tuple[float, bool], tuple[np.ndarray, list[str]]] = field(
-        default_factory=dict, init=False, repr=False
-    )
+    #: (step, single) -> the body first written with those settings.
+    _written: dict[tuple[float, bool], _WrittenBody] = field(default_factory=dict, init=False, repr=False)
 
     @property
     def n_vertices(self) -> int:
@@ -1224,15 +1222,36 @@ class ObjSurface:
             raise ValueError(
                 f"{self.source}: {self.n_vertices} 'v' lines, got positions of shape {vertices.shape}"
             )
-        rows = self._coordinate_rows(vertices, step, single)
+        header = "".join(f"# {line}\n" for line in comment.splitlines())
+        written = self._written.get((step, single))
+        if written is None:
+            written = self._written[step, single] = self._write_all(vertices, step, single)
+            return header + written.body
+        changed = written.changed(vertices)
+        return header + written.rewritten(changed, self._rows(vertices, step, single, changed))
+
+    def _rows(
+        self, vertices: np.ndarray, step: float, single: bool, which: np.ndarray | None = None
+    ) -> list[str]:
+        """The ``v`` lines of ``vertices`` (only those of the indices ``which``), with their tails."""
+        picked = vertices if which is None else vertices[which]
+        rows = coordinate_lines(picked, step=step, single=single)
         if any(self.vertex_tails):
-            rows = [row + tail for row, tail in zip(rows, self.vertex_tails, strict=True)]
+            tails = self.vertex_tails if which is None else [self.vertex_tails[i] for i in which.tolist()]
+            rows = [row + tail for row, tail in zip(rows, tails, strict=True)]
+        return rows
+
+    def _write_all(self, vertices: np.ndarray, step: float, single: bool) -> _WrittenBody:
+        """The whole body at ``vertices``, with where each ``v`` line stands in it."""
+        rows = self._rows(vertices, step, single)
         pieces, slots = self._layout
         pieces = pieces.copy()
         pieces[slots] = rows
-        header = "".join(f"# {line}\n" for line in comment.splitlines())
-        body = "\n".join(pieces.tolist())
-        return header + body + ("" if body.endswith("\n") else "\n")
+        texts = pieces.tolist()
+        starts = np.cumsum([0, *(len(text) + 1 for text in texts[:-1])])[slots]  # (+1: the line feed)
+        ends = starts + np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+        body = "\n".join(texts)
+        return _WrittenBody(vertices.copy(), body + ("" if body.endswith("\n") else "\n"), starts, ends)
 
     @cached_property
     def _layout(self) -> tuple[np.ndarray, np.ndarray]:
@@ -1249,23 +1268,30 @@ class ObjSurface:
                 pieces.append(None)
         return np.array(pieces, dtype=object), np.asarray(slots, dtype=np.int64)
 
-    def _coordinate_rows(self, vertices: np.ndarray, step: float, single: bool) -> list[str]:
-        """`coordinate_lines` of ``vertices``, formatting only the rows whose values differ (bit for bit)
-        from the first positions written with the same settings: an expression moves part of the face,
-        and a row's text depends on its three values alone."""
-        written = self._written.get((step, single))
-        if written is None:
-            rows = coordinate_lines(vertices, step=step, single=single)
-            self._written[step, single] = (vertices.copy(), rows)
-            return rows
-        reference, rows = written
-        changed = np.flatnonzero((vertices.view(np.int64) != reference.view(np.int64)).any(axis=1))
-        rows = list(rows)
-        for index, row in zip(
-            changed.tolist(), coordinate_lines(vertices[changed], step=step, single=single), strict=True
-        ):
-            rows[index] = row
-        return rows
+
+@dataclass(frozen=True)
+class _WrittenBody:
+    """An `ObjSurface`'s body written once at ``reference`` positions, and the span ``[starts, ends)`` of
+    each ``v`` line in it: other positions rewrite only the lines whose values differ (bit for bit), since
+    an expression moves part of the face and a line's text depends on its own values alone."""
+
+    reference: np.ndarray
+    body: str
+    starts: np.ndarray
+    ends: np.ndarray
+
+    def changed(self, vertices: np.ndarray) -> np.ndarray:
+        """Indices of the vertices whose positions differ from the reference."""
+        return np.flatnonzero((vertices.view(np.int64) != self.reference.view(np.int64)).any(axis=1))
+
+    def rewritten(self, changed: np.ndarray, rows: list[str]) -> str:
+        """The body with the ``v`` lines of the vertices ``changed`` (ascending) replaced by ``rows``."""
+        kept_from = [0, *self.ends[changed].tolist()]
+        kept_to = [*self.starts[changed].tolist(), len(self.body)]
+        joined: list[str] = [""] * (2 * len(rows) + 1)
+        joined[0::2] = [self.body[start:end] for start, end in zip(kept_from, kept_to, strict=True)]
+        joined[1::2] = rows
+        return "".join(joined)
 
 
 def parse_surface(text: str, source: str) -> ObjSurface:
