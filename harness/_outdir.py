@@ -33,7 +33,6 @@ import warnings
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
-from typing import Any
 
 from rigs import atomic_write, sync_folders
 
@@ -353,7 +352,7 @@ def _read_manifest(path: Path) -> tuple[dict[str, dict[str, str]], str]:
     return files, ""
 
 
-def _manifest_files(document: Any) -> dict[str, dict[str, str]]:
+def _manifest_files(document: object) -> dict[str, dict[str, str]]:
     """Validated ``files`` of a manifest document (ValueError naming what is wrong)."""
     if not isinstance(document, dict) or document.get("format") != MANIFEST_FORMAT:
         raise ValueError(f"no 'format': {MANIFEST_FORMAT!r}")
@@ -374,7 +373,7 @@ def _manifest_files(document: Any) -> dict[str, dict[str, str]]:
     return checked
 
 
-def _checked_name(name: Any) -> str:
+def _checked_name(name: object) -> str:
     """A file name relative to the folder: no absolute path, no ``..``, not the manifest itself."""
     if not isinstance(name, str) or not name or "\\" in name or "\0" in name:
         raise OutputFolderError(f"{name!r} is not a file name inside the output folder")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from rich.console import Console
 from rich.markup import escape
@@ -19,6 +19,9 @@ from rich.progress import (
 from harness._durations import format_duration
 from harness._grid import NO_WARP, CellSpec
 
+if TYPE_CHECKING:
+    from harness._cell import Row
+
 _STATUS_STYLE = {"ok": "green", "skipped": "yellow", "error": "red", "timeout": "red", "invalid": "magenta"}
 
 
@@ -26,7 +29,7 @@ def _group(spec: CellSpec) -> str:
     return spec.rig if spec.warp == NO_WARP else f"{spec.rig}/{spec.warp}"
 
 
-def cell_summary(spec: CellSpec, rows: list[dict[str, Any]]) -> str:
+def cell_summary(spec: CellSpec, rows: list[Row]) -> str:
     """One line (rich markup) describing a finished cell."""
     cell = rows[0]
     status = cell["status"]
@@ -86,7 +89,7 @@ class RichReporter:
                 self._tasks[name] = self._progress.add_task(escape(name), total=count)
         self._progress.start()
 
-    def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None:
+    def cell_finished(self, spec: CellSpec, rows: list[Row]) -> None:
         if self.quiet:
             if rows[0]["status"] not in ("ok", "skipped"):
                 self.console.print(cell_summary(spec, rows))

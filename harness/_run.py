@@ -42,13 +42,13 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import pyarrow as pa
 
 from harness import _environment as environment
 from harness import _plugins as plugins
-from harness._cell import Lost, failure_rows
+from harness._cell import Lost, Row, failure_rows
 from harness._executors import Executor
 from harness._grid import NO_WARP, CellSpec, RunConfig, rig_digest
 from harness._outdir import OutputFolder
@@ -71,6 +71,11 @@ from harness._records import (
 )
 from harness._rigspec import check_rig_files, is_rig_file
 
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from registry import PluginInfo
+
 RUN_FORMAT = 2
 
 
@@ -85,7 +90,7 @@ class Reporter(Protocol):
 
     def notice(self, message: str) -> None: ...
 
-    def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None: ...
+    def cell_finished(self, spec: CellSpec, rows: list[Row]) -> None: ...
 
     def cell_lost(self, spec: CellSpec, reason: str) -> None: ...
 
@@ -101,7 +106,7 @@ class SilentReporter:
     def notice(self, message: str) -> None:
         pass
 
-    def cell_finished(self, spec: CellSpec, rows: list[dict[str, Any]]) -> None:
+    def cell_finished(self, spec: CellSpec, rows: list[Row]) -> None:
         pass
 
     def cell_lost(self, spec: CellSpec, reason: str) -> None:
@@ -240,7 +245,7 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
     return None
 
 
-def _show(value: Any) -> str:
+def _show(value: object) -> str:
     if isinstance(value, dict):
         return f"{len(value)} regions ({', '.join(sorted(value))})" if value else "none"
     if isinstance(value, list):
@@ -488,7 +493,7 @@ def _run_locked(
 
 
 def _new_run_info(
-    config: RunConfig, solver_infos: dict[str, Any], command: list[str] | None
+    config: RunConfig, solver_infos: dict[str, PluginInfo], command: list[str] | None
 ) -> dict[str, Any]:
     """The ``run.json`` of a new run (see the module docstring for the keys)."""
     return {
@@ -521,7 +526,7 @@ def _record(
     out: Path,
     folder: OutputFolder,
     spec: CellSpec,
-    rows: list[dict[str, Any]],
+    rows: list[Row],
     summary: RunSummary,
     reporter: Reporter,
 ) -> None:
@@ -587,7 +592,7 @@ def write_overlap(out: Path, folder: OutputFolder) -> None:
     write_listed(folder, OVERLAP_FILE, data)
 
 
-def read_overlap(out: str | Path) -> Any:
+def read_overlap(out: str | Path) -> pd.DataFrame:
     """The overlap table (`harness._overlap`) of a run as a DataFrame."""
     import pandas as pd
     import pyarrow.parquet as pq
