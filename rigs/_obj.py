@@ -880,6 +880,7 @@ class _VertexOrder:
         edges = np.stack([keys // len(neutral), keys % len(neutral)], axis=1)
         rest = vector_lengths(neutral[edges[:, 0]] - neutral[edges[:, 1]])
         self.edges, self.rest = edges[rest > 0], rest[rest > 0]
+        self.first, self.second = self.edges[:, 0].copy(), self.edges[:, 1].copy()  # (contiguous: faster)
         self.neutral = neutral
         self.far = self.FAR * float(np.linalg.norm(np.ptp(neutral, axis=0)))
         self.neutral_path = neutral_path
@@ -889,10 +890,10 @@ class _VertexOrder:
         others keep their length and place exactly)."""
         if not len(self.edges):
             return
-        moved = (shape != self.neutral).any(axis=1)
-        touched = moved[self.edges[:, 0]] | moved[self.edges[:, 1]]
-        edges = self.edges[touched]
-        length = vector_lengths(shape[edges[:, 0]] - shape[edges[:, 1]])
+        differs = shape != self.neutral
+        moved = differs[:, 0] | differs[:, 1] | differs[:, 2]
+        touched = np.flatnonzero(moved[self.first] | moved[self.second])
+        length = vector_lengths(shape[self.first[touched]] - shape[self.second[touched]])
         with np.errstate(divide="ignore"):
             change = np.abs(np.log(length / self.rest[touched]))
         permuted = np.count_nonzero(change > np.log(self.PERMUTED)) / len(self.edges)
@@ -1307,6 +1308,9 @@ def parse_surface(text: str, source: str) -> ObjSurface:
     lines = [line for _, line in _numbered_lines(text)]
     if lines and lines[-1] == "":
         lines.pop()
+    plain = _plain_surface(text, lines, source)
+    if plain is not None:
+        return plain
     rows, tails = [], []
     for index, line in enumerate(lines):
         if line[:1] != "v" and not line[:1].isspace():  # (its first word is not "v")
@@ -1321,6 +1325,20 @@ def parse_surface(text: str, source: str) -> ObjSurface:
     if not rows:
         raise RigError(f"{source}: no vertices ('v' lines)")
     return ObjSurface(tuple(lines), np.asarray(rows, dtype=np.int64), tuple(tails), source)
+
+
+def _plain_surface(text: str, lines: list[str], source: str) -> ObjSurface | None:
+    """`parse_surface` in one go for a plain file (as `_vertices_only` tells plain files) whose ``v``
+    lines are all ``v x y z`` (no tails), else None."""
+    if not _plain_characters(text):
+        return None
+    starts = list(map(_FIRST_TWO, lines))
+    if not _plain_starts(set(starts)):
+        return None
+    rows = [index for index, start in enumerate(starts) if start == "v "]
+    if not rows or read_vertex_lines("".join(lines[index] + "\n" for index in rows)) is None:
+        return None
+    return ObjSurface(tuple(lines), np.asarray(rows, dtype=np.int64), ("",) * len(rows), source)
 
 
 def read_surface(path: str | Path, *, root: str | Path | None = None) -> ObjSurface:
@@ -1384,7 +1402,9 @@ def rig_surface(rig: Rig) -> ObjSurface | None:
     if surface.n_vertices != rig.n_vertices:
         return None
     lines = [surface.lines[i] for i in surface.vertex_rows]
-    positions = _read_rows(lines)
+    positions = _plain_vertex_block("".join(line + "\n" for line in lines))
+    if positions is None:
+        positions = _read_rows(lines)
     if positions is None or not (np.abs(positions) <= LARGEST_COORDINATE).all():
         positions = parse_obj("\n".join(lines), str(path)).vertices  # (raises, naming the line)
     tolerance = max(float(meta.get("decimal_step", 0.0) or 0.0), 1e-6 * rig.diagonal())

@@ -7,10 +7,15 @@ missed target is recorded in ``benchmark.extra_info["targets"]`` and reported as
 
 from __future__ import annotations
 
+import compileall
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
+
+#: The project's packages.
+PACKAGES = ("registry", "rigs", "packing", "solvers", "transfer", "harness", "reports")
 
 
 class SpeedTargetMissed(UserWarning):
@@ -38,3 +43,13 @@ def speed_target(benchmark) -> Callable[..., None]:
             pytest.fail(message)
 
     return check
+
+
+@pytest.fixture(scope="session")
+def compiled_project() -> None:
+    """The project's packages compiled to bytecode, as installing them does, before a whole-process benchmark
+    times fresh ``harness`` processes: under ``PYTHONDONTWRITEBYTECODE`` (set on some CI machines) every
+    process would otherwise compile them from source again, which no installed tool does."""
+    root = Path(__file__).resolve().parents[2]
+    for package in PACKAGES:
+        compileall.compile_dir(root / package, quiet=1)

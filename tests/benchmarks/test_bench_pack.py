@@ -3,7 +3,8 @@
 the generator's Female-like layout) <= 1 s from its ``.npz`` and <= 1.5 s from its folder of OBJs (written
 by ``harness rigs convert``).
 
-Targets are checked on the best of a few fresh processes (see ``conftest.speed_target``); each time is also
+Targets are checked on the best of a few fresh processes of the installed project (bytecode compiled, see
+``conftest.compiled_project``; see ``conftest.speed_target``); each time is also
 recorded as a ratio to the start-up of a fresh ``python -c "import numpy"`` measured in the same run, so
 that runs on other machines compare. Run with ``pytest tests/benchmarks/test_bench_pack.py
 --benchmark-enable``.
@@ -53,7 +54,9 @@ def _best_start(command: list[str], runs: int) -> float:
 
 
 @pytest.mark.parametrize("source", sorted(TARGETS))
-def test_bench_pack_whole_process(benchmark, speed_target, rig_sources, source, tmp_path) -> None:
+def test_bench_pack_whole_process(
+    benchmark, speed_target, compiled_project, rig_sources, source, tmp_path
+) -> None:
     out = tmp_path / "session"
     command = _harness("pack", rig_sources[source], "--out", out, "--no-pictures")
     times: list[float] = []

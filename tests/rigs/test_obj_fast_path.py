@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import _face_corners, _plain_vertex_block, parse_obj
+from rigs._obj import _face_corners, _plain_surface, _plain_vertex_block, parse_obj, parse_surface
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
 TRIANGLES = [(a, a + 1, a + 4) for a in range(11) if a % 4 != 3]
@@ -167,6 +167,33 @@ def _full_read(text: str, *, fast: bool):
 def test_a_full_read_in_one_go_is_the_line_by_line_reading(edits) -> None:
     text = _edited(edits)
     assert _full_read(text, fast=True) == _full_read(text, fast=False)
+
+
+def _surface(text: str, *, fast: bool):
+    """What `parse_surface` keeps of a file, or its error; with ``fast=False`` by its line loop alone."""
+    with contextlib.ExitStack() as stack:
+        if not fast:
+            stack.enter_context(mock.patch("rigs._obj._plain_surface", return_value=None))
+        try:
+            surface = parse_surface(text, "mesh.obj")
+        except RigError as error:
+            return str(error)
+    return surface.lines, surface.vertex_rows.tolist(), surface.vertex_tails
+
+
+def test_a_plain_surface_is_read_in_one_go_and_one_with_vertex_tails_is_not() -> None:
+    lines = NEUTRAL_TEXT.split("\n")[:-1]
+    assert _plain_surface(NEUTRAL_TEXT, lines, "mesh.obj") is not None
+    with_w = NEUTRAL_TEXT.replace("v 1.0 0.0 0.0\n", "v 1.0 0.0 0.0 1.0\n")
+    assert _plain_surface(with_w, with_w.split("\n")[:-1], "mesh.obj") is None
+    assert _surface(with_w, fast=True)[2].count(" 1.0") == 1
+
+
+@settings(max_examples=400, deadline=None)
+@given(_LINE_EDITS)
+def test_a_surface_read_in_one_go_is_the_line_by_line_surface(edits) -> None:
+    text = _edited(edits)
+    assert _surface(text, fast=True) == _surface(text, fast=False)
 
 
 def _corners_line_by_line(lines: list[str]):
