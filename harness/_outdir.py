@@ -99,8 +99,8 @@ class OutputFolder:
         return self.write_files({name: data})[0]
 
     def write_files(self, contents: Mapping[str, bytes | str]) -> list[Path]:
-        """Write each ``name -> data`` (relative names, text as UTF-8) atomically, in order, listed in the
-        manifest, which is saved once.
+        """Write each ``name -> data`` (relative names, text as UTF-8) atomically, listed in the manifest,
+        which is saved once.
 
         The manifest lists the files before they are written, with the SHA-256 of what is about to be
         written: an interrupted write leaves every file either listed with its content or holding other

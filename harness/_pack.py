@@ -443,8 +443,8 @@ def _write(
     earlier packing left (files of more expressions). Returns the files (JSON first) and a warning for each
     earlier file left in place because it was changed since."""
     names = [EXPRESSIONS_FILE, *session]
-    paths = folder.write_files({**session, EXPRESSIONS_FILE: json.dumps(document, indent=2) + "\n"})
-    paths.insert(0, paths.pop())
+    paths = folder.write_files(session)  # (written at once, so expressions.json comes after them all)
+    paths.insert(0, folder.write_file(EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ChangedFileWarning)
         folder.remove_stale(keep=names)
