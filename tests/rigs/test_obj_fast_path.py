@@ -34,17 +34,27 @@ NEUTRAL_TEXT = _text(GRID)
 NEUTRAL = parse_obj(NEUTRAL_TEXT, "neutral.obj")
 
 
-def _read(text: str, *, fast: bool):
-    """Positions and face lines of a blendshape file read against the neutral, or the error raised; with
-    ``fast=False`` by the line-by-line reader alone."""
+def _reading(fast_path: str, fast: bool, read, kept):
+    """``kept`` of what ``read()`` gives, or the error it raises; with ``fast=False`` the fast path
+    ``rigs._obj.<fast_path>`` steps aside, leaving the line-by-line reader."""
     with contextlib.ExitStack() as stack:
         if not fast:
-            stack.enter_context(mock.patch("rigs._obj._vertices_only", return_value=None))
+            stack.enter_context(mock.patch(f"rigs._obj.{fast_path}", return_value=None))
         try:
-            mesh = parse_obj(text, "shape.obj", with_faces=False, faces_of=NEUTRAL)
+            found = read()
         except RigError as error:
             return str(error)
-    return mesh.vertices.tolist(), list(mesh.face_lines)
+    return kept(found)
+
+
+def _read(text: str, *, fast: bool):
+    """Positions and face lines of a blendshape file read against the neutral, or the error raised."""
+    return _reading(
+        "_vertices_only",
+        fast,
+        lambda: parse_obj(text, "shape.obj", with_faces=False, faces_of=NEUTRAL),
+        lambda mesh: (mesh.vertices.tolist(), list(mesh.face_lines)),
+    )
 
 
 def _agree(text: str) -> None:
@@ -149,17 +159,15 @@ def test_any_line_edits_read_as_the_line_by_line_reader_reads_them(edits) -> Non
 
 
 def _full_read(text: str, *, fast: bool):
-    """Everything a full read gives, or its error; with ``fast=False`` by the line-by-line reader alone."""
-    with contextlib.ExitStack() as stack:
-        if not fast:
-            stack.enter_context(mock.patch("rigs._obj._plain_mesh", return_value=None))
-        try:
-            mesh = parse_obj(text, "mesh.obj")
-        except RigError as error:
-            return str(error)
-    groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
-    faces = [face.tolist() for face in mesh.faces]
-    return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_text, mesh.vertex_lines.tolist()
+    """Everything a full read gives, or its error."""
+
+    def kept(mesh):
+        groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
+        faces = [face.tolist() for face in mesh.faces]
+        lines = mesh.vertex_lines.tolist()
+        return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_text, lines
+
+    return _reading("_plain_mesh", fast, lambda: parse_obj(text, "mesh.obj"), kept)
 
 
 @settings(max_examples=400, deadline=None)
@@ -170,15 +178,13 @@ def test_a_full_read_in_one_go_is_the_line_by_line_reading(edits) -> None:
 
 
 def _surface(text: str, *, fast: bool):
-    """What `parse_surface` keeps of a file, or its error; with ``fast=False`` by its line loop alone."""
-    with contextlib.ExitStack() as stack:
-        if not fast:
-            stack.enter_context(mock.patch("rigs._obj._plain_surface", return_value=None))
-        try:
-            surface = parse_surface(text, "mesh.obj")
-        except RigError as error:
-            return str(error)
-    return surface.lines, surface.vertex_rows.tolist(), surface.vertex_tails
+    """What `parse_surface` keeps of a file, or its error."""
+    return _reading(
+        "_plain_surface",
+        fast,
+        lambda: parse_surface(text, "mesh.obj"),
+        lambda surface: (surface.lines, surface.vertex_rows.tolist(), surface.vertex_tails),
+    )
 
 
 def test_a_plain_surface_is_read_in_one_go_and_one_with_vertex_tails_is_not() -> None:
