@@ -31,10 +31,10 @@ import json
 import os
 import warnings
 from collections.abc import Iterable, Mapping
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 
-from rigs import atomic_write, sync_folders
+from rigs import StagedFile, atomic_write, stage, sync_folders
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
@@ -63,9 +63,29 @@ def _write(path: Path, payload: bytes, *, sync_folder: bool = True) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         return atomic_write(path, payload, sync_folder=sync_folder)
     except OSError as error:
-        raise OutputFolderError(
-            f"{path}: cannot write ({error.strerror or error}); check the free space and permissions"
-        ) from None
+        raise _write_error(path, error) from None
+
+
+def _staged(path: Path, data: bytes | str) -> tuple[StagedFile, str]:
+    """`stage` ``data`` beside ``path`` (creating its folder), with the SHA-256 of what was written; a
+    failure is one `OutputFolderError`."""
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return stage(path, payload), _sha256(payload)
+    except OSError as error:
+        raise _write_error(path, error) from None
+
+
+def _write_error(path: Path, error: OSError) -> OutputFolderError:
+    return OutputFolderError(
+        f"{path}: cannot write ({error.strerror or error}); check the free space and permissions"
+    )
+
+
+def _discard(entries: Iterable[StagedFile]) -> None:
+    for entry in entries:
+        entry.discard()
 
 
 def file_sha256(path: Path) -> str:
@@ -98,16 +118,19 @@ class OutputFolder:
         """Write ``data`` as ``name`` (relative to the folder): `write_files` of one file."""
         return self.write_files({name: data})[0]
 
-    def write_files(self, contents: Mapping[str, bytes | str]) -> list[Path]:
-        """Write each ``name -> data`` (relative names, text as UTF-8) atomically, listed in the manifest,
-        which is saved once.
+    def write_files(
+        self, contents: Mapping[str, bytes | str] | Iterable[tuple[str, bytes | str]]
+    ) -> list[Path]:
+        """Write each ``name -> data`` (relative names, text as UTF-8) and list it in the manifest: all of
+        them or, when one cannot be written, none.
 
-        The manifest lists the files before they are written, with the SHA-256 of what is about to be
-        written: an interrupted write leaves every file either listed with its content or holding other
-        content, which `owns` then does not claim, so the harness never later replaces or removes a file
-        it did not write. The files are hashed and written several at a time (`FILE_WRITERS`); when a write
-        fails (the manifest's or a file's), the files not written keep their earlier entries and the first
-        failure in order is raised.
+        The contents may come one by one (pairs from a generator): each file is written to a temporary
+        name beside its place (`rigs.stage`) and hashed as it comes, several at a time (`FILE_WRITERS`),
+        while the next is made. Once all are written, the manifest lists them with their hashes and is
+        saved (once), and only then are they renamed into place: a file appears under its name only when
+        the manifest already claims its content, so the harness never later replaces or removes a file it
+        did not write. When a file cannot be written (e.g. a full disk) or making the contents fails, the
+        staged files are removed and the folder and its manifest are as they were.
 
         Returns
         -------
@@ -117,37 +140,49 @@ class OutputFolder:
         Raises
         ------
         OutputFolderError
-            When a name exists and is not this session's unchanged file (before anything is written), or
-            a write fails (naming the file and the reason, e.g. a full disk).
+            When a name exists and is not this session's unchanged file, comes twice, or a write fails
+            (naming the file and the reason; the first failure in order).
         """
-        payloads = {
-            _checked_name(name): data.encode("utf-8") if isinstance(data, str) else bytes(data)
-            for name, data in contents.items()
-        }
-        self.check_free(payloads)
-        for name in payloads:
-            self._check_inside(name)
-        earlier = {name: self.files.get(name) for name in payloads}
-        with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
-            digests = list(pool.map(_sha256, payloads.values()))
-            for name, digest in zip(payloads, digests, strict=True):
-                self.files[name] = {"kind": self.kind, "sha256": digest}
+        staged = self._stage_all(contents.items() if isinstance(contents, Mapping) else contents)
+        names = list(staged)
+        earlier = {name: self.files.get(name) for name in names}
+        for name in names:
+            self.files[name] = {"kind": self.kind, "sha256": staged[name][1]}
+        try:
+            self.save()
+        except OutputFolderError:
+            self._restore(earlier, names)
+            _discard(entry for entry, _ in staged.values())
+            raise
+        written = []
+        for index, name in enumerate(names):
+            entry = staged[name][0]
             try:
-                self.save()
-            except OutputFolderError:
-                self._restore(earlier, list(payloads))
-                raise
-            writes = {
-                name: pool.submit(_write, self.path / name, payload, sync_folder=False)
-                for name, payload in payloads.items()
-            }
-        failed = [name for name, write in writes.items() if write.exception() is not None]
-        if failed:
-            self._restore(earlier, failed)
-            raise writes[failed[0]].exception()  # type: ignore[misc]
-        written = [write.result() for write in writes.values()]
+                written.append(entry.commit(sync_folder=False))
+            except OSError as error:  # (the rename failed: the file and those after it are not in place)
+                _discard(staged[later][0] for later in names[index + 1 :])
+                self._restore(earlier, names[index:])
+                raise _write_error(entry.path, error) from None
         sync_folders(written)
         return written
+
+    def _stage_all(self, pairs: Iterable[tuple[str, bytes | str]]) -> dict[str, tuple[StagedFile, str]]:
+        """Name -> (staged file, SHA-256) of every pair, staged as the pairs come; on any failure none is
+        left staged and the first failure in order is raised."""
+        staging: dict[str, Future[tuple[StagedFile, str]]] = {}
+        try:
+            with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
+                for name, data in pairs:
+                    name = _checked_name(name)
+                    if name in staging:
+                        raise OutputFolderError(f"{self.path / name}: given twice in one write")
+                    self.check_free([name])
+                    self._check_inside(name)
+                    staging[name] = pool.submit(_staged, self.path / name, data)
+            return {name: future.result() for name, future in staging.items()}
+        except BaseException:
+            _discard(future.result()[0] for future in staging.values() if future.exception() is None)
+            raise
 
     def _restore(self, earlier: Mapping[str, dict[str, str] | None], names: Iterable[str]) -> None:
         """Give ``names`` back their ``earlier`` entries (none: unlisted) and save the manifest if it can

@@ -437,14 +437,14 @@ def _refining(
 
 
 def _write(
-    folder: OutputFolder, document: dict[str, Any], session: Mapping[str, str | bytes]
+    folder: OutputFolder, document: dict[str, Any], session: Iterable[tuple[str, str | bytes]]
 ) -> tuple[list[Path], list[str]]:
     """Write the session's files, then ``expressions.json``, into the claimed folder, and remove what an
     earlier packing left (files of more expressions). Returns the files (JSON first) and a warning for each
     earlier file left in place because it was changed since."""
-    names = [EXPRESSIONS_FILE, *session]
-    paths = folder.write_files(session)  # (written at once, so expressions.json comes after them all)
+    paths = folder.write_files(session)  # (put in place at once, so expressions.json comes after them all)
     paths.insert(0, folder.write_file(EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"))
+    names = [path.relative_to(folder.path).as_posix() for path in paths]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ChangedFileWarning)
         folder.remove_stale(keep=names)

@@ -14,7 +14,7 @@ Each expression of the document gains ``files``: the names of its mesh, target m
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -50,9 +50,10 @@ def session_files(
     pictures: bool = True,
     glb: bool = False,
     notes: Sequence[str] = (),
-) -> dict[str, str | bytes]:
-    """File name (relative to the folder) -> content of every session file; ``document["expressions"]``
-    entries gain their ``files``.
+) -> Iterator[tuple[str, str | bytes]]:
+    """(file name relative to the folder, content) of every session file, made one at a time so that a
+    writer can store each while the next is made (`harness._outdir.OutputFolder.write_files`);
+    ``document["expressions"]`` entries gain their ``files`` as they are made.
 
     Parameters
     ----------
@@ -70,18 +71,18 @@ def session_files(
         Footer lines of the scan sheet.
     """
     expressions = document["expressions"]
-    files: dict[str, str | bytes] = dict(session_meshes(rig, expressions, target))
     for index, expression in enumerate(expressions, start=1):
         name = expression_name(index, len(expressions))
         expression["files"] = {"mesh": f"{name}.obj"}
         if target is not None:
             expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
+    yield from session_meshes(rig, expressions, target)
     if glb:
-        files[GLB_FILE] = _glb(rig, expressions)
+        yield GLB_FILE, _glb(rig, expressions)
     cards: list[Card] = []
     legends = [_legend(expression, document.get("pairs", ())) for expression in expressions]
     if pictures and expressions:
-        files.update(_pictures(rig, expressions, legends, float(document["params"]["mu"])))
+        yield from _pictures(rig, expressions, legends, float(document["params"]["mu"]))
     for expression, legend in zip(expressions, legends, strict=True):
         cards.append(
             {
@@ -92,8 +93,7 @@ def session_files(
         )
     title = str(document.get("rig", rig.meta.get("source", "rig")))
     face = (FACE_SHARE, FACE_SHARE * SIZE[0] / (TITLE_SHARE * SIZE[1]))
-    files[SHEET_FILE] = scan_sheet(document, cards, title=title, face=face, notes=notes)
-    return files
+    yield SHEET_FILE, scan_sheet(document, cards, title=title, face=face, notes=notes)
 
 
 def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Legend:
@@ -120,8 +120,9 @@ def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Le
 
 def _pictures(
     rig: Rig, expressions: Sequence[dict[str, Any]], legends: Sequence[Legend], mu: float
-) -> dict[str, bytes]:
-    """The two pictures of every expression; records them in each expression's ``files``."""
+) -> Iterator[tuple[str, bytes]]:
+    """(file name, PNG) of the two pictures of every expression, one at a time; records them in each
+    expression's ``files``."""
     import rigs
 
     active = active_vertices(rig, mu)
@@ -131,7 +132,6 @@ def _pictures(
         for view, degrees in VIEWS.items()
     }
     poses = expression_poses(rig, expressions)
-    pictures = {}
     for index, (expression, legend, delta) in enumerate(
         zip(expressions, legends, poses, strict=True), start=1
     ):
@@ -142,11 +142,9 @@ def _pictures(
         for view, camera in cameras.items():
             path = f"{PICTURES}/{name}_{view}.png"
             title = f"{index}. {view.replace('_', '-')}"
-            pictures[path] = picture(
-                rig.neutral + delta, rig.triangles, camera, fills, words, colours, title=title
-            )
             expression["files"][view] = path
-    return pictures
+            posed = rig.neutral + delta
+            yield path, picture(posed, rig.triangles, camera, fills, words, colours, title=title)
 
 
 def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:

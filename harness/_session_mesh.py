@@ -18,7 +18,7 @@ like; a target OBJ lends its own lines to those files.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -123,10 +123,10 @@ def expression_name(index: int, count: int) -> str:
 
 def session_meshes(
     rig: Rig, expressions: Sequence[Mapping[str, Any]], target: TargetMesh | None = None
-) -> dict[str, str]:
-    """File name -> OBJ text: ``neutral.obj``, ``expression_XX.obj`` and, with a target,
-    ``on_target/expression_XX.obj``; ``materials.mtl`` (also in ``on_target/`` when those files use it)
-    for a glTF rig with materials."""
+) -> Iterator[tuple[str, str | bytes]]:
+    """(file name, OBJ file), one file at a time: ``neutral.obj``, ``expression_XX.obj`` and, with a
+    target, ``on_target/expression_XX.obj``; ``materials.mtl`` (also in ``on_target/`` when those files
+    use it) for a glTF rig with materials."""
     import rigs
 
     surface, library = rigs.rig_surface(rig), None
@@ -134,29 +134,27 @@ def session_meshes(
         surface, library = gltf_surface(rig) or (rigs.plain_surface(rig), None)
     exact = precision(rig.neutral, rig.deltas)
     source = rig.meta.get("source", "rig")
-    texts = {NEUTRAL_FILE: _text(surface, rig.neutral, exact, f"neutral of {source}")}
+    yield NEUTRAL_FILE, _obj(surface, rig.neutral, exact, f"neutral of {source}")
     if library is not None:
-        texts[MATERIALS_FILE] = library
+        yield MATERIALS_FILE, library
     deltas = expression_poses(rig, expressions)
     if target is not None:
         on_target = target.surface if target.surface is not None else surface
         target_precision = exact.combine(precision(target.vertices))
         if library is not None and target.surface is None:
-            texts[f"{ON_TARGET}/{MATERIALS_FILE}"] = library
+            yield f"{ON_TARGET}/{MATERIALS_FILE}", library
     for index, (delta, expression) in enumerate(zip(deltas, expressions, strict=True), start=1):
         name = expression_name(index, len(expressions))
         shapes = " ".join(expression["shapes"])
-        texts[f"{name}.obj"] = _text(surface, rig.neutral + delta, exact, f"expression {index}: {shapes}")
+        yield f"{name}.obj", _obj(surface, rig.neutral + delta, exact, f"expression {index}: {shapes}")
         if target is not None:
             comment = f"expression {index} on the target {target.path.name}: {shapes}"
-            texts[f"{ON_TARGET}/{name}.obj"] = _text(
-                on_target, target.vertices + delta, target_precision, comment
-            )
-    return texts
+            posed = target.vertices + delta
+            yield f"{ON_TARGET}/{name}.obj", _obj(on_target, posed, target_precision, comment)
 
 
-def _text(surface: ObjSurface, vertices: np.ndarray, precision: Precision, comment: str) -> str:
-    return surface.text(vertices, step=precision.step, single=precision.single, comment=comment)
+def _obj(surface: ObjSurface, vertices: np.ndarray, precision: Precision, comment: str) -> bytes:
+    return surface.data(vertices, step=precision.step, single=precision.single, comment=comment)
 
 
 def gltf_surface(rig: Rig) -> tuple[ObjSurface, str | None] | None:

@@ -18,7 +18,7 @@ from packing._binary import (
     sparse_masks,
 )
 from packing._params import params_from
-from rigs import Rig
+from rigs import Rig, bounding_box
 
 
 class MissingTargetWarning(UserWarning):
@@ -97,7 +97,10 @@ def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.
 
 
 def _diagonal(points: np.ndarray) -> float:
-    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) if len(points) else 0.0
+    if not len(points):
+        return 0.0
+    low, high = bounding_box(points)
+    return float(np.linalg.norm(high - low))
 
 
 class DegenerateDistortionWarning(UserWarning):

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
-    from rigs._atomic import atomic_write, sync_folders
+    from rigs._atomic import StagedFile, atomic_write, stage, sync_folders
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
@@ -20,13 +20,13 @@ if TYPE_CHECKING:
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
     from rigs._obj import ObjSurface, plain_surface, rig_surface
     from rigs._regions import read_regions, regions_from_mapping
-    from rigs._rig import Rig, RigError, RigWarning, vector_lengths
+    from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
     from rigs._warp import WARPS, Compose, LocalScale, Scale, warp
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_atomic": ["atomic_write", "sync_folders"],
+        "_atomic": ["StagedFile", "atomic_write", "stage", "sync_folders"],
         "_camera": ["frontal_camera", "three_quarter_camera"],
         "_character": ["Character"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],
@@ -36,7 +36,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
         "_obj": ["ObjSurface", "plain_surface", "rig_surface"],
         "_regions": ["read_regions", "regions_from_mapping"],
-        "_rig": ["Rig", "RigError", "RigWarning", "vector_lengths"],
+        "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],
         "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "warp"],
     },
 )

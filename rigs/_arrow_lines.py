@@ -1,4 +1,4 @@
-"""OBJ ``v x y z`` lines written and read by Arrow's CSV writer and reader.
+"""OBJ ``v x y z`` lines written and read by Arrow's CSV writer and reader, and ``f a b c`` lines written.
 
 Both run in C++ outside the interpreter lock and several times faster than Python's number formatting and
 parsing on the tens of thousands of vertices of a production head. Arrow formats each number as the shortest
@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 from pyarrow import csv
 
-#: The keyword column: every row must hold this word (a dictionary of one entry).
+#: The keyword column of vertex lines: every row read must hold this word (a dictionary of one entry).
 _KEYWORD = "v"
 _COLUMNS = ("keyword", "x", "y", "z")
 _WRITE = csv.WriteOptions(include_header=False, delimiter=" ", quoting_style="none")
@@ -28,31 +28,47 @@ _CONVERT = csv.ConvertOptions(
 )
 
 
-def _keyword_column(count: int) -> pa.DictionaryArray:
-    """``count`` rows of `_KEYWORD`."""
-    word = _KEYWORD.encode("ascii")
-    dictionary = pa.Array.from_buffers(
-        pa.string(), 1, [None, pa.py_buffer(np.array([0, len(word)], dtype=np.int32)), pa.py_buffer(word)]
-    )
+def _keyword_column(word: str, count: int) -> pa.DictionaryArray:
+    """``count`` rows of ``word``."""
+    encoded = word.encode("ascii")
+    offsets = pa.py_buffer(np.array([0, len(encoded)], dtype=np.int32))
+    dictionary = pa.Array.from_buffers(pa.string(), 1, [None, offsets, pa.py_buffer(encoded)])
     indices = pa.Array.from_buffers(pa.int8(), count, [None, pa.py_buffer(np.zeros(count, dtype=np.int8))])
     return pa.DictionaryArray.from_arrays(indices, dictionary)
 
 
-def _float_column(values: np.ndarray, single: bool) -> pa.Array:
-    """A float64 (``single``: float32) column holding ``values``."""
-    values = np.ascontiguousarray(values, dtype=np.float32 if single else np.float64)
-    kind = pa.float32() if single else pa.float64()
-    return pa.Array.from_buffers(kind, len(values), [None, pa.py_buffer(values)])
+#: Arrow types of the numpy types written.
+_ARROW_TYPES = {
+    np.dtype(np.float64): pa.float64(),
+    np.dtype(np.float32): pa.float32(),
+    np.dtype(np.int64): pa.int64(),
+}
 
 
-def vertex_lines_text(vertices: np.ndarray, *, single: bool = False) -> str:
-    """``v x y z`` lines, each ending in a line feed, every coordinate the shortest text that reads back as
-    the same float64 (``single``: float32): ``1`` for 1.0, ``-0``, ``0.00001``, ``1e+20``."""
-    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    columns = [_keyword_column(len(vertices)), *(_float_column(vertices[:, k], single) for k in range(3))]
+def _keyword_lines(word: str, columns: np.ndarray) -> bytes:
+    """Lines of ``word`` and the values of a row of the (rows, values) array ``columns``, one space between
+    words, each line ending in a line feed."""
+    arrays = [_keyword_column(word, len(columns))]
+    for values in columns.T:
+        values = np.ascontiguousarray(values)
+        kind = _ARROW_TYPES[values.dtype]
+        arrays.append(pa.Array.from_buffers(kind, len(values), [None, pa.py_buffer(values)]))
+    names = ["keyword", *(f"c{index}" for index in range(columns.shape[1]))]
     sink = pa.BufferOutputStream()
-    csv.write_csv(pa.RecordBatch.from_arrays(columns, names=list(_COLUMNS)), sink, _WRITE)
-    return sink.getvalue().to_pybytes().decode("ascii")
+    csv.write_csv(pa.RecordBatch.from_arrays(arrays, names=names), sink, _WRITE)
+    return sink.getvalue().to_pybytes()
+
+
+def vertex_lines(vertices: np.ndarray, *, single: bool = False) -> bytes:
+    """``v x y z`` lines (ASCII), each ending in a line feed, every coordinate the shortest text that reads
+    back as the same float64 (``single``: float32): ``1`` for 1.0, ``-0``, ``0.00001``, ``1e+20``."""
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    return _keyword_lines(_KEYWORD, vertices.astype(np.float32) if single else vertices)
+
+
+def triangle_lines(triangles: np.ndarray) -> bytes:
+    """``f a b c`` lines (ASCII) of (T, 3) zero-based triangles, written one-based."""
+    return _keyword_lines("f", np.asarray(triangles, dtype=np.int64).reshape(-1, 3) + 1)
 
 
 def read_vertex_lines(block: str) -> np.ndarray | None:

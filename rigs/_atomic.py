@@ -3,7 +3,8 @@
 The one writer behind every file the project writes (rigs, fetched rigs, run records, session folders,
 the performance history): a uniquely named temporary file in the same folder, flushed to disk, renamed
 over the target (``os.replace``) and the folder's entry flushed too; on any failure the temporary file is
-removed and the target is unchanged.
+removed and the target is unchanged. The two halves are available apart (`stage`, `StagedFile.commit`)
+for a writer that puts several files in place only once all of them are written.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import os
 import tempfile
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -28,7 +30,7 @@ NEW_FILE_MODE = 0o666 & ~_current_umask()
 def atomic_write(
     path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None], *, sync_folder: bool = True
 ) -> Path:
-    """Write ``data`` to ``path`` atomically.
+    """Write ``data`` to ``path`` atomically: `stage` it, then `StagedFile.commit`.
 
     Parameters
     ----------
@@ -51,6 +53,43 @@ def atomic_write(
     OSError
         When the folder is not writable or the disk is full (``path`` is then unchanged).
     """
+    return stage(path, data).commit(sync_folder=sync_folder)
+
+
+@dataclass(frozen=True)
+class StagedFile:
+    """New content for ``path``, written in full and flushed to disk under the unique name ``temporary``
+    beside it; ``path`` itself is not touched until `commit`."""
+
+    path: Path
+    temporary: Path
+
+    def commit(self, *, sync_folder: bool = True) -> Path:
+        """Rename the staged content over ``path`` (atomic) and, with ``sync_folder``, flush the folder's
+        entry; returns ``path``. On failure the staged file is removed and ``path`` is unchanged."""
+        try:
+            os.replace(self.temporary, self.path)
+        except BaseException:
+            self.discard()
+            raise
+        if sync_folder:
+            _sync_folder(self.path.parent)
+        return self.path
+
+    def discard(self) -> None:
+        """Remove the staged content (``path`` is unchanged)."""
+        self.temporary.unlink(missing_ok=True)
+
+
+def stage(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None]) -> StagedFile:
+    """Write ``data`` (as for `atomic_write`) to a uniquely named temporary file in ``path``'s folder and
+    flush it to disk, for `StagedFile.commit` to put in place later; on failure nothing is left behind.
+
+    Raises
+    ------
+    OSError
+        When the folder is not writable or the disk is full.
+    """
     path = Path(path)
     mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
     descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -63,13 +102,10 @@ def atomic_write(
                 handle.write(data.encode("utf-8") if isinstance(data, str) else bytes(data))
             handle.flush()
             os.fsync(handle.fileno())
-        os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-    if sync_folder:
-        _sync_folder(path.parent)
-    return path
+    return StagedFile(path, Path(temporary))
 
 
 def sync_folders(paths: Iterable[str | os.PathLike]) -> None:

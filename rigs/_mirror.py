@@ -152,7 +152,7 @@ def mirror_map(
 
     # The plane is fitted to the distinct positions: vertices split along UV or normal seams would
     # otherwise weigh twice on one side.
-    distinct = np.unique(points, axis=0)
+    distinct = _distinct_rows(points)
     distinct_tree = cKDTree(distinct)
     sample = distinct[:: max(1, distinct.shape[0] // _SAMPLE)]
     spacing = _median_spacing(distinct_tree, sample)
@@ -234,6 +234,15 @@ def _as_plane(plane: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndar
     if not np.isfinite(length) or length == 0 or not np.isfinite(origin).all():
         raise ValueError(f"mirror_map: plane needs a finite point and a non-zero normal, got {plane!r}")
     return origin, normal / length
+
+
+def _distinct_rows(points: np.ndarray) -> np.ndarray:
+    """The distinct rows of (N, 3) ``points`` in lexicographic order, as ``numpy.unique(points, axis=0)``
+    gives them (a sort by the three columns, several times faster than its sort of whole rows)."""
+    ordered = points[np.lexsort(points.T[::-1])]
+    new = np.ones(len(ordered), dtype=bool)
+    new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    return ordered[new]
 
 
 def _median_spacing(tree: cKDTree, sample: np.ndarray) -> float:

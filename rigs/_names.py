@@ -32,6 +32,11 @@ _PATTERNS = tuple(
     )
     for left, right, pattern in _TOKENS
 )
+#: Any left token, any right token: one alternation per side (a name has a side's token when one of the
+#: side's patterns matches somewhere in it).
+_ANY_LEFT, _ANY_RIGHT = (
+    re.compile("|".join(f"(?:{patterns[side].pattern})" for patterns in _PATTERNS)) for side in (0, 1)
+)
 
 
 def side_of(name: str) -> str | None:
@@ -44,8 +49,8 @@ def side_of(name: str) -> str | None:
     >>> side_of("eyeBlinkLeft"), side_of("browDown_R"), side_of("jawOpen"), side_of("bright")
     ('L', 'R', None, None)
     """
-    sides = {side for side, _ in _side_tokens(name)}
-    return sides.pop() if len(sides) == 1 else None
+    left, right = _ANY_LEFT.search(name) is not None, _ANY_RIGHT.search(name) is not None
+    return ("L" if left else "R") if left != right else None
 
 
 def mirror_name_pairs(names: Iterable[str]) -> list[tuple[str, str]]:
@@ -120,15 +125,6 @@ def compare_name_pairs(
     ]
     missed = [pair for pair in twins if frozenset(pair) not in found]
     return contradicting, missed
-
-
-def _side_tokens(name: str) -> list[tuple[str, re.Match[str]]]:
-    """Every side token of a name, with its side."""
-    found = []
-    for left, right, *_ in _PATTERNS:
-        found.extend(("L", match) for match in left.finditer(name))
-        found.extend(("R", match) for match in right.finditer(name))
-    return found
 
 
 def _swapped(name: str) -> str:

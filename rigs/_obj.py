@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs._arrow_lines import read_vertex_lines, vertex_lines_text
+from rigs._arrow_lines import read_vertex_lines, triangle_lines, vertex_lines
 from rigs._rig import LARGEST_COORDINATE, Rig, RigError, RigWarning, vector_lengths
 from rigs._safe import UnreadableFile, check_budget, named_path, read_text, regular_file, rig_entries
 
@@ -1095,22 +1095,19 @@ def _check_same_mesh(base: ObjMesh, shape: ObjMesh, path: Path, neutral_path: Pa
             )
 
 
-def _face_text(faces: np.ndarray | Sequence[np.ndarray]) -> str:
-    """``f`` lines (1-based) of a (T, 3) array of triangles or of a sequence of polygons."""
+def _face_lines(faces: np.ndarray | Sequence[np.ndarray]) -> bytes:
+    """``f`` lines (1-based, ASCII) of a (T, 3) array of triangles or of a sequence of polygons."""
     if isinstance(faces, np.ndarray) or faces_are_triangles(faces):
-        one_based = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
-        return ("f %d %d %d\n" * len(one_based)) % tuple(one_based.ravel().tolist())
-    return "".join("f " + " ".join(map(str, (face + 1).tolist())) + "\n" for face in faces)
+        return triangle_lines(np.asarray(faces, dtype=np.int64).reshape(-1, 3))
+    return "".join("f " + " ".join(map(str, (face + 1).tolist())) + "\n" for face in faces).encode("ascii")
 
 
 def write_obj(
     path: str | Path, vertices: np.ndarray, faces: Sequence[np.ndarray], *, comment: str = ""
 ) -> None:
     """Write one OBJ: ``v`` lines with shortest round-trip floats, then 1-based ``f`` lines."""
-    header = "".join(f"# {line}\n" for line in comment.splitlines())
-    Path(path).write_text(
-        header + vertex_lines_text(np.asarray(vertices)) + _face_text(faces), encoding="utf-8"
-    )
+    header = "".join(f"# {line}\n" for line in comment.splitlines()).encode("utf-8")
+    Path(path).write_bytes(header + vertex_lines(np.asarray(vertices)) + _face_lines(faces))
 
 
 def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
@@ -1140,14 +1137,14 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
             listed = ", ".join(strangers[:3])
             raise RigError(f"{folder}: already holds other OBJ files ({listed}); choose an empty folder")
     folder.mkdir(parents=True, exist_ok=True)
-    face_text = _face_text(rig.faces if rig.faces is not None else rig.triangles)
+    face_text = _face_lines(rig.faces if rig.faces is not None else rig.triangles)
     source = rig.meta.get("source", "rig")
-    (folder / "neutral.obj").write_text(
-        f"# neutral of {source}\n" + vertex_lines_text(rig.neutral) + face_text
+    (folder / "neutral.obj").write_bytes(
+        f"# neutral of {source}\n".encode() + vertex_lines(rig.neutral) + face_text
     )
     for name, delta in zip(rig.names, rig.deltas, strict=True):
-        text = f"# blendshape {name} of {source}\n" + vertex_lines_text(rig.neutral + delta) + face_text
-        (folder / f"{name}.obj").write_text(text, encoding="utf-8")
+        header = f"# blendshape {name} of {source}\n".encode()
+        (folder / f"{name}.obj").write_bytes(header + vertex_lines(rig.neutral + delta) + face_text)
     manifest = {
         "format": "obj-folder",
         "neutral": "neutral.obj",
@@ -1211,7 +1208,18 @@ class ObjSurface:
     def text(
         self, vertices: np.ndarray, *, step: float = 0.0, single: bool = False, comment: str = ""
     ) -> str:
-        """The file's text with its ``v`` lines at ``vertices`` (see `coordinate_lines` for the format).
+        """The file's text with its ``v`` lines at ``vertices``: `data` as text."""
+        return self.data(vertices, step=step, single=single, comment=comment).decode("utf-8")
+
+    def data(
+        self, vertices: np.ndarray, *, step: float = 0.0, single: bool = False, comment: str = ""
+    ) -> bytes:
+        """The file (UTF-8) with its ``v`` lines at ``vertices`` (see `coordinate_lines` for the format),
+        after the lines of ``comment`` as ``#`` comments.
+
+        The first positions written with given ``step`` and ``single`` are kept with the whole text; later
+        positions rewrite only the lines of the vertices whose values differ from them (an expression moves
+        part of the face, and a line's text depends on its own values alone).
 
         Raises
         ------
@@ -1223,76 +1231,102 @@ class ObjSurface:
             raise ValueError(
                 f"{self.source}: {self.n_vertices} 'v' lines, got positions of shape {vertices.shape}"
             )
-        header = "".join(f"# {line}\n" for line in comment.splitlines())
+        header = "".join(f"# {line}\n" for line in comment.splitlines()).encode("utf-8")
         written = self._written.get((step, single))
         if written is None:
             written = self._written[step, single] = self._write_all(vertices, step, single)
             return header + written.body
         changed = written.changed(vertices)
-        return header + written.rewritten(changed, self._rows(vertices, step, single, changed))
+        return b"".join([header, *written.rewritten(changed, self._block(vertices, step, single, changed))])
 
-    def _rows(
+    def _block(
         self, vertices: np.ndarray, step: float, single: bool, which: np.ndarray | None = None
-    ) -> list[str]:
+    ) -> _LineBlock:
         """The ``v`` lines of ``vertices`` (only those of the indices ``which``), with their tails."""
         picked = vertices if which is None else vertices[which]
+        if not any(self.vertex_tails):
+            return _LineBlock.of(coordinate_block(picked, step=step, single=single))
+        tails = self.vertex_tails if which is None else [self.vertex_tails[i] for i in which.tolist()]
         rows = coordinate_lines(picked, step=step, single=single)
-        if any(self.vertex_tails):
-            tails = self.vertex_tails if which is None else [self.vertex_tails[i] for i in which.tolist()]
-            rows = [row + tail for row, tail in zip(rows, tails, strict=True)]
-        return rows
+        lines = "".join(f"{row}{tail}\n" for row, tail in zip(rows, tails, strict=True))
+        return _LineBlock.of(lines.encode("utf-8"))
 
     def _write_all(self, vertices: np.ndarray, step: float, single: bool) -> _WrittenBody:
         """The whole body at ``vertices``, with where each ``v`` line stands in it."""
-        rows = self._rows(vertices, step, single)
-        pieces, slots = self._layout
-        pieces = pieces.copy()
-        pieces[slots] = rows
-        texts = pieces.tolist()
-        starts = np.cumsum([0, *(len(text) + 1 for text in texts[:-1])])[slots]  # (+1: the line feed)
-        ends = starts + np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
-        body = "\n".join(texts)
-        return _WrittenBody(vertices.copy(), body + ("" if body.endswith("\n") else "\n"), starts, ends)
+        block = self._block(vertices, step, single)
+        first, stop, gaps = self._runs
+        pieces = [gaps[0]]
+        for run, (begin, end) in enumerate(zip(first.tolist(), stop.tolist(), strict=True)):
+            pieces += [block.data[block.starts[begin] : block.ends[end - 1] + 1], gaps[run + 1]]
+        # each run of v lines stands in the body after the gaps before it and the runs before it
+        run_offsets = np.cumsum([0, *(len(piece) for piece in pieces[:-1])])[1::2]
+        offsets = np.repeat(run_offsets - block.starts[first], stop - first)
+        return _WrittenBody(vertices.copy(), b"".join(pieces), block.starts + offsets, block.ends + offsets)
 
     @cached_property
-    def _layout(self) -> tuple[np.ndarray, np.ndarray]:
-        """The file's lines with every run of lines between two ``v`` lines joined into one piece (so
-        that joining the pieces is joining the lines), and the positions of the ``v`` lines among them."""
-        rows = self.vertex_rows.tolist()
-        pieces: list[str | None] = []
-        slots = []
-        for start, end in zip([-1, *rows], [*rows, len(self.lines)], strict=True):
-            if end > start + 1:
-                pieces.append("\n".join(self.lines[start + 1 : end]))
-            if end < len(self.lines):
-                slots.append(len(pieces))
-                pieces.append(None)
-        return np.array(pieces, dtype=object), np.asarray(slots, dtype=np.int64)
+    def _runs(self) -> tuple[np.ndarray, np.ndarray, list[bytes]]:
+        """The runs of consecutive ``v`` lines (first vertex and one past the last of each) and the text
+        of the other lines around them (before each run, and after the last), each line with its line
+        feed, as UTF-8."""
+        rows = np.asarray(self.vertex_rows, dtype=np.int64)
+        first = np.flatnonzero(np.diff(rows, prepend=-2) != 1)
+        stop = np.append(first[1:], len(rows))
+        gap_starts = [0, *(rows[stop - 1] + 1).tolist()]
+        gap_stops = [*rows[first].tolist(), len(self.lines)]
+        chunks = [self.lines[start:end] for start, end in zip(gap_starts[:-1], gap_stops[:-1], strict=True)]
+        tail = self.lines[gap_starts[-1] :]
+        chunks.append(tail[:-1] if tail and tail[-1] == "" else tail)  # (a last empty line: a line feed)
+        return first, stop, [("\n".join(chunk) + "\n").encode("utf-8") if chunk else b"" for chunk in chunks]
+
+
+@dataclass(frozen=True)
+class _LineBlock:
+    """Lines of text, each ending in a line feed (UTF-8), and where line ``i`` starts and ends (its line
+    feed) in ``data``."""
+
+    data: bytes
+    starts: np.ndarray
+    ends: np.ndarray
+
+    @classmethod
+    def of(cls, data: bytes) -> _LineBlock:
+        ends = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == ord("\n"))
+        return cls(data, np.concatenate([[0], ends[:-1] + 1]).astype(np.int64), ends)
 
 
 @dataclass(frozen=True)
 class _WrittenBody:
     """An `ObjSurface`'s body written once at ``reference`` positions, and the span ``[starts, ends)`` of
-    each ``v`` line in it: other positions rewrite only the lines whose values differ (bit for bit), since
-    an expression moves part of the face and a line's text depends on its own values alone."""
+    each ``v`` line in it (``ends``: its line feed): other positions rewrite only the lines whose values
+    differ (bit for bit)."""
 
     reference: np.ndarray
-    body: str
+    body: bytes
     starts: np.ndarray
     ends: np.ndarray
 
     def changed(self, vertices: np.ndarray) -> np.ndarray:
         """Indices of the vertices whose positions differ from the reference."""
-        return np.flatnonzero((vertices.view(np.int64) != self.reference.view(np.int64)).any(axis=1))
+        different = vertices.view(np.int64) != self.reference.view(np.int64)
+        return np.flatnonzero(different[:, 0] | different[:, 1] | different[:, 2])
 
-    def rewritten(self, changed: np.ndarray, rows: list[str]) -> str:
-        """The body with the ``v`` lines of the vertices ``changed`` (ascending) replaced by ``rows``."""
-        kept_from = [0, *self.ends[changed].tolist()]
-        kept_to = [*self.starts[changed].tolist(), len(self.body)]
-        joined: list[str] = [""] * (2 * len(rows) + 1)
-        joined[0::2] = [self.body[start:end] for start, end in zip(kept_from, kept_to, strict=True)]
-        joined[1::2] = rows
-        return "".join(joined)
+    def rewritten(self, changed: np.ndarray, block: _LineBlock) -> list[bytes]:
+        """The pieces of the body with the ``v`` lines of the vertices ``changed`` (ascending) replaced by
+        the lines of ``block``: a run of changed lines that follow each other in the body is one piece."""
+        if not len(changed):
+            return [self.body]
+        follows = self.ends[changed[:-1]] + 1 == self.starts[changed[1:]]
+        first = np.flatnonzero(np.concatenate([[True], ~follows]))
+        last = np.append(first[1:] - 1, len(changed) - 1)
+        kept_from = [0, *self.ends[changed[last]].tolist()]
+        kept_to = [*self.starts[changed[first]].tolist(), len(self.body)]
+        pieces: list[bytes] = [b""] * (2 * len(first) + 1)
+        pieces[0::2] = [self.body[start:end] for start, end in zip(kept_from, kept_to, strict=True)]
+        pieces[1::2] = [
+            block.data[start:end]
+            for start, end in zip(block.starts[first].tolist(), block.ends[last].tolist(), strict=True)
+        ]
+        return pieces
 
 
 def parse_surface(text: str, source: str) -> ObjSurface:
@@ -1358,7 +1392,12 @@ def read_surface(path: str | Path, *, root: str | Path | None = None) -> ObjSurf
 
 
 def coordinate_lines(vertices: np.ndarray, *, step: float = 0.0, single: bool = False) -> list[str]:
-    """``v x y z`` lines at the precision of the source.
+    """``v x y z`` lines at the precision of the source (`coordinate_block`, one string per line)."""
+    return coordinate_block(vertices, step=step, single=single).decode("ascii").split("\n")[:-1]
+
+
+def coordinate_block(vertices: np.ndarray, *, step: float = 0.0, single: bool = False) -> bytes:
+    """``v x y z`` lines at the precision of the source, each ending in a line feed (ASCII).
 
     Parameters
     ----------
@@ -1374,10 +1413,9 @@ def coordinate_lines(vertices: np.ndarray, *, step: float = 0.0, single: bool = 
     if step > 0:
         decimals = max(0, round(-math.log10(step)))
         values = np.round(vertices, decimals) + 0.0  # (+ 0.0 turns -0.0 into 0.0)
-        return (f"v %.{decimals}f %.{decimals}f %.{decimals}f\n" * len(values) % tuple(values.ravel())).split(
-            "\n"
-        )[:-1]
-    return vertex_lines_text(vertices, single=single).split("\n")[:-1]
+        line = f"v %.{decimals}f %.{decimals}f %.{decimals}f\n"
+        return (line * len(values) % tuple(values.ravel())).encode("ascii")
+    return vertex_lines(vertices, single=single)
 
 
 def rig_surface(rig: Rig) -> ObjSurface | None:
@@ -1524,6 +1562,6 @@ def plain_surface(rig: Rig) -> ObjSurface:
     """The `ObjSurface` of what a rig itself holds: its vertices and its polygons (``rig.faces``, else the
     triangles), for rigs that do not come from an OBJ."""
     faces = rig.faces if rig.faces is not None else rig.triangles
-    lines = ["v 0 0 0"] * rig.n_vertices + _face_text(faces).splitlines()
+    lines = ["v 0 0 0"] * rig.n_vertices + _face_lines(faces).decode("ascii").splitlines()
     source = str(rig.meta.get("source", "rig"))
     return ObjSurface(tuple(lines), np.arange(rig.n_vertices), ("",) * rig.n_vertices, source)

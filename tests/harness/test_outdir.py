@@ -23,6 +23,7 @@ from harness._outdir import (
     claim,
     file_sha256,
 )
+from rigs import StagedFile
 from rigs import _atomic as atomic
 
 
@@ -174,8 +175,8 @@ def test_a_failed_write_keeps_the_old_content_and_leaves_no_temporary_file(tmp_p
 
     monkeypatch.setattr(os, "fsync", disk_full)
     with pytest.raises(
-        OutputFolderError, match=f"{MANIFEST_NAME}: cannot write .No space left on device"
-    ) as error:  # (the manifest lists a file before it is written)
+        OutputFolderError, match="expressions.json: cannot write .No space left on device"
+    ) as error:  # (the file is written aside before the manifest lists it)
         folder.write_file("expressions.json", "new\n")
     assert "\n" not in str(error.value)
     assert (tmp_path / "out" / "expressions.json").read_text() == "old\n"
@@ -279,30 +280,61 @@ def test_several_files_are_listed_before_they_are_written_and_the_manifest_is_sa
     assert _listed(out) == folder.files
 
 
-def test_a_failed_write_keeps_the_earlier_entry_of_its_file_and_the_others_are_listed_as_written(
-    tmp_path, monkeypatch
-) -> None:
+def test_when_one_file_cannot_be_written_none_is_and_the_folder_is_as_it_was(tmp_path, monkeypatch) -> None:
     out = tmp_path / "out"
     folder = claim(out, kind="pack", force=False)
     folder.write_files({"first.obj": "old first\n", "second.obj": "old second\n"})
-    before = dict(folder.files)
-    original_write = outdir._write
+    before, listed = dict(folder.files), _listed(out)
+    original_stage = outdir.stage
 
-    def fail_on_the_second_file(path: Path, payload: bytes, **options: bool) -> Path:
+    def fail_on_the_second_file(path: Path, payload: bytes) -> StagedFile:
         if path.name in ("second.obj", "fourth.obj"):
-            raise OutputFolderError(f"{path}: cannot write (No space left on device)")
-        return original_write(path, payload, **options)
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return original_stage(path, payload)
 
-    monkeypatch.setattr(outdir, "_write", fail_on_the_second_file)
+    monkeypatch.setattr(outdir, "stage", fail_on_the_second_file)
     new = {"first.obj": "new first\n", "second.obj": "new second\n", "third.obj": "3\n", "fourth.obj": "4\n"}
     with pytest.raises(OutputFolderError, match="second.obj: cannot write"):  # (the first failure in order)
         folder.write_files(new)
-    assert (out / "first.obj").read_text() == "new first\n" and folder.owns("first.obj")
-    assert (out / "third.obj").read_text() == "3\n" and folder.owns("third.obj")
-    assert (out / "second.obj").read_text() == "old second\n" and folder.owns("second.obj")
-    assert folder.files["second.obj"] == before["second.obj"]
-    assert "fourth.obj" not in folder.files and not (out / "fourth.obj").exists()
-    assert _listed(out) == folder.files
+    kept = [(out / name).read_text() for name in ("first.obj", "second.obj")]
+    assert kept == ["old first\n", "old second\n"]
+    assert folder.files == before and _listed(out) == listed
+    assert sorted(path.name for path in out.iterdir()) == [MANIFEST_NAME, "first.obj", "second.obj"]
+
+
+def test_files_are_put_in_place_only_after_the_manifest_lists_them(tmp_path, monkeypatch) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+    folder.write_file("a.obj", "old\n")
+    original_save = OutputFolder.save
+
+    def full_disk_at_the_manifest(self: OutputFolder) -> Path:
+        assert (out / "a.obj").read_text() == "old\n" and not (out / "b.obj").exists()
+        raise OutputFolderError(f"{self.manifest}: cannot write (No space left on device)")
+
+    monkeypatch.setattr(OutputFolder, "save", full_disk_at_the_manifest)
+    with pytest.raises(OutputFolderError, match="cannot write"):
+        folder.write_files({"a.obj": "new\n", "b.obj": "b\n"})
+    monkeypatch.setattr(OutputFolder, "save", original_save)
+    assert (out / "a.obj").read_text() == "old\n" and folder.owns("a.obj") and "b.obj" not in folder.files
+    assert sorted(path.name for path in out.iterdir()) == [MANIFEST_NAME, "a.obj"]  # (nothing staged is left)
+
+
+def test_contents_that_fail_while_being_made_leave_nothing_behind(tmp_path) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+
+    def contents():
+        yield "a.obj", "a\n"
+        yield "sub/b.obj", "b\n"
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        folder.write_files(contents())
+    assert folder.files == {} and [path.name for path in out.rglob("*") if path.is_file()] == []
+    with pytest.raises(OutputFolderError, match="given twice"):
+        folder.write_files([("a.obj", "a\n"), ("a.obj", "again\n")])
+    assert [path.name for path in out.rglob("*") if path.is_file()] == []
 
 
 def test_several_files_sync_their_folders_once_each(tmp_path, monkeypatch) -> None:
