@@ -93,6 +93,11 @@ class CpSatSolver(ExactSolver):
         proto = _model_proto(cp_model_helper, model)
         parameters = cp_model_helper.SatParameters()
         set_parameters(parameters, time_limit, seed, self.workers)
+        # The model is presolved already (maximal conflict sets, no dominated items: `packing._presolve`):
+        # CP-SAT's further presolve rounds and probing find little in it and took a third of the time of
+        # the film preset's sequence (126 solves: 3.2 s, 2.3 s with one round and no probing, same optima).
+        parameters.max_presolve_iterations = 1
+        parameters.cp_model_probing_level = 0
         solver = cp_model_helper.SolveWrapper()
         solver.set_parameters(parameters)
         build_time = clock.lap()
