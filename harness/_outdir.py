@@ -30,6 +30,7 @@ import hashlib
 import json
 import os
 import warnings
+from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
@@ -51,6 +52,9 @@ class ChangedFileWarning(UserWarning):
 
 #: Output files hashed and written at once.
 FILE_WRITERS = min(4, os.cpu_count() or 1)
+#: Files whose content `OutputFolder.write_files` holds at once while writing contents that come one by
+#: one: the next file is made only once the one this many before it is written.
+IN_FLIGHT = 2 * FILE_WRITERS
 
 
 def _sha256(payload: bytes) -> str:
@@ -126,11 +130,12 @@ class OutputFolder:
 
         The contents may come one by one (pairs from a generator): each file is written to a temporary
         name beside its place (`rigs.stage`) and hashed as it comes, several at a time (`FILE_WRITERS`),
-        while the next is made. Once all are written, the manifest lists them with their hashes and is
-        saved (once), and only then are they renamed into place: a file appears under its name only when
-        the manifest already claims its content, so the harness never later replaces or removes a file it
-        did not write. When a file cannot be written (e.g. a full disk) or making the contents fails, the
-        staged files are removed and the folder and its manifest are as they were.
+        while the next is made (at most `IN_FLIGHT` are held in memory). Once all are written, the
+        manifest lists them with their hashes and is saved (once), and only then are they renamed into
+        place: a file appears under its name only when the manifest already claims its content, so the
+        harness never later replaces or removes a file it did not write. When a file cannot be written
+        (e.g. a full disk) or making the contents fails, the staged files are removed and the folder and
+        its manifest are as they were.
 
         Returns
         -------
@@ -170,6 +175,7 @@ class OutputFolder:
         """Name -> (staged file, SHA-256) of every pair, staged as the pairs come; on any failure none is
         left staged and the first failure in order is raised."""
         staging: dict[str, Future[tuple[StagedFile, str]]] = {}
+        waiting: deque[Future[tuple[StagedFile, str]]] = deque()
         try:
             with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
                 for name, data in pairs:
@@ -179,6 +185,9 @@ class OutputFolder:
                     self.check_free([name])
                     self._check_inside(name)
                     staging[name] = pool.submit(_staged, self.path / name, data)
+                    waiting.append(staging[name])
+                    if len(waiting) > IN_FLIGHT:  # (the contents of at most IN_FLIGHT files are held)
+                        waiting.popleft().exception()  # waits for the oldest
             return {name: future.result() for name, future in staging.items()}
         except BaseException:
             _discard(future.result()[0] for future in staging.values() if future.exception() is None)

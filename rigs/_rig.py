@@ -33,6 +33,10 @@ LARGEST_COORDINATE = 1e150
 _REAL_KINDS = "iuf"
 
 
+#: Vectors per thread below which `vector_lengths` is not split (starting a thread costs about 0.1 ms).
+THREADED_LENGTHS = 1 << 20
+
+
 def vector_lengths(vectors: np.ndarray) -> np.ndarray:
     """Euclidean length of every 3-vector of a (..., 3) array, e.g. the (K, N) ``|dv_k^n|`` of a rig's
     deltas (Carrigan et al. 2020, eq. 2): one pass without the temporaries of ``numpy.linalg.norm``.
@@ -44,7 +48,7 @@ def vector_lengths(vectors: np.ndarray) -> np.ndarray:
     if vectors.ndim == 1:
         return np.sqrt(np.dot(vectors, vectors))
     lengths = np.empty(vectors.shape[:-1])
-    parts = min(usable_cpus(), vectors.shape[0], -(-lengths.size // THREADED_LENGTHS))
+    parts = min(_usable_cpus(), vectors.shape[0], -(-lengths.size // THREADED_LENGTHS))
     if parts <= 1:
         return _lengths_into(vectors, lengths)
     bounds = np.linspace(0, vectors.shape[0], parts + 1).astype(int).tolist()
@@ -63,11 +67,7 @@ def bounding_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array([column.min() for column in columns]), np.array([column.max() for column in columns])
 
 
-#: Vectors per thread below which `vector_lengths` is not split (starting a thread costs about 0.1 ms).
-THREADED_LENGTHS = 1 << 20
-
-
-def usable_cpus() -> int:
+def _usable_cpus() -> int:
     """CPUs this process may run on (its affinity where the platform reports it)."""
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))

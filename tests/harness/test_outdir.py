@@ -6,6 +6,7 @@ import errno
 import json
 import os
 import tempfile
+import time
 import warnings
 from pathlib import Path
 
@@ -344,3 +345,25 @@ def test_several_files_sync_their_folders_once_each(tmp_path, monkeypatch) -> No
     folder.write_files({"a.obj": "a\n", "b.obj": "b\n", "sub/c.obj": "c\n", "sub/d.obj": "d\n"})
     # the manifest's save, then the two folders of the four files once each
     assert synced == [folder.path, folder.path, folder.path / "sub"]
+
+
+def test_contents_that_come_one_by_one_are_written_as_they_come(tmp_path, monkeypatch) -> None:
+    folder = claim(tmp_path / "out", kind="pack", force=False)
+    written: list[str] = []
+    original_stage = outdir.stage
+
+    def recording(path: Path, payload: bytes) -> StagedFile:
+        time.sleep(0.01)  # (a slow disk: contents would otherwise come far ahead of the writes)
+        written.append(path.name)
+        return original_stage(path, payload)
+
+    def contents():
+        for index in range(20):
+            # the file IN_FLIGHT places back is written before the next is made
+            assert index <= outdir.IN_FLIGHT or f"{index - outdir.IN_FLIGHT - 1}.obj" in written
+            yield f"{index}.obj", f"{index}\n"
+
+    monkeypatch.setattr(outdir, "stage", recording)
+    paths = folder.write_files(contents())
+    assert [path.name for path in paths] == [f"{index}.obj" for index in range(20)]
+    assert all(folder.owns(f"{index}.obj") for index in range(20))

@@ -8,8 +8,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
+import rigs
 from rigs import Rig, RigError
+from rigs import _rig as rig_module
 
 SQUARE = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
 TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]])
@@ -127,3 +130,24 @@ def test_random_valid_rigs_construct_and_subset_keeps_values(n_vertices, n_shape
     reordered = rig.subset(names[::-1])
     np.testing.assert_array_equal(reordered.deltas, deltas[::-1])
     assert reordered.names == names[::-1]
+
+
+@pytest.mark.parametrize("shape", [(3,), (0, 3), (7, 3), (5, 7, 3), (3, 400_000, 3), (1, 1_100_000, 3)])
+def test_vector_lengths_are_the_same_on_any_number_of_threads(monkeypatch, shape) -> None:
+    """Large arrays are split over threads (forced to three here); every length is bit for bit the one of a
+    single pass, which for contiguous vectors is the one of a plain ``einsum`` (as earlier releases)."""
+    vectors = np.random.default_rng(0).normal(size=shape)
+    monkeypatch.setattr(rig_module, "_usable_cpus", lambda: 1)
+    layouts = {"contiguous": vectors, "reversed": vectors[..., ::-1]}
+    single = {name: rigs.vector_lengths(layout) for name, layout in layouts.items()}
+    monkeypatch.setattr(rig_module, "_usable_cpus", lambda: 3)
+    for name, layout in layouts.items():
+        assert np.array_equal(rigs.vector_lengths(layout), single[name]), name
+    assert np.array_equal(single["contiguous"], np.sqrt(np.einsum("...d,...d->...", vectors, vectors)))
+    assert single["contiguous"].shape == shape[:-1]
+
+
+@given(hnp.arrays(np.float64, st.tuples(st.integers(1, 50), st.integers(1, 4)), elements=st.floats(-9, 9)))
+def test_bounding_box_is_the_columnwise_extent(points: np.ndarray) -> None:
+    low, high = rigs.bounding_box(points)
+    assert np.array_equal(low, points.min(axis=0)) and np.array_equal(high, points.max(axis=0))
