@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -439,11 +439,17 @@ def _refining(
 def _write(
     folder: OutputFolder, document: dict[str, Any], session: Iterable[tuple[str, str | bytes]]
 ) -> tuple[list[Path], list[str]]:
-    """Write the session's files, then ``expressions.json``, into the claimed folder, and remove what an
-    earlier packing left (files of more expressions). Returns the files (JSON first) and a warning for each
-    earlier file left in place because it was changed since."""
-    paths = folder.write_files(session)  # (put in place at once, so expressions.json comes after them all)
-    paths.insert(0, folder.write_file(EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"))
+    """Write the session's files and ``expressions.json`` into the claimed folder in one write (all or
+    none; ``expressions.json``, made once the others have filled in its ``files``, is put in place last),
+    then remove what an earlier packing left (files of more expressions). Returns the files (JSON first)
+    and a warning for each earlier file left in place because it was changed since."""
+
+    def contents() -> Iterator[tuple[str, str | bytes]]:
+        yield from session
+        yield EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"
+
+    paths = folder.write_files(contents())
+    paths.insert(0, paths.pop())
     names = [path.relative_to(folder.path).as_posix() for path in paths]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ChangedFileWarning)

@@ -15,6 +15,7 @@ import harness._pack
 import packing
 import rigs
 import solvers
+from harness._outdir import MANIFEST_NAME, OutputFolder
 from tests.harness import cli_helpers
 from tests.harness.cli_helpers import assert_one_line_error, flat, invoke
 
@@ -278,3 +279,27 @@ def test_rigs_info_warns_about_twins_that_cancel(tiny, tmp_path) -> None:
     table = invoke("rigs", "info", path)
     assert table.exit_code == 0 and "warning: combining jawLeft and jawRight" in flat(table.output)
     assert json.loads(invoke("rigs", "info", "tiny", "--json").output)["cancelling_twins"] == []
+
+
+def test_a_packing_is_put_in_place_at_once_with_expressions_json_last(tmp_path, monkeypatch) -> None:
+    placed: list[str] = []
+    saves: list[int] = []
+    original_commit, original_save = rigs.StagedFile.commit, OutputFolder.save
+
+    def commit(self: rigs.StagedFile, **options: bool) -> Path:
+        if self.path.name != MANIFEST_NAME:
+            placed.append(self.path.name)
+        return original_commit(self, **options)
+
+    def save(self: OutputFolder) -> Path:
+        saves.append(len(placed))
+        return original_save(self)
+
+    monkeypatch.setattr(rigs.StagedFile, "commit", commit)
+    monkeypatch.setattr(OutputFolder, "save", save)
+    document, _ = pack("tiny", tmp_path / "out")
+    files = [expression["files"]["mesh"] for expression in document["expressions"]]
+    assert placed[-1] == "expressions.json" and set(files) <= set(placed)
+    assert saves == [0, len(placed)]  # listed before any is in place; then the removal of stale files
+    listed = json.loads((tmp_path / "out" / MANIFEST_NAME).read_text())["files"]
+    assert sorted(listed) == sorted(name for name in contents(tmp_path / "out") if name != MANIFEST_NAME)
