@@ -1237,6 +1237,8 @@ class ObjSurface:
             written = self._written[step, single] = self._write_all(vertices, step, single)
             return header + written.body
         changed = written.changed(vertices)
+        if not len(changed):
+            return header + written.body
         return b"".join([header, *written.rewritten(changed, self._block(vertices, step, single, changed))])
 
     def _block(
@@ -1291,7 +1293,9 @@ class _LineBlock:
     @classmethod
     def of(cls, data: bytes) -> _LineBlock:
         ends = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == ord("\n"))
-        return cls(data, np.concatenate([[0], ends[:-1] + 1]).astype(np.int64), ends)
+        starts = np.zeros(len(ends), dtype=np.int64)
+        starts[1:] = ends[:-1] + 1
+        return cls(data, starts, ends)
 
 
 @dataclass(frozen=True)
@@ -1311,10 +1315,9 @@ class _WrittenBody:
         return np.flatnonzero(different[:, 0] | different[:, 1] | different[:, 2])
 
     def rewritten(self, changed: np.ndarray, block: _LineBlock) -> list[bytes]:
-        """The pieces of the body with the ``v`` lines of the vertices ``changed`` (ascending) replaced by
-        the lines of ``block``: a run of changed lines that follow each other in the body is one piece."""
-        if not len(changed):
-            return [self.body]
+        """The pieces of the body with the ``v`` lines of the vertices ``changed`` (ascending, at least one)
+        replaced by the lines of ``block``: a run of changed lines that follow each other in the body is
+        one piece."""
         follows = self.ends[changed[:-1]] + 1 == self.starts[changed[1:]]
         first = np.flatnonzero(np.concatenate([[True], ~follows]))
         last = np.append(first[1:] - 1, len(changed) - 1)
