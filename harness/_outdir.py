@@ -92,6 +92,29 @@ def _discard(entries: Iterable[StagedFile]) -> None:
         entry.discard()
 
 
+def _signature(path: Path) -> tuple[int, int, int] | None:
+    """Inode, size and modification time of what is at ``path`` (not following a link); None for nothing."""
+    try:
+        status = os.lstat(path)
+    except FileNotFoundError:
+        return None
+    return status.st_ino, status.st_size, status.st_mtime_ns
+
+
+def _missing_folders(path: Path, root: Path, known: Iterable[Path]) -> list[Path]:
+    """The folders between ``root`` and ``path`` that do not exist yet (and are not in ``known``),
+    outermost first."""
+    missing = [folder for folder in path.parents if root in folder.parents and not folder.exists()]
+    return [folder for folder in reversed(missing) if folder not in known]
+
+
+def _remove_empty(folders: Iterable[Path]) -> None:
+    """Remove the ``folders`` a failed write made, innermost first, where they are still empty."""
+    for folder in sorted(folders, key=lambda path: len(path.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
 def file_sha256(path: Path) -> str:
     """Hex SHA-256 of a file's content, read in blocks."""
     digest = hashlib.sha256()
@@ -148,50 +171,78 @@ class OutputFolder:
             When a name exists and is not this session's unchanged file, comes twice, or a write fails
             (naming the file and the reason; the first failure in order).
         """
-        staged = self._stage_all(contents.items() if isinstance(contents, Mapping) else contents)
-        names = list(staged)
-        earlier = {name: self.files.get(name) for name in names}
-        for name in names:
-            self.files[name] = {"kind": self.kind, "sha256": staged[name][1]}
-        try:
-            self.save()
-        except OutputFolderError:
-            self._restore(earlier, names)
-            _discard(entry for entry, _ in staged.values())
-            raise
+        pairs = contents.items() if isinstance(contents, Mapping) else contents
+        created: list[Path] = []  # folders this write makes, removed again (when empty) if it fails
+        staged: dict[str, tuple[StagedFile, str]] = {}
+        earlier: dict[str, dict[str, str] | None] | None = None
+        placing: StagedFile | None = None
         written = []
-        for index, name in enumerate(names):
-            entry = staged[name][0]
-            try:
-                written.append(entry.commit(sync_folder=False))
-            except OSError as error:  # (the rename failed: the file and those after it are not in place)
-                _discard(staged[later][0] for later in names[index + 1 :])
-                self._restore(earlier, names[index:])
-                raise _write_error(entry.path, error) from None
+        try:
+            staged = self._stage_all(pairs, created)
+            names = list(staged)
+            earlier = {name: self.files.get(name) for name in names}
+            for name in names:
+                self.files[name] = {"kind": self.kind, "sha256": staged[name][1]}
+            self.save()
+            for name in names:
+                placing = staged[name][0]
+                written.append(placing.commit(sync_folder=False))
+        except BaseException as error:
+            unplaced = [name for name, (entry, _) in staged.items() if entry.temporary.exists()]
+            _discard(staged[name][0] for name in unplaced)
+            if earlier is not None:
+                self._restore(earlier, unplaced)
+            _remove_empty(created)
+            if isinstance(error, OSError) and placing is not None:  # (a rename failed)
+                raise _write_error(placing.path, error) from None
+            raise
         sync_folders(written)
         return written
 
-    def _stage_all(self, pairs: Iterable[tuple[str, bytes | str]]) -> dict[str, tuple[StagedFile, str]]:
-        """Name -> (staged file, SHA-256) of every pair, staged as the pairs come; on any failure none is
-        left staged and the first failure in order is raised."""
+    def _stage_all(
+        self, pairs: Iterable[tuple[str, bytes | str]], created: list[Path]
+    ) -> dict[str, tuple[StagedFile, str]]:
+        """Name -> (staged file, SHA-256) of every pair, staged as the pairs come (the folders made for
+        them are added to ``created``); then every name is checked again where something changed at it
+        while the contents were made. On any failure none is left staged and the first failure in order
+        (or the failure that stopped the contents) is raised."""
         staging: dict[str, Future[tuple[StagedFile, str]]] = {}
         waiting: deque[Future[tuple[StagedFile, str]]] = deque()
+        seen: dict[str, tuple[int, int, int] | None] = {}
+        folders: set[str] = set()
         try:
             with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
                 for name, data in pairs:
-                    name = _checked_name(name)
-                    if name in staging:
-                        raise OutputFolderError(f"{self.path / name}: given twice in one write")
-                    self.check_free([name])
-                    self._check_inside(name)
+                    name = self._checked_new_name(name, staging, folders)
+                    seen[name] = _signature(self.path / name)
+                    created += _missing_folders(self.path / name, self.path, created)
                     staging[name] = pool.submit(_staged, self.path / name, data)
                     waiting.append(staging[name])
                     if len(waiting) > IN_FLIGHT:  # (the contents of at most IN_FLIGHT files are held)
-                        waiting.popleft().exception()  # waits for the oldest
-            return {name: future.result() for name, future in staging.items()}
+                        failure = waiting.popleft().exception()  # waits for the oldest
+                        if failure is not None:
+                            raise failure
+            staged = {name: future.result() for name, future in staging.items()}
+            # a file that appeared or changed at a name while the contents were made is checked again
+            self.check_free(name for name, before in seen.items() if _signature(self.path / name) != before)
+            return staged
         except BaseException:
             _discard(future.result()[0] for future in staging.values() if future.exception() is None)
             raise
+
+    def _checked_new_name(self, name: object, taken: Mapping[str, object], folders: set[str]) -> str:
+        """``name`` checked (`_checked_name`, free, inside the folder) and against the names ``taken``
+        earlier in the same write and their ``folders`` (a name may not be both a file and a folder)."""
+        name = _checked_name(name)
+        parents = [str(parent) for parent in PurePosixPath(name).parents][:-1]
+        if name in taken:
+            raise OutputFolderError(f"{self.path / name}: given twice in one write")
+        if name in folders or any(parent in taken for parent in parents):
+            raise OutputFolderError(f"{self.path / name}: both a file and a folder in one write")
+        folders.update(parents)
+        self.check_free([name])
+        self._check_inside(name)
+        return name
 
     def _restore(self, earlier: Mapping[str, dict[str, str] | None], names: Iterable[str]) -> None:
         """Give ``names`` back their ``earlier`` entries (none: unlisted) and save the manifest if it can

@@ -207,16 +207,18 @@ def cli() -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point (``harness = harness.cli:main``).
+    """Console-script entry point (``harness = harness.cli:main``); ``argv`` defaults to the process's.
 
-    The command ends the process (``SystemExit``). Before it does, every object is moved out of the
-    garbage collector's reach (``gc.freeze``): the interpreter's last collections at exit would otherwise
-    traverse everything NumPy, SciPy, Arrow and OR-Tools loaded, about 60 ms, a sixth of a whole
-    ``harness pack`` of a small rig. Exit handlers and finalizers still run; only cyclic garbage left at
-    exit is not collected, which the process's end frees anyway.
+    The command ends the process (``SystemExit``). Run as the console script (no ``argv``), every object
+    is first moved out of the garbage collector's reach (``gc.freeze``): the interpreter's last
+    collections at exit would otherwise traverse everything NumPy, SciPy, Arrow and OR-Tools loaded, about
+    60 ms, a sixth of a whole ``harness pack`` of a small rig. Exit handlers still run; cyclic garbage
+    left at exit is neither collected nor finalized (the commands close their files and workers
+    themselves, and the process's end frees the memory).
     """
     try:
         cli.main(args=argv, prog_name="harness")
     except SystemExit:
-        gc.freeze()
+        if argv is None:
+            gc.freeze()
         raise

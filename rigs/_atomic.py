@@ -53,7 +53,12 @@ def atomic_write(
     OSError
         When the folder is not writable or the disk is full (``path`` is then unchanged).
     """
-    return stage(path, data).commit(sync_folder=sync_folder)
+    staged = stage(path, data)
+    try:
+        return staged.commit(sync_folder=sync_folder)
+    except BaseException:
+        staged.discard()
+        raise
 
 
 @dataclass(frozen=True)
@@ -66,12 +71,9 @@ class StagedFile:
 
     def commit(self, *, sync_folder: bool = True) -> Path:
         """Rename the staged content over ``path`` (atomic) and, with ``sync_folder``, flush the folder's
-        entry; returns ``path``. On failure the staged file is removed and ``path`` is unchanged."""
-        try:
-            os.replace(self.temporary, self.path)
-        except BaseException:
-            self.discard()
-            raise
+        entry; returns ``path``. When the rename fails, ``path`` is unchanged and the staged file stays
+        (`discard` it): whether ``temporary`` still exists tells whether the content was put in place."""
+        os.replace(self.temporary, self.path)
         if sync_folder:
             _sync_folder(self.path.parent)
         return self.path

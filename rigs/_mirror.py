@@ -238,7 +238,8 @@ def _as_plane(plane: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndar
 
 def _distinct_rows(points: np.ndarray) -> np.ndarray:
     """The distinct rows of (N, 3) ``points`` in lexicographic order, as ``numpy.unique(points, axis=0)``
-    gives them (a sort by the three columns, several times faster than its sort of whole rows)."""
+    gives them (a sort by the three columns, several times faster than its sort of whole rows). Of rows
+    equal but for the sign of a zero, the first in that order is kept, which ``numpy.unique`` leaves open."""
     ordered = points[np.lexsort(points.T[::-1])]
     new = np.ones(len(ordered), dtype=bool)
     new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)

@@ -46,7 +46,7 @@ def vector_lengths(vectors: np.ndarray) -> np.ndarray:
     """
     vectors = np.asarray(vectors, dtype=np.float64)
     if vectors.ndim == 1:
-        return np.sqrt(np.dot(vectors, vectors))
+        return np.sqrt(np.einsum("d,d->", vectors, vectors))
     lengths = np.empty(vectors.shape[:-1])
     parts = min(_usable_cpus(), vectors.shape[0], -(-lengths.size // THREADED_LENGTHS))
     if parts <= 1:
@@ -75,8 +75,13 @@ def _usable_cpus() -> int:
 
 
 def _lengths_into(vectors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Fill ``lengths`` (the shape of ``vectors`` without its last axis) with the vectors' lengths."""
-    np.einsum("...d,...d->...", vectors, vectors, out=lengths)
+    """Fill ``lengths`` (the shape of ``vectors`` without its last axis) with the vectors' lengths, as a
+    plain ``einsum`` sums them (into ``lengths`` directly only for contiguous vectors, where that gives the
+    same sums)."""
+    if vectors.flags.c_contiguous:
+        np.einsum("...d,...d->...", vectors, vectors, out=lengths)
+    else:
+        lengths[...] = np.einsum("...d,...d->...", vectors, vectors)
     return np.sqrt(lengths, out=lengths)
 
 

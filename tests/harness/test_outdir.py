@@ -367,3 +367,88 @@ def test_contents_that_come_one_by_one_are_written_as_they_come(tmp_path, monkey
     paths = folder.write_files(contents())
     assert [path.name for path in paths] == [f"{index}.obj" for index in range(20)]
     assert all(folder.owns(f"{index}.obj") for index in range(20))
+
+
+def _interrupt_at(point: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C at ``point`` of a write: the manifest's folder sync (after the manifest is replaced), the
+    second rename of a file just after it happened, or just before it."""
+    calls: list[str] = []
+    original_replace, original_sync = os.replace, atomic._sync_folder
+
+    def replace(source, target) -> None:
+        if Path(target).name == MANIFEST_NAME:
+            return original_replace(source, target)
+        calls.append(str(target))
+        if point == "before a rename" and len(calls) == 2:
+            raise KeyboardInterrupt
+        original_replace(source, target)
+        if point == "after a rename" and len(calls) == 2:
+            raise KeyboardInterrupt
+
+    def sync(folder: Path) -> None:
+        if point == "in the manifest's save" and not calls:
+            calls.append("sync")
+            raise KeyboardInterrupt
+        original_sync(folder)
+
+    monkeypatch.setattr(os, "replace", replace)
+    monkeypatch.setattr(atomic, "_sync_folder", sync)
+
+
+@pytest.mark.parametrize("point", ["in the manifest's save", "after a rename", "before a rename"])
+def test_an_interrupted_write_leaves_every_listed_file_as_listed(tmp_path, monkeypatch, point) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+    folder.write_files({"a.obj": "old a\n", "b.obj": "old b\n"})
+    _interrupt_at(point, monkeypatch)
+    with pytest.raises(KeyboardInterrupt):
+        folder.write_files({"a.obj": "new a\n", "b.obj": "new b\n", "sub/c.obj": "c\n"})
+    monkeypatch.undo()
+    again = claim(out, kind="pack", force=True)
+    assert all(again.owns(name) for name in _listed(out))  # what the manifest claims is on disk
+    assert not [path for path in out.rglob("*") if path.name.endswith(".tmp")]
+    assert not (out / "sub").exists() or (out / "sub" / "c.obj").exists()
+    again.write_files({"a.obj": "x\n", "b.obj": "y\n", "sub/c.obj": "z\n"})  # (a --force rerun works)
+
+
+def test_a_file_made_at_a_name_while_the_contents_are_made_is_not_replaced(tmp_path) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+
+    def contents():
+        yield "mine.obj", "harness\n"
+        (out / "mine.obj").write_text("the user's file\n")
+        yield "other.obj", "harness\n"
+
+    with pytest.raises(OutputFolderError, match="mine.obj: exists and was not written by harness pack"):
+        folder.write_files(contents())
+    assert (out / "mine.obj").read_text() == "the user's file\n"
+    assert sorted(path.name for path in out.iterdir()) == ["mine.obj"] and folder.files == {}
+
+
+def test_a_failed_file_stops_the_contents_and_its_folders_are_removed(tmp_path, monkeypatch) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="pack", force=False)
+    made: list[int] = []
+
+    def full_disk(path: Path, payload: bytes) -> StagedFile:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def contents():
+        for index in range(30):
+            made.append(index)
+            yield f"deep/er/{index}.obj", f"{index}\n"
+
+    monkeypatch.setattr(outdir, "stage", full_disk)
+    with pytest.raises(OutputFolderError, match=r"deep/er/0\.obj: cannot write .No space left on device"):
+        folder.write_files(contents())
+    assert len(made) <= outdir.IN_FLIGHT + 1  # (not every content was made)
+    assert list(out.iterdir()) == [] and folder.files == {}
+
+
+def test_a_name_cannot_be_both_a_file_and_a_folder_in_one_write(tmp_path) -> None:
+    folder = claim(tmp_path / "out", kind="pack", force=False)
+    for names in (["d/e.obj", "d"], ["d", "d/e.obj"]):
+        with pytest.raises(OutputFolderError, match="both a file and a folder"):
+            folder.write_files([(name, "x\n") for name in names])
+        assert list((tmp_path / "out").iterdir()) == []
