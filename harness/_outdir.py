@@ -61,11 +61,11 @@ def _sha256(payload: bytes) -> str:
     return hashlib.sha256(payload).hexdigest()
 
 
-def _write(path: Path, payload: bytes, *, sync_folder: bool = True) -> Path:
+def _write(path: Path, payload: bytes) -> Path:
     """`atomic_write` into the output folder, creating subfolders; a failure is one `OutputFolderError`."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        return atomic_write(path, payload, sync_folder=sync_folder)
+        return atomic_write(path, payload)
     except OSError as error:
         raise _write_error(path, error) from None
 
@@ -214,9 +214,10 @@ class OutputFolder:
             with ThreadPoolExecutor(FILE_WRITERS) as pool:  # (hashing and writing run outside the lock)
                 for name, data in pairs:
                     name = self._checked_new_name(name, staging, folders)
-                    seen[name] = _signature(self.path / name)
-                    created += _missing_folders(self.path / name, self.path, created)
-                    staging[name] = pool.submit(_staged, self.path / name, data)
+                    path = self.path / name
+                    seen[name] = _signature(path)
+                    created += _missing_folders(path, self.path, created)
+                    staging[name] = pool.submit(_staged, path, data)
                     waiting.append(staging[name])
                     if len(waiting) > IN_FLIGHT:  # (the contents of at most IN_FLIGHT files are held)
                         failure = waiting.popleft().exception()  # waits for the oldest

@@ -139,11 +139,11 @@ def _pictures(
         colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
         fills = triangle_colours(rig.triangles, active[rig.indices([entry[1] for entry in legend])], colours)
         words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
+        posed = rig.neutral + delta
         for view, camera in cameras.items():
             path = f"{PICTURES}/{name}_{view}.png"
             title = f"{index}. {view.replace('_', '-')}"
             expression["files"][view] = path
-            posed = rig.neutral + delta
             yield path, picture(posed, rig.triangles, camera, fills, words, colours, title=title)
 
 

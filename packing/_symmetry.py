@@ -426,9 +426,13 @@ def _candidate_pairs(
     shape_sums, shape_counts, shape_present = _cell_sums(
         rows, cell[cols], field.moved, candidates, n_shapes, n_cells
     )
-    image_moved = np.take(field.moved, source, axis=0)
     image_sums, image_counts, image_present = _cell_sums(
-        mirrored_rows, cell[mirrored_cols], image_moved, candidates, n_shapes, n_cells
+        mirrored_rows,
+        cell[mirrored_cols],
+        np.take(field.moved, source, axis=0),  # (a temporary: freed before the pairs are visited)
+        candidates,
+        n_shapes,
+        n_cells,
     )
     image_sums = image_sums @ field.reflection  # R is linear: the sum of the reflections
     shape_norms = np.linalg.norm(shape_sums, axis=1)
