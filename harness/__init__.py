@@ -17,6 +17,7 @@ import lazy_loader
 if TYPE_CHECKING:
     from harness._claims import claims_table
     from harness._durations import format_duration, parse_duration
+    from harness._environment import commits_since
     from harness._executors import DaskExecutor, LocalExecutor
     from harness._grid import DEFAULT_J_VALUES, PRESETS, CellSpec, RunConfig
     from harness._overlap import GROUP_COLUMNS, OVERLAP_COLUMNS, overlap_table
@@ -30,6 +31,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_claims": ["claims_table"],
         "_durations": ["format_duration", "parse_duration"],
+        "_environment": ["commits_since"],
         "_executors": ["DaskExecutor", "LocalExecutor"],
         "_grid": ["DEFAULT_J_VALUES", "PRESETS", "CellSpec", "RunConfig"],
         "_overlap": ["GROUP_COLUMNS", "OVERLAP_COLUMNS", "overlap_table"],

@@ -40,22 +40,36 @@ def versions() -> dict[str, str | None]:
     return found
 
 
+def _git(*args: str, directory: Path | None = None) -> str | None:
+    """Output of a git command in the checkout holding the harness package, or None when it fails."""
+    try:
+        done = subprocess.run(
+            ["git", *args],
+            cwd=directory or Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return done.stdout.strip()
+
+
 def git_state(directory: Path | None = None) -> dict[str, str | bool | None]:
     """Commit and dirtiness of the git checkout holding the harness package (None outside a checkout)."""
-    directory = directory or Path(__file__).resolve().parent
-
-    def git(*args: str) -> str | None:
-        try:
-            done = subprocess.run(
-                ["git", *args], cwd=directory, capture_output=True, text=True, timeout=10, check=True
-            )
-        except (OSError, subprocess.SubprocessError):
-            return None
-        return done.stdout.strip()
-
-    commit = git("rev-parse", "HEAD")
-    status = git("status", "--porcelain") if commit else None
+    commit = _git("rev-parse", "HEAD", directory=directory)
+    status = _git("status", "--porcelain", directory=directory) if commit else None
     return {"commit": commit, "dirty": None if status is None else bool(status)}
+
+
+def commits_since(commit: str, directory: Path | None = None) -> int | None:
+    """How many commits HEAD of the harness's checkout is ahead of ``commit``: 0 at it, None when
+    ``commit`` is not an ancestor of HEAD (another branch, rewritten history) or there is no checkout."""
+    if not commit or _git("merge-base", "--is-ancestor", commit, "HEAD", directory=directory) is None:
+        return None
+    count = _git("rev-list", "--count", f"{commit}..HEAD", directory=directory)
+    return None if count is None else int(count)
 
 
 def machine() -> dict[str, str | int | None]:

@@ -434,7 +434,7 @@ def compare(
     new: str | os.PathLike,
     *,
     threshold: float = 0.25,
-    tolerance: float = 1e-9,
+    tolerance: float = 1e-7,
     min_time: float = 0.01,
     history: str | os.PathLike | None = None,
     window: int = 10,

@@ -15,6 +15,7 @@ from reports._layout import HISTORY_FILE, REPORT_DIR
 
 if TYPE_CHECKING:
     import pandas as pd
+    from rich.console import Console
 
 
 class InputError(click.ClickException):
@@ -79,9 +80,15 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
 @click.option(
     "--tolerance",
     type=click.FloatRange(min=0),
-    default=1e-9,
+    default=1e-7,
     show_default=True,
-    help="Relative change above which a quality figure (objective, coverage, RMS) counts as changed.",
+    help="Relative change above which a quality figure (objective, coverage, RMS) counts as changed "
+    "(benchmarks/README.md derives the default from the numerics).",
+)
+@click.option(
+    "--fresh-baseline",
+    is_flag=True,
+    help="Fail (exit 1) when OLD is a run made from a dirty tree or at a commit outside HEAD's history.",
 )
 @click.option(
     "--min-time",
@@ -146,6 +153,7 @@ def compare(
     window: int,
     spread: float,
     min_runs: int,
+    fresh_baseline: bool,
 ) -> None:
     from rich.console import Console
 
@@ -173,6 +181,7 @@ def compare(
         raise InputError(str(error)) from None
     console = Console(width=160)
     console.print(comparison_table(comparison, fail_on_time=fail_on_time, only_changes=only_changes))
+    stale = _baseline_stale(old, console)
     regressions = comparison.regressions(fail_on_time=fail_on_time)
     if figures is not None and not regressions:  # a run that fails its comparison is not history
         _append(history, figures, new)
@@ -181,10 +190,21 @@ def compare(
     judged = sum(change.spread is not None for change in comparison.changes)
     summary = f"{compared} metrics compared: {len(regressions)} regressions, {len(warnings)} timing warnings"
     summary += f" ({judged} times judged by the history)" if comparison.history else ""
-    if regressions:
-        console.print(f"[bold red]FAIL[/] {summary}")
+    if regressions or (stale and fresh_baseline):
+        console.print(f"[bold red]FAIL[/] {summary}" + ("; the baseline is stale" if stale else ""))
         click.get_current_context().exit(1)
     console.print(f"[green]OK[/] {summary}")
+
+
+def _baseline_stale(old: Path, console: Console) -> bool:
+    """Print where the run ``old`` was made (nothing for a benchmark file); whether it is stale."""
+    from reports._provenance import provenance
+
+    if not old.is_dir():
+        return False
+    found = provenance(old)
+    console.print(found.describe(), style="yellow" if found.stale else "dim", highlight=False)
+    return found.stale
 
 
 def _append(history: Path, figures: pd.DataFrame, new: Path) -> None:

@@ -14,9 +14,15 @@ assumes. A scanned actor is not that linear model. `scan_expressions` adds what 
 2. **Measurement noise** at scanner level: Gaussian per vertex, smoothed over a few rings of neighbours as
    registering a template to a scan smooths it, then rescaled to the requested standard deviation.
 3. **Rigid head motion** between scans, small rotation and translation, which the pipeline removes by
-   rigid alignment (Kabsch) onto the neutral of the vertices the expression's own shapes move least, as a
-   capture pipeline stabilises a scan on the skin the requested pose leaves still. That skin is not quite
-   still (smoothing zones, noise, correctives), so some misalignment remains.
+   rigid alignment (weighted Kabsch) onto the neutral of the vertices the expression's own shapes move
+   least, as a capture pipeline stabilises a scan on the skin the requested pose leaves still. That skin is
+   not quite still (smoothing zones, noise, correctives), so some misalignment remains.
+
+   The alignment weights are a continuous function of the motion (`alignment_weights`), not a hard
+   selection of the least-moved vertices: a hard cut at the ``stable_share`` quantile lets a last-bit
+   difference of the motion (another CPU's SIMD kernels), or the order in which a partition breaks a tie,
+   swap vertices in or out of the set, which moved the transfer RMS by 1e-3 relative between machines.
+   With a ramp, such a difference moves a weight by a last bit too.
 
 The correctives belong to the actor (seeded by the shapes' names only, the same in every session); the
 noise and head motion belong to the capture session (seeded by ``seed`` and the expression's index).
@@ -71,7 +77,8 @@ class ScanModel:
     translation : float >= 0, default 0.004
         Largest head translation between scans, as a fraction of the bounding-box diagonal.
     stable_share : float in (0, 1], default 0.25
-        Share of the vertices used for the rigid alignment: those the expression's shapes move least.
+        Share of the vertices the rigid alignment rests on: those the expression's shapes move least
+        (`alignment_weights` ramps their weights down towards the last of them).
     """
 
     corrective: float = 0.5
@@ -212,7 +219,7 @@ class _Scanner:
             scan = scan + self.noise(rng)
         if self.model.rotation or self.model.translation:
             scan = self.moved(scan, rng)
-        return self.aligned(scan, self.stable(weights))
+        return self.aligned(scan, alignment_weights(np.abs(weights) @ self.motion, self.n_stable))
 
     def corrective(self, weights: np.ndarray) -> np.ndarray:
         """Sum of the pair correctives of the shapes with nonzero weight."""
@@ -256,21 +263,49 @@ class _Scanner:
         shift *= self.model.translation * self.diagonal * rng.uniform() / np.linalg.norm(shift)
         return turn.apply(scan - self.centre) + self.centre + shift
 
-    def stable(self, weights: np.ndarray) -> np.ndarray:
-        """The vertices the expression's own shapes move least: the actor poses a known combination of
-        shapes, so the pipeline knows which skin should stay put."""
-        moved = np.abs(weights) @ self.motion
-        return np.sort(np.argpartition(moved, self.n_stable - 1)[: self.n_stable])
-
-    def aligned(self, scan: np.ndarray, stable: np.ndarray) -> np.ndarray:
-        """Kabsch alignment of the scan's ``stable`` vertices onto the neutral's (rotation, translation)."""
+    def aligned(self, scan: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Weighted Kabsch alignment of the scan onto the neutral (rotation, translation), ``weights`` per
+        vertex as `alignment_weights` gives them."""
         from scipy.spatial.transform import Rotation
 
-        reference = self.neutral[stable]
-        moving = scan[stable]
-        reference_centre, moving_centre = reference.mean(axis=0), moving.mean(axis=0)
-        turn, _ = Rotation.align_vectors(reference - reference_centre, moving - moving_centre)
+        used = np.flatnonzero(weights)
+        share = weights[used] / weights[used].sum()
+        reference, moving = self.neutral[used], scan[used]
+        reference_centre, moving_centre = share @ reference, share @ moving
+        turn, _ = Rotation.align_vectors(reference - reference_centre, moving - moving_centre, weights=share)
         return turn.apply(scan - moving_centre) + reference_centre
+
+
+def alignment_weights(moved: np.ndarray, n_stable: int) -> np.ndarray:
+    """Rigid-alignment weight of each vertex from how far the expression moves it.
+
+    The ``n_stable`` least-moved vertices are the skin a capture pipeline stabilises on: with ``q`` the
+    ``n_stable``-th smallest motion, a vertex weighs ``clip(2 (1 - moved / q), 0, 1)``, 1 up to ``q / 2``
+    and falling linearly to 0 at ``q``. When ``q`` is 0 (more than ``n_stable`` vertices do not move at
+    all), or no vertex moves less than ``q``, the vertices at ``q`` weigh 1.
+
+    Parameters
+    ----------
+    moved : (N,) array of float >= 0
+        Summed displacement length of the expression's shapes at each vertex.
+    n_stable : int in [1, N]
+        How many least-moved vertices the alignment rests on.
+
+    Returns
+    -------
+    (N,) float array in [0, 1], with at least one positive entry.
+
+    Notes
+    -----
+    The weights are continuous in ``moved``: unlike a hard selection of the ``n_stable`` smallest, a
+    last-bit change of any motion, or a tie broken another way by a partition, changes the alignment by a
+    last bit, so scans agree between machines whose numpy kernels round differently. O(N) time.
+    """
+    level = float(np.partition(moved, n_stable - 1)[n_stable - 1])
+    weights = np.clip(2.0 * (1.0 - moved / level), 0.0, 1.0) if level > 0.0 else np.zeros(moved.shape)
+    if not weights.any():  # no motion is below the level: those at it (every still vertex when it is 0)
+        weights = (moved <= level).astype(np.float64)
+    return weights
 
 
 def _pair_coefficients(first: str, second: str) -> tuple[float, float]:
