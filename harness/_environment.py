@@ -56,10 +56,20 @@ def _git(*args: str, directory: Path | None = None) -> str | None:
     return done.stdout.strip()
 
 
-def git_state(directory: Path | None = None) -> dict[str, str | bool | None]:
-    """Commit and dirtiness of the git checkout holding the harness package (None outside a checkout)."""
+def git_state(directory: Path | None = None, *, output: Path | None = None) -> dict[str, str | bool | None]:
+    """Commit and dirtiness of the git checkout holding the harness package (None outside a checkout).
+
+    Files under ``output`` (the run's own folder, e.g. a baseline committed in the checkout) do not make the
+    tree dirty: the run is writing them.
+    """
     commit = _git("rev-parse", "HEAD", directory=directory)
-    status = _git("status", "--porcelain", directory=directory) if commit else None
+    if not commit:
+        return {"commit": None, "dirty": None}
+    pathspec = []
+    top = _git("rev-parse", "--show-toplevel", directory=directory)
+    if output is not None and top and Path(output).resolve().is_relative_to(Path(top).resolve()):
+        pathspec = ["--", ":/", f":(top,exclude){Path(output).resolve().relative_to(Path(top).resolve())}"]
+    status = _git("status", "--porcelain", *pathspec, directory=directory)
     return {"commit": commit, "dirty": None if status is None else bool(status)}
 
 

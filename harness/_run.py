@@ -452,7 +452,7 @@ def _run_locked(
     try:
         if previous is None:
             remove_previous(folder)
-        info = previous or _new_run_info(config, solver_infos, command)
+        info = previous or _new_run_info(out, config, solver_infos, command)
         if previous is not None:
             info["state"], info["finished"] = "running", None
             info["resumed"] = [*info.get("resumed", []), now()]
@@ -493,7 +493,7 @@ def _run_locked(
 
 
 def _new_run_info(
-    config: RunConfig, solver_infos: dict[str, PluginInfo], command: list[str] | None
+    out: Path, config: RunConfig, solver_infos: dict[str, PluginInfo], command: list[str] | None
 ) -> dict[str, Any]:
     """The ``run.json`` of a new run (see the module docstring for the keys)."""
     return {
@@ -508,7 +508,7 @@ def _new_run_info(
             "solvers": {name: plugins.listing(item) for name, item in solver_infos.items()},
             "transfers": {name: plugins.listing(plugins.transfer_info(name)) for name in config.transfers},
         },
-        "git": environment.git_state(),
+        "git": environment.git_state(output=out),
         "machine": environment.machine(),
         "started": now(),
         "finished": None,
