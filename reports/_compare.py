@@ -1,11 +1,10 @@
 """Comparing two runs (record directories) or two pytest-benchmark JSON files, metric by metric.
 
 Quality figures (objective, coverage, expression count, transfer RMS, benchmark ``extra_info``) must not
-change beyond a relative tolerance; times may not grow by more than a threshold. Absolute times are noisy on
-shared machines, so run times are compared as ratios to `BASELINE_SOLVER`'s time measured in the same run.
-Given the history of earlier runs' ratios (`reports._history`), a ratio is judged against its own
-run-to-run spread there instead of against the one old run: the spread of the same case (`case_id`) and
-figure.
+change beyond a relative tolerance; times are judged by a statistical test (`reports._timing`): each
+repetition's sequence time as a ratio to the median exact solver measured in the same run, slower or faster
+only when Welch's t-test says so and the change is beyond a threshold. A case with too few repetitions to
+test is judged against its history across commits (`reports._history`), when given.
 """
 
 from __future__ import annotations
@@ -34,13 +33,15 @@ from reports._history import (
     run_identity,
     spreads,
 )
-from reports._tables import (
-    BASELINE_SOLVER,
-    CASE_COLUMNS,
-    SETTING_COLUMNS,
-    cell_times,
-    rig_labels,
-    setting_label,
+from reports._tables import CASE_COLUMNS, SETTING_COLUMNS, rig_labels, setting_label
+from reports._timing import (
+    MIN_REFERENCE_SOLVERS,
+    REFERENCE,
+    case_samples,
+    has_reference,
+    judge_times,
+    termination_counts,
+    timing_samples,
 )
 
 Kind = Literal["time", "quality"]
@@ -62,6 +63,7 @@ class Metric:
     value: Value
     seconds: float | None = None  #: the absolute time behind a time metric
     case_id: str = ""
+    samples: pd.DataFrame | None = None  #: a run's `timing_samples` of the case, behind a time metric
 
 
 @dataclass(frozen=True)
@@ -70,7 +72,7 @@ class Change:
 
     ``old`` and ``new`` are shown values: for vectors (per expression, per J) the first element that differs,
     named in ``where``. ``ratio`` is new / old for times. ``spread`` is the history's spread of the figure
-    when that judged the new value.
+    when that judged the new value; ``termination`` how the new run's solves of a time ended.
     """
 
     case: str
@@ -82,6 +84,7 @@ class Change:
     ratio: float | None = None
     where: str = ""
     spread: Spread | None = None
+    termination: str = ""
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,7 @@ class Comparison:
     time_basis: str
     changes: tuple[Change, ...]
     history: str = ""
+    alpha: float = 0.01
 
     def regressions(self, *, fail_on_time: bool = False) -> list[Change]:
         """Changes that fail: any quality change or loss, and slower times if ``fail_on_time``."""
@@ -209,26 +213,15 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
 
 
 def _time_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
-    """Times of a run keyed by case tuples: medians over repetitions, ratios to the baseline solver when
-    ``ratios`` (the baseline's own cells left out), each with its absolute seconds."""
-    times = cell_times(records)
-    if ratios:
-        times = times[times["solver"] != BASELINE_SOLVER]
-        timed = (
-            (f"first expression / {BASELINE_SOLVER}", "first_ratio", "first_time"),
-            (f"sequence / {BASELINE_SOLVER}", "sequence_ratio", "sequence_time"),
-        )
-    else:
-        timed = (
-            ("first expression (s)", "first_time", "first_time"),
-            ("sequence (s)", "sequence_time", "sequence_time"),
-        )
+    """Times of a run keyed by case tuples: the median sequence, as a ratio to the run's `REFERENCE` when
+    ``ratios`` or in seconds, with every sample behind it (`reports._timing.timing_samples`)."""
+    name = f"sequence / {REFERENCE}" if ratios else "sequence (s)"
+    value = "ratio" if ratios else "seconds"
     metrics = []
-    for case, rows in zip(*_grouped(times), strict=True):
-        for name, column, seconds in timed:
-            metrics.append(
-                Metric(case, name, "time", float(rows[column].median()), float(rows[seconds].median()))
-            )
+    for case, rows in case_samples(timing_samples(records)).items():
+        sequences = rows.groupby("cell")[["ratio", "seconds"]].sum()
+        median = float(sequences[value].median())
+        metrics.append(Metric(case, name, "time", median, float(sequences["seconds"].median()), samples=rows))
     return metrics
 
 
@@ -270,7 +263,7 @@ def _read_run(path: Path) -> pd.DataFrame:
 def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]:
     """Metrics of two run directories or two pytest-benchmark files, and how their times are measured.
 
-    Runs are timed as ratios to `BASELINE_SOLVER` when both have it, else in seconds; their cases are
+    Runs are timed as ratios to their `REFERENCE` when both have one, else in seconds; their cases are
     labelled ``rig/warp/solver`` plus the settings that vary over both runs.
 
     Raises
@@ -296,17 +289,19 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         for metrics in (old_metrics, new_metrics)
     )
     basis = (
-        f"ratio to {BASELINE_SOLVER} in the same run" if ratios else f"seconds (no {BASELINE_SOLVER} in both)"
+        f"ratio to the {REFERENCE} in the same run"
+        if ratios
+        else f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
     )
     return old_metrics, new_metrics, basis
 
 
 def _has_ratios(records: pd.DataFrame) -> bool:
-    return bool(cell_times(records)["first_ratio"].notna().any())
+    return has_reference(timing_samples(records))
 
 
 def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
-    """The history rows of one run: each case's times as ratios to `BASELINE_SOLVER` in the same run.
+    """The history rows of one run: each case's median sequence as a ratio to the run's `REFERENCE`.
 
     Parameters
     ----------
@@ -324,12 +319,15 @@ def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
     FileNotFoundError
         When ``run_dir`` holds no run.
     ValueError
-        When it is not a run directory or has no finished `BASELINE_SOLVER` cell to divide by.
+        When it is not a run directory or a group of it has too few exact solvers for a reference.
     """
     run_dir = Path(run_dir)
     records = _read_run(run_dir)
     if not _has_ratios(records):
-        raise ValueError(f"{run_dir}: no finished {BASELINE_SOLVER} cell, so no ratios for the history")
+        raise ValueError(
+            f"{run_dir}: a group of cells has fewer than {MIN_REFERENCE_SOLVERS} exact solvers, so no "
+            f"reference time and no ratios for the history"
+        )
     metrics = _time_metrics(records, ratios=True)
     labels = _figure_labels(metrics)
     identity = run_identity(harness.read_run(run_dir))
@@ -396,37 +394,43 @@ def _quality_change(old: Metric, new: Metric, tolerance: float) -> Change:
 
 
 def _time_change(
-    old: Metric, new: Metric, threshold: float, min_time: float, spread: Spread | None = None
+    old: Metric,
+    new: Metric,
+    *,
+    threshold: float,
+    min_time: float,
+    alpha: float,
+    spread: Spread | None = None,
 ) -> Change:
-    """Judge a time: under ``min_time`` seconds it is noise; with a ``spread`` from the history it is slower
-    above ``spread.high`` and faster below ``spread.low``; otherwise new / old against ``threshold``."""
+    """Judge a time.
+
+    Under ``min_time`` seconds in both runs it is timer noise. With samples on both sides (a run's cases)
+    the test of `reports._timing.judge_times` judges it; a case with too few samples to test is judged by
+    the history's ``spread`` when there is one (slower above ``spread.high``, faster below ``spread.low``)
+    and otherwise left untested. A benchmark's single median is judged by new / old against
+    ``threshold``.
+    """
     assert isinstance(old.value, float) and isinstance(new.value, float)
     ratio = new.value / old.value if old.value > 0 else math.inf if new.value > 0 else 1.0
+    termination = "" if new.samples is None else termination_counts(new.samples)
+    change = Change(old.case, old.name, "time", old.value, new.value, "same", ratio, termination=termination)
     seconds = max(old.seconds or 0.0, new.seconds or 0.0)
     if (old.seconds is not None or new.seconds is not None) and seconds < min_time:
-        where = f"(< {min_time:g} s)"
-        return Change(old.case, old.name, "time", old.value, new.value, "same", ratio=ratio, where=where)
-    verdict: Verdict = "same"
+        return dataclasses.replace(change, where=f"(< {min_time:g} s)")
     if math.isnan(ratio):
-        verdict = "changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
-    elif spread is not None:
-        verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
-        return Change(
-            old.case,
-            old.name,
-            "time",
-            old.value,
-            new.value,
-            verdict,
-            ratio=ratio,
-            where="(history)",
-            spread=spread,
+        return dataclasses.replace(
+            change, verdict="changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
         )
-    elif ratio > 1.0 + threshold:
-        verdict = "slower"
-    elif ratio < 1.0 / (1.0 + threshold):
-        verdict = "faster"
-    return Change(old.case, old.name, "time", old.value, new.value, verdict, ratio=ratio)
+    if old.samples is not None and new.samples is not None:
+        value = "ratio" if new.name.startswith("sequence /") else "seconds"
+        test = judge_times(old.samples, new.samples, value=value, alpha=alpha, threshold=threshold)
+        if test.p is not None or spread is None:
+            return dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
+    if spread is not None:
+        verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
+        return dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
+    verdict = "slower" if ratio > 1.0 + threshold else "faster" if ratio < 1.0 / (1.0 + threshold) else "same"
+    return dataclasses.replace(change, verdict=verdict)
 
 
 def compare(
@@ -436,6 +440,7 @@ def compare(
     threshold: float = 0.25,
     tolerance: float = 1e-7,
     min_time: float = 0.01,
+    alpha: float = 0.01,
     history: str | os.PathLike | None = None,
     window: int = 10,
     spread: float = 3.0,
@@ -448,18 +453,22 @@ def compare(
     old, new : path
         Two run directories (``harness run --out``) or two ``--benchmark-json`` files.
     threshold : float
-        A time counts as slower when new / old > 1 + threshold (0.25 = 25 %). With a history, the least
-        margin above a figure's median, relative to it.
+        A time counts as slower only when new / old of the median sequence > 1 + threshold (0.25 = 25 %)
+        (and the test is significant). With a history, the least margin above a figure's median, relative
+        to it.
     tolerance : float
         Quality values count as changed when they differ by more than this, relative to the larger.
     min_time : float
         Seconds below which a run's time (in both runs) is timer noise and never counts as slower or
         faster. Benchmark medians (many rounds each) are always judged.
+    alpha : float in (0, 1)
+        Significance level of the two-sided test of a case's repetitions.
     history : path, optional
-        A history file (`reports.append_history`) of earlier runs' ratios. A ratio of ``new`` whose figure
-        has at least ``min_runs`` runs there (``new``'s own rows left out) is judged against their spread
-        (`reports._history.spreads`): slower above ``median + max(spread * 1.4826 MAD, threshold * median)``
-        of its last ``window`` runs, faster below the median by as much. Other times keep the rule above.
+        A history file (`reports.append_history`) of earlier runs' ratios. A case with too few repetitions
+        to test whose figure has at least ``min_runs`` commits there (``new``'s own rows left out) is
+        judged against their spread (`reports._history.spreads`): slower above ``median + max(spread *
+        1.4826 MAD, threshold * median)`` of the per-commit medians of its last ``window`` commits, faster
+        below the median by as much.
     window : int
         Latest runs of a figure in the history that give its spread.
     spread : float
@@ -480,10 +489,11 @@ def compare(
     FileNotFoundError
         When ``history`` does not exist.
     """
-    if min(threshold, tolerance, min_time, spread) < 0 or min(window, min_runs) < 1:
+    if min(threshold, tolerance, min_time, spread) < 0 or min(window, min_runs) < 1 or not 0 < alpha < 1:
         raise ValueError(
-            f"compare: threshold, tolerance, min_time and spread must be >= 0 and window and min_runs >= 1, "
-            f"got {threshold}, {tolerance}, {min_time}, {spread}, {window} and {min_runs}"
+            f"compare: threshold, tolerance, min_time and spread must be >= 0, window and min_runs >= 1 and "
+            f"alpha in (0, 1), got {threshold}, {tolerance}, {min_time}, {spread}, {window}, {min_runs} and "
+            f"{alpha}"
         )
     judged = (
         {}
@@ -501,7 +511,14 @@ def compare(
             changes.append(Change(metric.case, metric.name, metric.kind, metric.value, None, "missing"))
         elif metric.kind == "time":
             changes.append(
-                _time_change(metric, other, threshold, min_time, judged.get((other.case_id, other.name)))
+                _time_change(
+                    metric,
+                    other,
+                    threshold=threshold,
+                    min_time=min_time,
+                    alpha=alpha,
+                    spread=judged.get((other.case_id, other.name)),
+                )
             )
         else:
             changes.append(_quality_change(metric, other, tolerance))
@@ -511,10 +528,10 @@ def compare(
     rule = (
         ""
         if history is None
-        else f"{history}: a ratio is slower above median + max({spread:g} x 1.4826 MAD, {threshold:.0%}) of "
-        f"its last {window} runs (at least {min_runs}; else the rule above)"
+        else f"{history}: a case with too few repetitions is slower above median + max({spread:g} x 1.4826 "
+        f"MAD, {threshold:.0%}) of its last {window} commits (at least {min_runs})"
     )
-    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes), rule)
+    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes), rule, alpha)
 
 
 # -- showing changes ---------------------------------------------------------------------------------------
@@ -540,17 +557,21 @@ def _shown(value: Value | None) -> str:
 def comparison_table(
     comparison: Comparison, *, fail_on_time: bool = False, only_changes: bool = False
 ) -> Table:
-    """A rich table with one row per metric: case, metric, old, new, ratio and verdict (failures in red);
-    with a history, also the spread that judged each time (median and limits over the runs counted)."""
+    """A rich table with one row per metric: case, metric, old, new, ratio, verdict (failures in red) and,
+    for times, how the new run's solves ended; with a history, also the spread that judged a time (median
+    and limits over the commits counted)."""
     failing = set(comparison.regressions(fail_on_time=fail_on_time))
     floor = f" (times under {comparison.min_time:g} s are noise)" if comparison.min_time else ""
     history = f"; history {comparison.history}" if comparison.history else ""
     table = Table(
         title=f"{comparison.old} -> {comparison.new}",
-        caption=f"times: {comparison.time_basis}; slower means > +{comparison.threshold:.0%}{floor}; "
-        f"quality tolerance {comparison.tolerance:g} relative{history}",
+        caption=f"times: {comparison.time_basis} (time limits and errors charged at the limit); slower or "
+        f"faster means Welch's t-test over the repetitions p < {comparison.alpha:g} and a median change "
+        f"beyond {comparison.threshold:.0%}{floor}; quality tolerance {comparison.tolerance:g} relative"
+        f"{history}",
     )
-    columns = ["case", "metric", "old", "new", "new/old", "verdict"] + (["history"] if history else [])
+    columns = ["case", "metric", "old", "new", "new/old", "verdict", "termination"]
+    columns += ["history"] if history else []
     for column in columns:
         table.add_column(column, justify="right" if column in ("old", "new", "new/old") else "left")
     for change in comparison.changes:
@@ -560,6 +581,7 @@ def comparison_table(
         verdict = f"{change.verdict} {change.where}".strip() + (" (fails)" if change in failing else "")
         ratio = "" if change.ratio is None else f"{change.ratio:.3f}"
         cells = [change.case, change.metric, _shown(change.old), _shown(change.new), ratio, verdict]
+        cells.append(change.termination)
         table.add_row(*cells, *([_spread_text(change.spread)] if history else []), style=style)
     return table
 

@@ -98,6 +98,15 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     help="Seconds below which a time is timer noise: never judged slower or faster.",
 )
 @click.option(
+    "--alpha",
+    type=click.FloatRange(min=0, max=1, min_open=True, max_open=True),
+    default=0.01,
+    show_default=True,
+    help="Significance level of the test of a case's times (Welch's t-test over the repetitions of both "
+    "runs, on log ratios to the median exact solver); a time needs p < ALPHA and a change beyond "
+    "--threshold to be slower or faster.",
+)
+@click.option(
     "--fail-on-time/--warn-on-time",
     default=False,
     show_default=True,
@@ -146,6 +155,7 @@ def compare(
     threshold: float,
     tolerance: float,
     min_time: float,
+    alpha: float,
     fail_on_time: bool,
     only_changes: bool,
     history: Path | None,
@@ -172,6 +182,7 @@ def compare(
             threshold=threshold,
             tolerance=tolerance,
             min_time=min_time,
+            alpha=alpha,
             history=history if history is not None and history.exists() else None,
             window=window,
             spread=spread,

@@ -16,9 +16,12 @@ import solvers
 from harness.cli import cli
 from reports import compare
 
+SEQUENCE = "sequence / median exact solver"
+
 _ENTRY_POINTS = """[harness.solvers]
 probe-slow = probe_solvers:SlowedGreedy
 probe-worse = probe_solvers:WorseGreedy
+probe-spinner = probe_solvers:SpinningGreedy
 """
 
 
@@ -38,10 +41,18 @@ def probe_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     solvers.refresh()
 
 
-def _run(out: Path, rig: Path, mode: str, monkeypatch: pytest.MonkeyPatch) -> Path:
+def _run(
+    out: Path,
+    rig: Path | str,
+    mode: str,
+    monkeypatch: pytest.MonkeyPatch,
+    solvers: str = "",
+    repetitions: int = 3,
+) -> Path:
     monkeypatch.setenv("PROBE_SOLVERS", mode)
     arguments = [
-        "run", "--rigs", str(rig), "--warps", "none", "--solvers", "naive-pulp-cbc,probe-slow,probe-worse",
+        "run", "--rigs", str(rig), "--warps", "none", "--solvers",
+        solvers or "highs,cpsat,probe-slow,probe-worse", "--repetitions", str(repetitions),
         "--transfers", "delta", "--j-values", "1,2", "--jobs", "1", "--quiet", "--out", str(out),
     ]  # fmt: skip
     result = CliRunner().invoke(cli, arguments, catch_exceptions=False)
@@ -62,8 +73,7 @@ def test_compare_flags_a_sleeping_and_a_shape_dropping_plugin(
 
     comparison = compare(plain, degraded)
     slower = {(c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.changes if c.verdict == "slower"}
-    assert ("probe-slow", "first expression / naive-pulp-cbc") in slower
-    assert ("probe-slow", "sequence / naive-pulp-cbc") in slower
+    assert ("probe-slow", SEQUENCE) in slower
     failing = {(c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.regressions()}
     assert ("probe-worse", "objective per expression") in failing
     assert {solver for solver, _ in failing} == {"probe-worse"}
@@ -75,3 +85,25 @@ def test_compare_flags_a_sleeping_and_a_shape_dropping_plugin(
     result = CliRunner().invoke(cli, ["report", str(degraded)])
     assert result.exit_code == 0, result.output
     assert "probe-worse" in (degraded / "report" / "report.md").read_text()
+
+
+def _timings(comparison) -> dict[str, object]:
+    return {c.case.rsplit("/", 1)[-1]: c for c in comparison.changes if c.kind == "time"}
+
+
+def test_runs_of_the_same_code_give_no_timing_verdict_and_a_doubled_solve_is_flagged_10_of_10(
+    probe_plugins, tmp_path, monkeypatch
+):
+    """The A/A and the injected slow-down test: 11 plain runs, 10 whose probe computes twice as long."""
+    solvers = "highs,cpsat,scip,probe-spinner"
+    plain = [_run(tmp_path / f"plain{i}", "arkit52", "plain", monkeypatch, solvers, 5) for i in range(11)]
+    doubled = [
+        _run(tmp_path / f"doubled{i}", "arkit52", "doubled", monkeypatch, solvers, 5) for i in range(10)
+    ]
+    same = [_timings(compare(a, b)) for a, b in zip(plain, plain[1:], strict=False)]
+    slowed = [_timings(compare(a, b))["probe-spinner"] for a, b in zip(plain, doubled, strict=False)]
+    assert all(change.verdict == "same" for changes in same for change in changes.values()), same
+    assert all(change.metric == SEQUENCE and "p=" in change.where for change in slowed), slowed
+    assert all("5+5 repetitions" in change.where for change in slowed), slowed
+    assert [change.verdict for change in slowed] == ["slower"] * 10, [(c.ratio, c.where) for c in slowed]
+    assert all(1.3 < change.ratio < 3.5 for change in slowed), slowed  # the reference is noisy too

@@ -1,0 +1,200 @@
+"""Timing samples of a run and the statistical test that judges two runs' times.
+
+A run's times are noisy: a shared machine, a cold cache, one solve that wanders. A verdict such as "slower"
+is a statistical claim, so it rests on every sample and on a test, as asv's and benchopt's do:
+
+- **Samples.** Every solve of every repetition is kept (`timing_samples`): the seconds of one expression
+  (presolve, build, solve and the rest of its step). A solve stopped by its time limit or by an error is
+  *charged at the limit* (the row's ``time_limit``), never counted as fast.
+- **A robust reference.** Machines differ in speed, so times are divided by a reference measured in the same
+  run and repetition (the grid runs repetition after repetition, so one repetition's cells share a
+  moment of the machine): over the exact solvers of the same group (rig, warp, setting, repetition), the
+  median on a log scale of their whole-sequence seconds (the geometric mean of the two middle solvers for
+  an even count). A geometric mean of all moves by a third of its own shift when one of three solvers has
+  a slow run (measured: a backend's first run 3x its others); the median does not. Taken per repetition,
+  the reference's own noise is in every repetition's ratio, where the test sees it: one reference for all
+  repetitions of a run shifts all its ratios alike, invisibly to the test (measured: ten pairs of runs of
+  the same code on ``tiny``, whose sequences take 2 ms, gave one "faster" at p = 5e-6). With fewer than
+  `MIN_REFERENCE_SOLVERS` exact solvers in a group, times stay in seconds.
+- **A test on independent units.** The unit of the test is a *repetition*: a cell run again, in another
+  worker process and at another moment. Solves within one cell share that moment, and measured on this
+  2-core machine a whole cell moves by up to 1.9x from one repetition to the next (CP-SAT on ``female``:
+  0.078-0.150 s) while its solves agree with each other; a test that took each solve as independent found
+  "significant" 1.4x changes between two runs of the same code. So the two runs' per-repetition sequence
+  times (ratios to the reference) are compared by Welch's t-test on their logarithms, and a case is
+  *slower* or *faster* only when ``p < alpha`` **and** the ratio of the median sequences is beyond
+  ``1 + threshold``. With fewer than `MIN_REPETITIONS` repetitions on a side there is no test.
+
+  The level is 0.01, not asv's 0.002: asv tests many samples of one process, while here the units are a
+  handful of repetitions, and one repetition in five disturbed by the machine (measured: 1.6x) keeps a
+  true 2x slow-down at p = 0.007. Both conditions must hold, so two runs of the same code still need a
+  1 % event *and* a 25 % shift of the median to be called different.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from reports._tables import CASE_COLUMNS, GROUP_COLUMNS, expression_rows, ok_cells
+
+#: Fewest exact solvers whose geometric mean makes a group's reference time.
+MIN_REFERENCE_SOLVERS = 2
+
+#: Fewest repetitions on each side for a test.
+MIN_REPETITIONS = 3
+
+#: Terminations whose time is charged at the time limit.
+CHARGED_AT_LIMIT: frozenset[str] = frozenset({"time_limit", "error"})
+
+#: Name of the reference in figure names and captions.
+REFERENCE = "median exact solver"
+
+
+def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
+    """One row per solve of every finished cell: its charged seconds, termination and ratio to the reference.
+
+    Parameters
+    ----------
+    records : DataFrame
+        A run's records (`harness.read_records`).
+
+    Returns
+    -------
+    DataFrame with the `GROUP_COLUMNS`, ``solver``, ``cell``, ``expression``, ``termination``, ``seconds``
+    (charged at the time limit where the solve stopped there or failed), ``reference`` (the `REFERENCE`
+    of the cell's group and repetition, in seconds; NaN without one) and ``ratio`` (seconds / reference).
+    """
+    cells = ok_cells(records)
+    rows = expression_rows(records)
+    rows = rows[rows["cell"].isin(cells["cell"])].copy()
+    seconds = rows["seconds"].astype(float)
+    limit = pd.to_numeric(rows["time_limit"], errors="coerce").astype(float)
+    charged = rows["termination"].astype(str).isin(CHARGED_AT_LIMIT) & limit.notna()
+    rows["seconds"] = np.where(charged, np.fmax(seconds, limit), seconds)
+    keys = [*GROUP_COLUMNS, "solver"]
+    totals = rows.groupby("cell", sort=False)["seconds"].sum()
+    sequences = cells[[*keys, "cell"]].assign(total=cells["cell"].map(totals).astype(float))
+    exact = sequences[sequences["solver"].isin(_exact_solvers(rows)) & (sequences["total"] > 0)]
+    references = (
+        exact.groupby(list(GROUP_COLUMNS), dropna=False, sort=False)["total"]
+        .agg(lambda totals: _log_median(totals) if len(totals) >= MIN_REFERENCE_SOLVERS else math.nan)
+        .rename("reference")
+        .reset_index()
+    )
+    samples = rows[[*keys, "cell", "expression", "termination", "seconds"]].merge(
+        references, on=list(GROUP_COLUMNS), how="left"
+    )
+    samples["ratio"] = samples["seconds"] / samples["reference"]
+    return samples
+
+
+def _log_median(totals: pd.Series) -> float:
+    """The median on a log scale: the middle value, or the geometric mean of the two middle values."""
+    return float(np.exp(np.median(np.log(totals.to_numpy(float)))))
+
+
+def _exact_solvers(rows: pd.DataFrame) -> set[str]:
+    """Solvers that proved some expression optimal and never ended as a heuristic does."""
+    terminations = rows.groupby("solver")["termination"].agg(lambda values: set(values.astype(str)))
+    return {
+        solver for solver, ended in terminations.items() if "optimal" in ended and "completed" not in ended
+    }
+
+
+def has_reference(samples: pd.DataFrame) -> bool:
+    """Whether every sample of a run has a reference time to be divided by."""
+    return bool(len(samples)) and bool(samples["reference"].notna().all())
+
+
+@dataclass(frozen=True)
+class TimingTest:
+    """The verdict on one case's times between two runs, and what it rests on.
+
+    ``ratio`` is new / old of the median sequence; ``p`` the two-sided Welch t-test p-value of the
+    repetitions' log sequence times (None when not tested); ``n_old`` and ``n_new`` the repetitions and
+    ``solves`` the samples they hold.
+    """
+
+    verdict: str
+    ratio: float
+    p: float | None
+    n_old: int
+    n_new: int
+    solves: int
+
+    def describe(self) -> str:
+        """``p=0.0004, 5+5 repetitions, 80 solves``, or why there was no test."""
+        counts = f"{self.n_old}+{self.n_new} repetitions, {self.solves} solves"
+        if self.p is None:
+            return f"untested: {counts} (< {MIN_REPETITIONS} repetitions a side)"
+        return f"p={self.p:.2g}, {counts}"
+
+
+def judge_times(
+    old: pd.DataFrame, new: pd.DataFrame, *, value: str, alpha: float, threshold: float
+) -> TimingTest:
+    """Test whether one case's times differ between two runs.
+
+    Parameters
+    ----------
+    old, new : DataFrame
+        The case's `timing_samples` rows in each run (``cell`` and the ``value`` column).
+    value : {"ratio", "seconds"}
+        Which column is compared: ratios to the reference, or seconds when a run has none.
+    alpha : float in (0, 1)
+        Significance level of the two-sided test.
+    threshold : float >= 0
+        Least relative change of the median sequence that counts: slower needs ``ratio > 1 + threshold``,
+        faster ``ratio < 1 / (1 + threshold)``.
+
+    Returns
+    -------
+    TimingTest
+        ``slower``, ``faster`` or ``same``.
+
+    Notes
+    -----
+    Welch's unequal-variances t-test (`scipy.stats.ttest_ind` with ``equal_var=False``) on the logarithms
+    of the per-repetition sequence times: times are positive and their noise multiplicative, so a log scale
+    makes a 2x slow-down and a 2x speed-up equally far apart. O(n) in the samples.
+    """
+    old_sequences, new_sequences = _sequences(old, value), _sequences(new, value)
+    ratio = float(np.median(new_sequences) / np.median(old_sequences))
+    counts = (len(old_sequences), len(new_sequences), len(old) + len(new))
+    if min(counts[:2]) < MIN_REPETITIONS:
+        return TimingTest("same", ratio, None, *counts)
+    p = float(stats.ttest_ind(np.log(new_sequences), np.log(old_sequences), equal_var=False).pvalue)
+    if math.isnan(p):  # identical values on both sides
+        p = 1.0
+    verdict = "same"
+    if p < alpha and ratio > 1.0 + threshold:
+        verdict = "slower"
+    elif p < alpha and ratio < 1.0 / (1.0 + threshold):
+        verdict = "faster"
+    return TimingTest(verdict, ratio, p, *counts)
+
+
+def _sequences(samples: pd.DataFrame, value: str) -> np.ndarray:
+    """Each cell's (repetition's) summed ``value``, floored at the smallest positive float."""
+    return np.fmax(samples.groupby("cell")[value].sum().to_numpy(float), np.finfo(float).tiny)
+
+
+def termination_counts(samples: pd.DataFrame) -> str:
+    """``12 optimal, 1 time_limit``: how the solves of some samples ended, most common first."""
+    counts = samples["termination"].astype(str).value_counts()
+    return ", ".join(f"{count} {termination}" for termination, count in counts.items())
+
+
+def case_samples(samples: pd.DataFrame) -> dict[tuple, pd.DataFrame]:
+    """A run's samples by case (`CASE_COLUMNS` values, None for missing)."""
+    if samples.empty:
+        return {}
+    return {
+        tuple(None if pd.isna(v) else v for v in key): rows
+        for key, rows in samples.groupby(list(CASE_COLUMNS), sort=True, dropna=False)
+    }
