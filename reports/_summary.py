@@ -104,6 +104,11 @@ def _prefixes(rows: pd.DataFrame) -> pd.Series:
     return pd.Series(prefixes, dtype=object).reindex(rows.index)
 
 
+def _longest(times: pd.Series) -> float:
+    """The longest of ``times``, charged where no limit is known; inf when none was measured."""
+    return float(times.max()) if times.notna().any() else np.inf
+
+
 def _failed_first_solves(records: pd.DataFrame) -> pd.DataFrame:
     """Expression 1 of each cell that failed, with the cell's status as its outcome and no time."""
     cells = records[(records["kind"] == "cell") & records["status"].isin(FAILED_CELLS)]
@@ -121,7 +126,8 @@ def solve_outcomes(records: pd.DataFrame, time_limit: float | None = None) -> pd
         `harness.read_records` of a run.
     time_limit : float, optional
         Seconds charged to an unsolved solve whose row has no ``time_limit`` (the run's per-solve limit,
-        else its cell timeout). Without either, the largest time measured in the run is charged.
+        else its cell timeout). Without either, the largest time measured in the run is charged (inf when
+        nothing was measured).
 
     Returns
     -------
@@ -138,7 +144,7 @@ def solve_outcomes(records: pd.DataFrame, time_limit: float | None = None) -> pd
         time=rows["build_time"].astype(float).fillna(0.0) + rows["solve_time"].astype(float).fillna(0.0),
     )
     solves = pd.concat([solved, _failed_first_solves(records)], ignore_index=True)
-    fallback = time_limit if time_limit is not None else float(np.nan_to_num(solves["time"].max()))
+    fallback = time_limit if time_limit is not None else _longest(solves["time"])
     solves["limit"] = solves["time_limit"].astype(float).fillna(fallback)
     finished = solves["outcome"].isin(("optimal", "completed"))
     solves["charged_solve"] = solves["solve_time"].where(finished, solves["limit"])
@@ -305,7 +311,7 @@ def sequence_table(records: pd.DataFrame, timeout: float | None = None, shift: f
         `harness.read_records` of a run.
     timeout : float, optional
         Seconds charged to a failed cell (error, timeout, invalid): the run's cell timeout. Without it, the
-        longest sequence of the run is charged.
+        longest sequence of the run is charged (inf when no cell finished).
     shift : float
         Shift of the geometric mean, seconds.
 
@@ -317,7 +323,7 @@ def sequence_table(records: pd.DataFrame, timeout: float | None = None, shift: f
     cells = records[(records["kind"] == "cell") & records["status"].isin(("ok", *FAILED_CELLS))]
     ok = cells["status"] == "ok"
     times = cells["sequence_time"].astype(float)
-    charge = timeout if timeout is not None else float(np.nan_to_num(times[ok].max()))
+    charge = timeout if timeout is not None else _longest(times[ok])
     grouped = cells.assign(charged=times.where(ok, charge), ok=ok).groupby("solver", sort=True)
     finished = grouped["ok"].sum().astype(int)
     table = pd.DataFrame(
