@@ -1,6 +1,8 @@
 """Reports of runs: timing, overlap and expression-count tables, coverage and RMS figures, expression contact
 sheets, a self-contained HTML page with its Markdown twin, run-to-run comparison for CI, and the history of CI
-runs' timings as ratios to a reference solver (`read_history`, `append_history`, `run_figures`).
+runs' timings as ratios to a reference solver (`read_history`, `append_history`, `run_figures`), and solver
+benchmark summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More
+performance profiles (`solve_outcomes`, `performance_profile`).
 
 Everything here reads a run's records (`harness.read_records`); nothing is recomputed.
 
@@ -17,11 +19,29 @@ import lazy_loader
 if TYPE_CHECKING:
     from reports._compare import Change, Comparison, compare, comparison_table, run_figures
     from reports._contact import contact_sheet
-    from reports._figures import coverage_figure, history_figure, rms_figure
+    from reports._figures import (
+        coverage_figure,
+        distribution_figure,
+        history_figure,
+        profile_figure,
+        rms_figure,
+    )
     from reports._history import HISTORY_COLUMNS, HistoryError, Spread, append_history, read_history
     from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
     from reports._png import png_bytes
     from reports._report import build_report
+    from reports._summary import (
+        SHIFT,
+        common_table,
+        common_times,
+        outcome_table,
+        performance_profile,
+        performance_ratios,
+        sequence_table,
+        shifted_geometric_mean,
+        solve_outcomes,
+        wins,
+    )
     from reports._tables import (
         BASELINE_SOLVER,
         REFERENCE_TRANSFERS,
@@ -40,11 +60,29 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_compare": ["Change", "Comparison", "compare", "comparison_table", "run_figures"],
         "_contact": ["contact_sheet"],
-        "_figures": ["coverage_figure", "rms_figure", "history_figure"],
+        "_figures": [
+            "coverage_figure",
+            "distribution_figure",
+            "history_figure",
+            "profile_figure",
+            "rms_figure",
+        ],
         "_history": ["HISTORY_COLUMNS", "HistoryError", "Spread", "append_history", "read_history"],
         "_paper": ["PAPER_OVERLAP", "PAPER_TIMINGS"],
         "_png": ["png_bytes"],
         "_report": ["build_report"],
+        "_summary": [
+            "SHIFT",
+            "common_table",
+            "common_times",
+            "outcome_table",
+            "performance_profile",
+            "performance_ratios",
+            "sequence_table",
+            "shifted_geometric_mean",
+            "solve_outcomes",
+            "wins",
+        ],
         "_tables": [
             "BASELINE_SOLVER",
             "REFERENCE_TRANSFERS",

@@ -1,5 +1,5 @@
-"""Line plots from records: coverage per expression, transfer RMS vs J (Carrigan et al. 2020, Figs. 9-10), and
-the history of benchmark ratios over CI runs."""
+"""Plots from records: coverage per expression, transfer RMS vs J (Carrigan et al. 2020, Figs. 9-10), the
+history of benchmark ratios over CI runs, and the solvers' performance profiles and time distributions."""
 
 from __future__ import annotations
 
@@ -12,6 +12,13 @@ from matplotlib.ticker import MaxNLocator
 
 from reports._history import RUN_COLUMNS
 from reports._png import report_style
+from reports._summary import (
+    RESOLUTION,
+    common_times,
+    comparisons,
+    performance_profile,
+    performance_ratios,
+)
 from reports._tables import (
     REFERENCE_TRANSFERS,
     RMS_PARTS,
@@ -312,4 +319,112 @@ def history_figure(history: pd.DataFrame) -> Figure:
             handles, names = ax.get_legend_handles_labels()
             legend.update(zip(names, handles, strict=True))
         figure.legend(list(legend.values()), list(legend), loc="outside lower center", ncols=3, fontsize=7)
+    return figure
+
+
+def profile_figure(solves: pd.DataFrame) -> Figure:
+    """Dolan-More performance profiles of the solvers on their common instances, a panel per comparison.
+
+    Parameters
+    ----------
+    solves : DataFrame
+        `reports._summary.solve_outcomes` of a run.
+
+    Returns
+    -------
+    matplotlib Figure: per solver, the fraction of the common instances it solved within a factor tau of
+    the fastest solver's time (build + solve), tau on a log axis; a solve that did not count as solved
+    (time limit, error, a failed cell, or a heuristic's in the exact comparison) never counts, so a curve
+    ends below 1 by the solver's share of unsolved instances.
+
+    Raises
+    ------
+    ValueError
+        When the run has no solves.
+
+    Notes
+    -----
+    Dolan and More, "Benchmarking optimization software with performance profiles", Math. Program. 91
+    (2002).
+    """
+    if solves.empty:
+        raise ValueError("profile_figure: the run has no solves")
+    shown = comparisons(solves)
+    solvers = sorted(solves["solver"].unique())
+    with report_style():
+        figure = Figure(figsize=(6.4 * len(shown), 4.4), layout="constrained")
+        for ax, comparison in zip(figure.subplots(1, len(shown), squeeze=False)[0], shown, strict=True):
+            times = common_times(solves, comparison.solvers, comparison.solved)
+            profile = performance_profile(performance_ratios(times))
+            end = max(2.0, 1.5 * float(profile.index.max()))
+            for solver in comparison.solvers:
+                index = solvers.index(solver)
+                curve = profile[solver]
+                ax.step(
+                    np.r_[curve.index.to_numpy(), end],
+                    np.r_[curve.to_numpy(), curve.iloc[-1]],
+                    where="post",
+                    label=solver,
+                    color=f"C{index % 10}",
+                    linestyle=_LINESTYLES[index // 10 % len(_LINESTYLES)],
+                )
+            ax.set_xscale("log")
+            ax.set_xlim(1.0, end)
+            ax.set_ylim(0.0, 1.02)
+            ax.set_title(f"{comparison.title}: {len(times)} common instances")
+            ax.set_xlabel("tau: time within a factor of the fastest (log)")
+            ax.set_ylabel("fraction of instances solved")
+            ax.legend(fontsize=7, loc="lower right")
+    return figure
+
+
+def distribution_figure(solves: pd.DataFrame) -> Figure:
+    """Per solver, the distribution of its solve times over all its instances (log scale).
+
+    Parameters
+    ----------
+    solves : DataFrame
+        `reports._summary.solve_outcomes` of a run.
+
+    Returns
+    -------
+    matplotlib Figure: a box per solver of the charged build + solve times (whiskers at 1.5 IQR), every solve
+    drawn over it as a dot (optimal or completed) or a red cross at the limit it is charged (time limit,
+    infeasible, error, failed cell); each tick names the solver and its number of solves. Solves of
+    different solvers are different problems after expression 1.
+
+    Raises
+    ------
+    ValueError
+        When the run has no solves.
+    """
+    if solves.empty:
+        raise ValueError("distribution_figure: the run has no solves")
+    groups = [(solver, rows) for solver, rows in solves.groupby("solver", sort=True)]
+    spread = np.random.default_rng(0)
+    with report_style():
+        figure = Figure(figsize=(max(6.4, 1.0 * len(groups) + 1.5), 4.6), layout="constrained")
+        ax = figure.subplots()
+        ax.boxplot(
+            [rows["charged"].clip(lower=RESOLUTION).to_numpy() for _, rows in groups],
+            showfliers=False,
+            widths=0.6,
+        )
+        for position, (_, rows) in enumerate(groups, start=1):
+            finished = rows["outcome"].isin(("optimal", "completed")).to_numpy()
+            times = rows["charged"].clip(lower=RESOLUTION).to_numpy()
+            x = position + spread.uniform(-0.2, 0.2, len(rows))
+            ax.plot(x[finished], times[finished], "o", color="C0", alpha=0.4, markersize=2.5)
+            ax.plot(x[~finished], times[~finished], "x", color="C3", markersize=5)
+        ax.plot([], [], "o", color="C0", markersize=2.5, label="optimal or completed")
+        ax.plot([], [], "x", color="C3", markersize=5, label="not solved: charged at the limit")
+        ax.set_xticks(
+            range(1, len(groups) + 1),
+            [f"{solver}\n(n={len(rows)})" for solver, rows in groups],
+            rotation=30,
+            fontsize=7,
+        )
+        ax.set_yscale("log")
+        ax.set_ylabel("build + solve time per expression (s, log)")
+        ax.legend(fontsize=7)
     return figure

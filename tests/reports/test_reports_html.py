@@ -80,6 +80,7 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     markdown = (directory / "report.md").read_text()
     for heading in (
         "Timings (paper Table 2)",
+        "Solvers across instances",
         "Overlap of chosen shapes (paper Table 3)",
         "Coverage",
         "The paper's claims",
@@ -105,7 +106,9 @@ def test_report_writes_markdown_html_and_figures(reported_run):
         "contact-face-alien-importance-off.png",
         "contact-face-alien-importance-on.png",
         "coverage-face.png",
+        "performance-profile.png",
         "rms-face.png",
+        "solve-times.png",
     ]
     for name in figures:
         assert f"(figures/{name})" in markdown
@@ -116,7 +119,7 @@ def test_report_html_is_self_contained_and_deterministic(reported_run):
     page = (run / "report" / "index.html").read_text()
     assert CONTENT_SECURITY_POLICY in page
     assert not re.search(r"<script|<link|src=\"(?!data:image/png;base64,)", page)
-    assert page.count('src="data:image/png;base64,') == 4
+    assert page.count('src="data:image/png;base64,') == 6
     first = {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
     build_report(run)
     assert first == {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
@@ -160,7 +163,7 @@ def test_report_html_loads_in_headless_chromium(reported_run, chromium, tmp_path
     page = reported_run / "report" / "index.html"
     probe = _probe(chromium, page, tmp_path / "profile")
     assert probe["problems"] == []
-    assert len(probe["images"]) == 4
+    assert len(probe["images"]) == 6
     assert all(image["complete"] and image["width"] > 0 for image in probe["images"]), probe["images"]
 
     screenshot = tmp_path / "report.png"
@@ -198,7 +201,8 @@ def test_the_quick_preset_report_loads_in_headless_chromium(chromium, tmp_path):
     probe = _probe(chromium, page, tmp_path / "profile")
     assert probe["problems"] == []
     rigs_run = set(harness.read_records(run)["rig"])
-    assert len(probe["images"]) == 3 * len(rigs_run)  # coverage, RMS and a contact sheet per rig
+    # coverage, RMS and a contact sheet per rig; the solvers' performance profile and time distribution
+    assert len(probe["images"]) == 3 * len(rigs_run) + 2
     assert all(image["complete"] and image["width"] > 0 for image in probe["images"]), probe["images"]
 
 
