@@ -227,3 +227,17 @@ def test_solu_lines() -> None:
     assert solvers.solu_line("inf", "a-e01") == "=inf=  a-e01"
     with pytest.raises(ValueError, match="finite"):
         solvers.solu_line("opt", "a", None)
+
+
+def test_scip_reads_the_files_as_a_maximisation_of_the_solu_value(registered, tmp_path: Path) -> None:
+    """SCIP's own MPS reader (through pyscipopt) finds the .solu optimum, maximising."""
+    pyscipopt = pytest.importorskip("pyscipopt")
+    out = tmp_path / "instances"
+    assert export("tiny", "--out", out).exit_code == 0
+    for name, (_, value) in read_solu(out).items():
+        model = pyscipopt.Model()
+        model.hideOutput()
+        model.readProblem(str(out / f"{name}.mps"))
+        model.optimize()
+        assert model.getObjectiveSense() == "maximize" and model.getStatus() == "optimal"
+        assert model.getObjVal() == pytest.approx(value, rel=1e-9, abs=0)
