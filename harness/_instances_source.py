@@ -51,6 +51,8 @@ class Sequence:
     time_limit : float or None
         Seconds per solve.
     seed : int
+    inputs : tuple of Path
+        The files and folders the rig argument reads, which the output folder must stay apart from.
     """
 
     prefix: str
