@@ -12,7 +12,8 @@ The plugin kit: a plugin's ``solve`` returns a `Result` (items, termination, bou
 applies) checks its arguments and turns its answer into a `packing.Solution` once for every plugin. An
 exact plugin subclasses `ExactSolver` and solves the presolved `CliqueModel`; a heuristic fills an
 `OpenExpression`, which keeps eq. 3b, the cap and the apart pairs; `package_availability` answers
-``availability()`` without importing the backend.
+``availability()`` without importing the backend. `write_mps` writes a `CliqueModel` as an MPS file and
+`solu_line` its MIPLIB ``.solu`` line, for solvers outside the harness.
 
 Names are imported from their modules on first use (PEP 562): listing the plugins imports neither a
 backend nor the minimum-expression machinery.
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
         ordered_minimum_sequence,
     )
     from solvers._model import CliqueModel
+    from solvers._mps import MpsFile, column_names, solu_line, write_mps
     from solvers._open import OpenExpression
     from solvers._refine import Proposal, RefiningSolver, refine, rejecting
     from solvers._registry import (
@@ -71,6 +73,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_exact": ["ExactSolver"],
         "_loaded": ["LoadedSolver", "load"],
         "_model": ["CliqueModel"],
+        "_mps": ["MpsFile", "column_names", "solu_line", "write_mps"],
         "_open": ["OpenExpression"],
         "_minimum": [
             "MinimumExpressions",

@@ -1,0 +1,179 @@
+"""``harness instances export``: a reference sequence's subproblems as MPS files and a MIPLIB ``.solu``.
+
+Registered through the ``harness.commands`` entry point ``instances`` (pyproject.toml), like ``report`` and
+``compare``; the work is done in `harness._instances` (the files) and `harness._instances_source` (what to
+replay). Errors the user can fix (an unknown rig or solver, an ``--out`` that is a file or holds other
+files) end as one line with exit code 2, as for the built-in commands.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+from click.core import ParameterSource
+
+from harness._cli_types import DURATION, terminal
+
+#: Options that set the packing of a rig argument; a run directory has them in its run.json.
+PACKING_OPTIONS = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "jmax", "seed")
+
+
+@click.group(
+    "instances", help="Common instances of reference sequences, for solvers in and out of the harness."
+)
+def instances() -> None:
+    """Common instances of reference sequences, for solvers in and out of the harness."""
+
+
+@instances.command(
+    "export",
+    help="Run Algorithm 1 on RIG_OR_RUN (a rig as `harness pack` takes it, or a run directory: one sequence "
+    "per rig, warp and packing setting of its run.json) with the reference --solver and write every "
+    "expression's presolved model (eq. 3) to OUT as RIG-eXX.mps, with instances.solu (MIPLIB: =opt=, "
+    "=best=, =inf=) and instances.json.",
+)
+@click.argument("rig_or_run")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    required=True,
+    help="Output folder: the MPS files, instances.solu and instances.json (never the rig's own folder).",
+)
+@click.option("--solver", default="cpsat", show_default=True, help="Reference solver (see harness list).")
+@click.option(
+    "--rig",
+    "run_rig",
+    help="With a run directory: only this rig of the run (as run.json names it). [default: all]",
+)
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Replace an earlier export in --out, or write into a folder harness did not write (its files are "
+    "kept; only files harness wrote are ever replaced or removed).",
+)
+@click.option(
+    "--mu", type=click.FloatRange(0, 1, min_open=True), default=0.3, show_default=True,
+    help="Binary blendshape threshold, eq. 2.",
+)  # fmt: skip
+@click.option(
+    "--alpha", type=click.FloatRange(0, 1), default=0.5, show_default=True, help="Importance mix, eq. 4."
+)
+@click.option(
+    "--beta", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Uniqueness weight, eq. 4."
+)
+@click.option(
+    "--symmetry/--no-symmetry",
+    default=True,
+    show_default=True,
+    help="Force symmetry pairs together (sec. 4.4).",
+)
+@click.option(
+    "--importance/--no-importance",
+    default=True,
+    show_default=True,
+    help="Importance weights (eq. 4); off = every weight 1.",
+)
+@click.option(
+    "--cap", type=click.IntRange(min=1), help="Most shapes per expression (sec. 6). [default: no cap]"
+)
+@click.option(
+    "--jmax", type=click.IntRange(min=1), default=20, show_default=True, help="Most expressions (instances)."
+)
+@click.option(
+    "--time-limit",
+    type=DURATION,
+    help="Per-solve time limit of the reference solver (30s, 2m); a solve it cuts short is =best= in "
+    "instances.solu. With a run directory it replaces the run's. [default: none, or the run's]",
+)
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    help="Solver seed (and generator seed for a preset rig).",
+)  # fmt: skip
+@click.pass_context
+def export(
+    ctx: click.Context,
+    rig_or_run: str,
+    out: Path,
+    solver: str,
+    run_rig: str | None,
+    force: bool,
+    mu: float,
+    alpha: float,
+    beta: float,
+    symmetry: bool,
+    importance: bool,
+    cap: int | None,
+    jmax: int,
+    time_limit: float | None,
+    seed: int,
+) -> None:
+    from harness.cli import UserError
+
+    try:
+        written = _export(
+            ctx, rig_or_run, out, solver, run_rig, force, time_limit,
+            params={"mu": mu, "alpha": alpha, "beta": beta, "symmetry": symmetry, "importance": importance,
+                    "max_per_expression": cap},
+            jmax=jmax, seed=seed,
+        )  # fmt: skip
+    except (ValueError, FileNotFoundError, NotADirectoryError, PermissionError) as error:
+        lines = [line for line in str(error).strip().splitlines() if line.strip()]
+        raise UserError(lines[0] if lines else type(error).__name__) from None
+    except RuntimeError as error:  # an installed solver that cannot run here (its availability says why)
+        if type(error).__name__ != "SolverUnavailableError":
+            raise
+        raise UserError(str(error).strip().splitlines()[0]) from None
+    from rich.markup import escape
+
+    document, files, warnings = written
+    counts: dict[str, int] = {}
+    for entry in document["instances"]:
+        counts[entry["status"]] = counts.get(entry["status"], 0) + 1
+    summary = ", ".join(f"{count} ={status}=" for status, count in counts.items())
+    for warning in warnings:
+        terminal().print(f"[yellow]warning:[/] {escape(warning)}")
+    terminal().print(
+        escape(
+            f"wrote {len(document['instances'])} instances of {len(document['sequences'])} sequences by "
+            f"{document['solver']} ({summary or 'none'}), instances.solu and instances.json to {out}"
+        )
+    )
+
+
+def _export(
+    ctx: click.Context,
+    argument: str,
+    out: Path,
+    solver_name: str,
+    run_rig: str | None,
+    force: bool,
+    time_limit: float | None,
+    *,
+    params: dict[str, object],
+    jmax: int,
+    seed: int,
+):
+    from harness import _instances_source as sources
+    from harness import _plugins as plugins
+    from harness._instances import export as export_instances
+
+    plugins.expand_names([solver_name], plugins.solver_names(), "solver", "--solver")
+    if sources.is_run_directory(argument):
+        given = [
+            f"--{name.replace('_', '-')}"
+            for name in PACKING_OPTIONS
+            if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
+        ]
+        if given:
+            raise ValueError(
+                f"{argument} is a run directory, whose run.json gives the packing: drop {', '.join(given)}"
+            )
+        chosen = sources.from_run(Path(argument), rig=run_rig, time_limit=time_limit)
+    else:
+        if run_rig is not None:
+            raise ValueError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
+        chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
+    solver = plugins.solver(solver_name)
+    result = export_instances(chosen, solver=solver, out=out, force=force)
+    return result.document, result.files, result.warnings

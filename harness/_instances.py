@@ -1,0 +1,239 @@
+"""``harness instances export``: the subproblems of reference sequences as MPS files with a MIPLIB ``.solu``.
+
+Sequences of different solvers diverge after the first expression, so to compare solvers (ours or outside
+tools) on the same problems, one reference sequence (Algorithm 1, one exact solver) is frozen and each of its
+subproblems is written as the model the exact backends solve (DESIGN.md, "Common instances"). ``DIR`` holds:
+
+``PREFIX-eXX.mps``
+    Expression XX's presolved model (eq. 3 after presolve, sec. 6): ``maximise sum_i w_i x_i`` over binary
+    x, one row ``sum_{i in C} x_i <= 1`` (``cR``) per maximal conflict set C (apart pairs among them) and
+    the cap row (``cap``) when a cap can bind, written by HiGHS from `solvers.CliqueModel`
+    (`solvers.write_mps`: ``OBJSENSE MAX``, not a negated objective; coefficients with 15 significant
+    digits). The weights are
+    the problem's: the importance of eq. 4 plus the exact backends' tie-break (at most 1e-5 per item). This
+    is the whole subproblem of the expression, before the exact reductions (`solvers._reduce`) a backend
+    applies to it, so its optimum is the expression's.
+``instances.solu``
+    One MIPLIB line per instance, in file order: ``=opt=  NAME  VALUE`` when the reference solver proved
+    optimality, ``=best= NAME VALUE`` when it stopped at its time limit (or is a heuristic), ``=inf=  NAME``
+    for an infeasible one and ``=unkn= NAME`` when it found nothing (an error). VALUE is the objective of
+    the MPS file as written (its coefficients as read back) at the reference packing, 17 significant digits,
+    in the file's own (maximisation) sense.
+``instances.json``
+    ``{"format": "harness-instances", "version": 1, "solver": str, "sequences": [...], "instances": [...]}``;
+    each sequence is `harness._instances_source.Sequence.describe` plus ``expressions`` (how many); each
+    instance has ``name``, ``file``, ``sequence`` (its prefix), ``rig``, ``warp``, ``expression`` (1-based),
+    ``items``, ``clique_rows``, ``cap`` (the cap row's right-hand side or null), ``solver``, ``termination``,
+    ``status`` (the ``.solu`` one), ``value`` (as in ``.solu``; null for ``inf``/``unkn``), ``objective``
+    (the importance sum of eq. 3a, without tie-break), ``bound``, ``solve_time``, ``chosen`` (column names
+    of the reference packing) and ``columns`` (column name -> the rig's shape names in that item: two for a
+    symmetry or together pair). Columns are named after their items (``jawOpen``,
+    ``eyeBlink_L+eyeBlink_R``) when every name of the instance is a safe MPS name, else ``x0``, ``x1``, ...
+
+The folder is claimed with `harness._outdir.claim` (kind ``instances``) as ``harness pack`` claims its: an
+earlier export is replaced only with ``force``, a folder holding other files needs ``force`` (they are
+kept), every file is listed in the manifest, the files are put in place together, and files an earlier
+export wrote that this one does not are removed (only while unchanged).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from harness._instances_source import Sequence
+from harness._outdir import ChangedFileWarning, claim
+
+if TYPE_CHECKING:
+    from packing import PackingProblem, Solution, Termination
+    from solvers import LoadedSolver
+
+SOLU_FILE = "instances.solu"
+INDEX_FILE = "instances.json"
+FORMAT = "harness-instances"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """What `export` wrote: the ``instances.json`` document, the files (MPS files, then the ``.solu`` and
+    the JSON) and warnings (earlier files left in place because they were changed since)."""
+
+    document: dict[str, Any]
+    files: list[Path]
+    warnings: list[str]
+
+
+class Recorder:
+    """A solver wrapper that keeps every primary subproblem (Algorithm 1's, not the second pass of sec. 6)
+    with the solver's answer, in order."""
+
+    def __init__(self, inner: LoadedSolver) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.capabilities = inner.capabilities
+        self.solved: list[tuple[PackingProblem, Solution]] = []
+
+    def availability(self):
+        """The inner solver's availability."""
+        return self.inner.availability()
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """The inner solve, recorded."""
+        solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
+        if problem.meta.get("stage", "primary") == "primary":
+            self.solved.append((problem, solution))
+        return solution
+
+
+def solu_status(termination: Termination, found: bool) -> str:
+    """The ``.solu`` status of a reference answer: ``opt`` when proved optimal, ``inf`` when proved
+    infeasible, ``best`` for any other answer with a packing (a time limit, a heuristic's), else ``unkn``."""
+    from packing import Termination
+
+    if termination is Termination.OPTIMAL:
+        return "opt"
+    if termination is Termination.INFEASIBLE:
+        return "inf"
+    return "best" if found else "unkn"
+
+
+def export(
+    sequences: Iterable[Sequence], *, solver: LoadedSolver, out: Path, force: bool = False
+) -> ExportResult:
+    """Run every reference sequence with ``solver`` and write its subproblems to ``out`` (module notes).
+
+    Parameters
+    ----------
+    sequences : iterable of Sequence
+        What to replay (`harness._instances_source.from_rig` / ``from_run``).
+    solver : LoadedSolver
+        The reference solver (``solvers.get(name)``; an exact one proves the ``=opt=`` values).
+    out : Path
+        Output folder (created; see the module notes for what it may already hold).
+    force : bool
+        Replace an earlier export, or write beside the files of a folder the harness did not write.
+
+    Raises
+    ------
+    harness._outdir.OutputFolderError
+        For an output folder that may not be used (checked before any solve).
+    ValueError
+        For bad packing parameters, or a reference sequence the independent checker refutes.
+    """
+    sequences = _unique_prefixes(list(sequences))
+    protect = [path for sequence in sequences for path in sequence.inputs]
+    folder = claim(out, kind="instances", force=force, protect=protect)
+    described, instances, files = [], [], []
+    for sequence in sequences:
+        solved = _replay(sequence, solver)
+        described.append({**sequence.describe(), "expressions": len(solved)})
+        for problem, solution in solved:
+            entry, text = _instance(sequence, problem, solution)
+            instances.append(entry)
+            files.append((entry["file"], text))
+    from solvers import solu_line
+
+    solu = "".join(solu_line(entry["status"], entry["name"], entry["value"]) + "\n" for entry in instances)
+    document = {
+        "format": FORMAT,
+        "version": VERSION,
+        "solver": solver.name,
+        "sequences": described,
+        "instances": instances,
+    }
+
+    def contents() -> Iterator[tuple[str, str]]:
+        yield from files
+        yield SOLU_FILE, solu
+        yield INDEX_FILE, json.dumps(document, indent=2) + "\n"
+
+    paths = folder.write_files(contents())
+    names = [path.relative_to(folder.path).as_posix() for path in paths]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ChangedFileWarning)
+        folder.remove_stale(keep=names)
+    changed = [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
+    return ExportResult(document, paths, changed)
+
+
+def _replay(sequence: Sequence, solver: LoadedSolver) -> list[tuple[PackingProblem, Solution]]:
+    """Algorithm 1 on the sequence's rig with ``solver``, checked by `packing.check`; the subproblems and
+    answers of its expressions."""
+    import packing
+
+    recorder = Recorder(solver)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # no target: by design
+        analysis = packing.analyse(sequence.rig, sequence.target_neutral, **sequence.params)
+    expressions = packing.sequence(
+        sequence.rig,
+        recorder,
+        analysis=analysis,
+        jmax=sequence.jmax,
+        time_limit=sequence.time_limit,
+        seed=sequence.seed,
+    )
+    packing.check(
+        sequence.rig,
+        expressions,
+        pairs=analysis.pairs,
+        overlap=solver.capabilities.max_overlap,
+        maximal=True,
+        **sequence.params,
+    )
+    return recorder.solved
+
+
+def _instance(sequence: Sequence, problem: PackingProblem, solution: Solution) -> tuple[dict[str, Any], str]:
+    """The ``instances.json`` entry and the MPS text of one expression's subproblem."""
+    import solvers
+
+    index = int(problem.meta["expression"])
+    name = f"{sequence.prefix}-e{index:02d}"
+    model = solvers.CliqueModel.from_problem(problem)
+    columns = solvers.column_names([problem.item_label(i) for i in range(problem.n_items)])
+    mps = solvers.write_mps(model, name=name, columns=columns)
+    items = [int(i) for i in solution.items]
+    status = solu_status(solution.termination, bool(items) or problem.n_items == 0)
+    value = mps.objective(items) if status in ("opt", "best") else None
+    entry = {
+        "name": name,
+        "file": f"{name}.mps",
+        "sequence": sequence.prefix,
+        "rig": sequence.rig_argument,
+        "warp": sequence.warp,
+        "expression": index,
+        "items": model.n_items,
+        "clique_rows": model.n_rows,
+        "cap": model.cap,
+        "solver": solution.backend,
+        "termination": str(solution.termination),
+        "status": status,
+        "value": value,
+        "objective": float(solution.objective),
+        "bound": solution.bound,
+        "solve_time": float(solution.solve_time),
+        "chosen": [columns[i] for i in items],
+        "columns": {
+            column: [problem.shape_names[k] for k in problem.items[i]] for i, column in enumerate(columns)
+        },
+    }
+    return entry, mps.text
+
+
+def _unique_prefixes(sequences: list[Sequence]) -> list[Sequence]:
+    """The sequences with prefixes made distinct (``face``, ``face-2``, ...: two rig files of one stem)."""
+    from dataclasses import replace
+
+    seen: dict[str, int] = {}
+    unique = []
+    for sequence in sequences:
+        count = seen.get(sequence.prefix, 0) + 1
+        seen[sequence.prefix] = count
+        unique.append(sequence if count == 1 else replace(sequence, prefix=f"{sequence.prefix}-{count}"))
+    return unique

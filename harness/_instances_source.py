@@ -1,0 +1,201 @@
+"""What ``harness instances export`` replays: one reference sequence per rig and packing setting.
+
+An argument names either a rig (resolved as ``harness pack`` resolves it, `harness._rigspec.resolve_rig`)
+with the packing parameters of the command line, or a finished run directory (holding ``run.json``), whose
+configuration gives the sequences: one per distinct (rig, warp, packing setting) of its grid and
+variations, with the run's ``jmax``, per-solve time limit, seed, artist constraints and regions, and the
+warped target's neutral in the importance (eq. 6) exactly as the run's cells analysed it
+(`harness._cell`). Solvers and repetitions of the run do not make further sequences: the export replays
+every setting with its one reference solver.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from harness._grid import CellSpec
+    from rigs import Rig
+
+#: Characters kept in a file-name prefix; anything else becomes ``_``.
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
+#: The packing settings that tell the sequences of one run apart (`harness._grid.CellSpec` fields).
+SETTING_FIELDS = ("mu", "alpha", "beta", "symmetry", "importance", "cap")
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """One reference sequence to replay (Algorithm 1 on one rig with one packing setting).
+
+    Attributes
+    ----------
+    prefix : str
+        File-name prefix of its instances (``PREFIX-e01.mps``, ...).
+    rig_argument : str
+        The rig as named on the command line or in ``run.json``.
+    rig : Rig
+        The template rig.
+    target_neutral : (N, 3) array or None
+        The warped target's neutral (a run's warp), for the distortion importance (eq. 6).
+    warp : str
+        The run's warp, or ``none``.
+    params : dict
+        Keyword arguments of `packing.analyse` (`packing.PackingParams` names).
+    jmax : int or None
+    time_limit : float or None
+        Seconds per solve.
+    seed : int
+    inputs : tuple of Path
+        The files and folders the rig argument reads, which the output folder must stay apart from.
+    """
+
+    prefix: str
+    rig_argument: str
+    rig: Rig
+    target_neutral: np.ndarray | None
+    warp: str
+    params: dict[str, Any]
+    jmax: int | None
+    time_limit: float | None
+    seed: int
+    inputs: tuple[Path, ...] = field(default=())
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready description (``instances.json``): rig, warp, the parameters, jmax, time limit, seed."""
+        params = {
+            key: (
+                {name: len(indices) for name, indices in value.items()}
+                if key == "regions" and isinstance(value, Mapping)
+                else value
+            )
+            for key, value in self.params.items()
+        }
+        return {
+            "prefix": self.prefix,
+            "rig": self.rig_argument,
+            "warp": self.warp,
+            "params": _plain(params),
+            "jmax": self.jmax,
+            "time_limit": self.time_limit,
+            "seed": self.seed,
+        }
+
+
+def is_run_directory(argument: str) -> bool:
+    """Whether ``argument`` is a run directory (a folder holding ``run.json``)."""
+    from harness._records import RUN_FILE
+
+    return (Path(argument) / RUN_FILE).is_file()
+
+
+def rig_prefix(argument: str) -> str:
+    """File-name prefix for a rig argument: a preset's name, a file's stem, a folder's name (unsafe
+    characters replaced by ``_``)."""
+    path = Path(argument)
+    text = path.stem if path.suffix and not path.is_dir() else path.name or argument
+    return _UNSAFE.sub("_", text).strip("_.") or "rig"
+
+
+def from_rig(
+    argument: str, *, params: dict[str, Any], jmax: int | None, time_limit: float | None, seed: int
+) -> Sequence:
+    """The one sequence of a rig argument with the command line's packing parameters.
+
+    Raises
+    ------
+    rigs.RigError
+        For a rig that does not exist or cannot be read (one line naming it).
+    """
+    from harness._rigspec import input_paths, resolve_rig
+
+    rig = resolve_rig(argument, seed=seed)
+    return Sequence(
+        prefix=rig_prefix(argument),
+        rig_argument=argument,
+        rig=rig,
+        target_neutral=None,
+        warp="none",
+        params=dict(params),
+        jmax=jmax,
+        time_limit=time_limit,
+        seed=seed,
+        inputs=tuple(input_paths(argument)),
+    )
+
+
+def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Sequence]:
+    """The sequences of a run directory's configuration (see the module notes), only those of rig ``rig``
+    (as ``run.json`` names it) when given; ``time_limit`` replaces the run's per-solve limit when given.
+
+    Raises
+    ------
+    ValueError
+        For an unreadable ``run.json``, a ``rig`` the run does not have (listing those it has), or a rig
+        file whose content changed since the run.
+    """
+    from harness._cell import RigChangedError, packing_params, rig_pair
+    from harness._grid import NO_WARP, RunConfig
+    from harness._rigspec import input_paths
+    from harness._run import read_run
+
+    info = read_run(run)
+    try:
+        config = RunConfig.from_dict(info["config"])
+    except (KeyError, TypeError) as error:
+        raise ValueError(f"{run}: run.json holds no usable config ({error})") from None
+    if rig is not None and rig not in config.rigs:
+        raise ValueError(f"--rig {rig!r}: the run in {run} has rigs {', '.join(config.rigs)}")
+    chosen: dict[tuple[Any, ...], CellSpec] = {}
+    for spec in config.cells(info.get("rig_digests") or {}):
+        if rig is None or spec.rig == rig:
+            chosen.setdefault((spec.rig, spec.warp, *(getattr(spec, name) for name in SETTING_FIELDS)), spec)
+    specs = list(chosen.values())
+    sequences = []
+    for spec in specs:
+        try:
+            template, target = rig_pair(spec)
+        except RigChangedError as error:
+            raise ValueError(str(error)) from None
+        sequences.append(
+            Sequence(
+                prefix=_run_prefix(spec, specs),
+                rig_argument=spec.rig,
+                rig=template,
+                target_neutral=None if spec.warp == NO_WARP else target.neutral,
+                warp=spec.warp,
+                params=packing_params(spec),
+                jmax=spec.jmax,
+                time_limit=spec.time_limit if time_limit is None else time_limit,
+                seed=spec.seed,
+                inputs=tuple(input_paths(spec.rig)),
+            )
+        )
+    return sequences
+
+
+def _run_prefix(spec: CellSpec, specs: list[CellSpec]) -> str:
+    """``rig``, with ``-warp`` when the run has several warps of the rig, and ``-sN`` (the setting's
+    place among the rig's and warp's settings) when it has several settings."""
+    prefix = rig_prefix(spec.rig)
+    same_rig = [other for other in specs if other.rig == spec.rig]
+    if len({other.warp for other in same_rig}) > 1:
+        prefix += "-" + _UNSAFE.sub("_", spec.warp)
+    same = [other for other in same_rig if other.warp == spec.warp]
+    if len(same) > 1:
+        prefix += f"-s{same.index(spec) + 1}"
+    return prefix
+
+
+def _plain(value: Any) -> Any:
+    """Tuples as lists, recursively (JSON-ready)."""
+    if isinstance(value, dict):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(item) for item in value]
+    return value

@@ -1,0 +1,243 @@
+"""``harness instances export``: MPS files that outside solvers read as the exact backends' model, a MIPLIB
+``.solu`` whose values are their optima, and an output folder that follows the manifest rules."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import json
+import re
+import tomllib
+from pathlib import Path
+
+import highspy
+import numpy as np
+import pytest
+
+import harness._plugins
+import packing
+import solvers
+from harness import cli as harness_cli
+from harness._grid import RunConfig
+from tests.harness.cli_helpers import assert_one_line_error, invoke
+
+ROOT = Path(__file__).resolve().parents[2]
+ENTRY_POINT = "harness._cli_instances:instances"
+#: A MIPLIB .solu line: a value for =opt= and =best=, none for =inf= and =unkn=.
+SOLU_LINE = re.compile(
+    r"=(?P<status>opt|best)=\s+(?P<name>\S+)\s+(?P<value>\S+)|=(?:inf|unkn)=\s+(?P<bare>\S+)"
+)
+
+
+@pytest.fixture
+def registered(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``harness instances`` as the installed entry point of pyproject.toml would register it (the venv's
+    installed metadata predates the line)."""
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    value = declared["harness.commands"]["instances"]
+    found = harness_cli._plugin_entry_points
+
+    def with_instances() -> dict[str, importlib.metadata.EntryPoint]:
+        entry = importlib.metadata.EntryPoint("instances", value, harness_cli.COMMANDS_GROUP)
+        return {**found(), "instances": entry}
+
+    monkeypatch.setattr(harness_cli, "_plugin_entry_points", with_instances)
+
+
+def export(*arguments: object):
+    return invoke("instances", "export", *arguments)
+
+
+def read_solu(folder: Path) -> dict[str, tuple[str, float | None]]:
+    """Name -> (status, value) of ``folder/instances.solu``, every line checked against the format."""
+    rows = {}
+    for line in (folder / "instances.solu").read_text().splitlines():
+        match = SOLU_LINE.fullmatch(line)
+        assert match, f"not a .solu line: {line!r}"
+        if match["bare"]:
+            rows[match["bare"]] = (line.split()[0].strip("="), None)
+        else:
+            rows[match["name"]] = (match["status"], float(match["value"]))
+    return rows
+
+
+def solve_file(path: Path) -> tuple[float, object]:
+    """HiGHS's optimum of an MPS file as the file says it (sense included), and the sense it read."""
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    highs.setOptionValue("mip_rel_gap", 0.0)
+    highs.setOptionValue("mip_abs_gap", 0.0)
+    assert highs.readModel(str(path)) != highspy.HighsStatus.kError
+    highs.run()
+    assert highs.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    return highs.getInfo().objective_function_value, highs.getLp().sense_
+
+
+def test_pyproject_registers_the_command() -> None:
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    assert declared["harness.commands"]["instances"] == ENTRY_POINT
+    command = importlib.metadata.EntryPoint("instances", ENTRY_POINT, harness_cli.COMMANDS_GROUP).load()
+    assert "export" in command.commands
+
+
+@pytest.mark.parametrize(("rig", "extra"), [("tiny", ()), ("arkit52", ("--cap", "6", "--jmax", "6"))])
+def test_every_instance_solves_to_its_solu_value(registered, tmp_path: Path, rig: str, extra) -> None:
+    out = tmp_path / "instances"
+    result = export(rig, "--out", out, *extra)
+    assert result.exit_code == 0, result.output
+    solu = read_solu(out)
+    document = json.loads((out / "instances.json").read_text())
+    names = [entry["name"] for entry in document["instances"]]
+    assert names == [f"{rig}-e{i:02d}" for i in range(1, len(names) + 1)] and names
+    assert list(solu) == names
+    assert sorted(path.name for path in out.glob("*.mps")) == sorted(f"{name}.mps" for name in names)
+    for entry in document["instances"]:
+        status, value = solu[entry["name"]]
+        assert status == "opt" and entry["status"] == "opt" and value == entry["value"]
+        optimum, sense = solve_file(out / entry["file"])
+        assert sense == highspy.ObjSense.kMaximize
+        assert optimum > 0  # a minimisation of positive weights would answer 0
+        assert optimum == pytest.approx(value, rel=1e-9, abs=0)
+        shapes = [name for names in entry["columns"].values() for name in names]
+        assert len(shapes) == len(set(shapes)) and set(entry["chosen"]) <= set(entry["columns"])
+    if extra:  # the cap binds on arkit52's first expression: its row is in the file
+        assert " cap " in (out / f"{rig}-e01.mps").read_text()
+
+
+@pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
+def test_the_files_are_the_models_the_exact_backends_solve(registered, tmp_path: Path) -> None:
+    """Instance e02 read back equals the presolved model of the sequence's second subproblem."""
+    out = tmp_path / "instances"
+    assert export("tiny", "--out", out).exit_code == 0
+    import rigs
+
+    rig = rigs.generate("tiny")
+    analysis = packing.analyse(rig)
+    first = analysis.problem_for()
+    chosen = np.array(solvers.get("cpsat").solve(first).items)
+    used = [name for i in chosen for name in first.shapes_of([i])]
+    second = analysis.next_problem(first, chosen, used)
+    model = solvers.CliqueModel.from_problem(second)
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    highs.readModel(str(out / "tiny-e02.mps"))
+    lp = highs.getLp()
+    np.testing.assert_allclose(lp.col_cost_, model.weights, rtol=1e-14)
+    assert list(lp.col_names_) == [second.item_label(i) for i in range(second.n_items)]
+    assert list(lp.row_upper_) == list(model.upper())
+
+
+def test_a_time_limited_reference_is_best_not_opt(registered, tmp_path: Path, monkeypatch) -> None:
+    real = harness._plugins.solver
+
+    class CutShort:
+        """The real solver's answer, reported as stopped by its time limit."""
+
+        def __init__(self, inner):
+            self.inner, self.name, self.capabilities = inner, inner.name, inner.capabilities
+
+        def solve(self, problem, *, time_limit=None, seed=0):
+            solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
+            return dataclasses.replace(solution, termination=packing.Termination.TIME_LIMIT)
+
+    monkeypatch.setattr(harness._plugins, "solver", lambda name: CutShort(real(name)))
+    out = tmp_path / "instances"
+    result = export("tiny", "--out", out, "--time-limit", "1s")
+    assert result.exit_code == 0, result.output
+    solu = read_solu(out)
+    assert solu and all(status == "best" for status, _ in solu.values())
+    assert all(line.startswith("=best= tiny-e") for line in (out / "instances.solu").read_text().splitlines())
+    for name, (_, value) in solu.items():
+        assert solve_file(out / f"{name}.mps")[0] == pytest.approx(value, rel=1e-9, abs=0)
+    document = json.loads((out / "instances.json").read_text())
+    assert {entry["termination"] for entry in document["instances"]} == {"time_limit"}
+
+
+def test_re_export_replaces_only_its_own_files(registered, tmp_path: Path) -> None:
+    out = tmp_path / "instances"
+    assert export("tiny", "--out", out).exit_code == 0
+    before = {path.name: path.read_bytes() for path in out.iterdir() if path.suffix in (".mps", ".solu")}
+    assert_one_line_error(export("tiny", "--out", out), "holds a harness instances", "--force")
+    again = export("tiny", "--out", out, "--force")
+    assert again.exit_code == 0, again.output
+    after = {path.name: path.read_bytes() for path in out.iterdir() if path.suffix in (".mps", ".solu")}
+    assert after == before  # the same files (instances.json differs in its solve times)
+    fewer = export("tiny", "--out", out, "--force", "--jmax", "1")
+    assert fewer.exit_code == 0, fewer.output
+    assert sorted(path.name for path in out.glob("*.mps")) == ["tiny-e01.mps"]  # its stale files removed
+    assert list(read_solu(out)) == ["tiny-e01"]
+
+
+def test_a_folder_with_foreign_files_needs_force_and_keeps_them(registered, tmp_path: Path) -> None:
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    (out / "tiny-e01.mps").write_text("my own model")
+    assert_one_line_error(export("tiny", "--out", out), "not empty", "--force")
+    assert_one_line_error(export("tiny", "--out", out, "--force"), "tiny-e01.mps", "not written by harness")
+    (out / "tiny-e01.mps").unlink()
+    result = export("tiny", "--out", out, "--force")
+    assert result.exit_code == 0, result.output
+    assert (out / "notes.txt").read_text() == "mine" and (out / "instances.solu").is_file()
+
+
+def test_bad_input_is_one_line(registered, tmp_path: Path) -> None:
+    assert_one_line_error(export("nosuchrig", "--out", tmp_path / "a"), "unknown rig 'nosuchrig'")
+    afile = tmp_path / "file"
+    afile.write_text("x")
+    assert_one_line_error(export("tiny", "--out", afile), "exists and is not a folder")
+    assert_one_line_error(export("tiny", "--out", tmp_path / "b", "--solver", "gurobix"), "unknown solver")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_a_run_directory_gives_one_sequence_per_rig_warp_and_setting(registered, tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    config = RunConfig(
+        rigs=("tiny",), warps=("none", "big-eyes"), solvers=("greedy",), transfers=(), symmetry=(True, False)
+    )
+    (run / "run.json").write_text(json.dumps({"config": config.to_dict(), "rig_digests": {}}))
+    assert_one_line_error(export(run, "--out", tmp_path / "x", "--mu", "0.4"), "run directory", "--mu")
+    assert_one_line_error(export(run, "--out", tmp_path / "x", "--rig", "female"), "--rig 'female'")
+    out = tmp_path / "instances"
+    result = export(run, "--out", out)
+    assert result.exit_code == 0, result.output
+    document = json.loads((out / "instances.json").read_text())
+    prefixes = [sequence["prefix"] for sequence in document["sequences"]]
+    assert prefixes == ["tiny-none-s1", "tiny-none-s2", "tiny-big-eyes-s1", "tiny-big-eyes-s2"]
+    assert [s["params"]["symmetry"] for s in document["sequences"]] == [True, False, True, False]
+    solu = read_solu(out)
+    assert set(solu) == {entry["name"] for entry in document["instances"]}
+    # the warp's target neutral drives the distortion importance (eq. 6): other weights, other values
+    assert solu["tiny-none-s1-e01"][1] != solu["tiny-big-eyes-s1-e01"][1]
+    for name, (_, value) in solu.items():
+        assert solve_file(out / f"{name}.mps")[0] == pytest.approx(value, rel=1e-9, abs=0)
+
+
+def test_unsafe_item_names_become_numbered_columns() -> None:
+    assert solvers.column_names(["jawOpen", "eyeBlink_L+eyeBlink_R"]) == ("jawOpen", "eyeBlink_L+eyeBlink_R")
+    assert solvers.column_names(["jaw open", "b"]) == ("x0", "x1")
+    assert solvers.column_names(["a", "a"]) == ("x0", "x1")
+    assert solvers.column_names(["$a", "b"]) == ("x0", "x1")
+
+
+def test_solu_lines() -> None:
+    assert solvers.solu_line("opt", "a-e01", 0.1 + 0.2) == "=opt=  a-e01  0.30000000000000004"
+    assert solvers.solu_line("best", "a-e01", 1.5) == "=best= a-e01  1.5"
+    assert solvers.solu_line("inf", "a-e01") == "=inf=  a-e01"
+    with pytest.raises(ValueError, match="finite"):
+        solvers.solu_line("opt", "a", None)
+
+
+def test_scip_reads_the_files_as_a_maximisation_of_the_solu_value(registered, tmp_path: Path) -> None:
+    """SCIP's own MPS reader (through pyscipopt) finds the .solu optimum, maximising."""
+    pyscipopt = pytest.importorskip("pyscipopt")
+    out = tmp_path / "instances"
+    assert export("tiny", "--out", out).exit_code == 0
+    for name, (_, value) in read_solu(out).items():
+        model = pyscipopt.Model()
+        model.hideOutput()
+        model.readProblem(str(out / f"{name}.mps"))
+        model.optimize()
+        assert model.getObjectiveSense() == "maximize" and model.getStatus() == "optimal"
+        assert model.getObjVal() == pytest.approx(value, rel=1e-9, abs=0)
