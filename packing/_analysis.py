@@ -259,9 +259,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("binary")
     if settings.importance and target is None:
         warn_missing_target(settings.alpha)
-    terms = importance_terms(
-        rig, active, norms, target if settings.importance else None, settings.distortion
-    )
+    terms = importance_terms(rig, active, norms, target if settings.importance else None, settings.distortion)
     lap("importance")
     together, apart = resolve_constraints(rig, settings, empty)
     symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart)

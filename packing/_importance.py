@@ -21,7 +21,6 @@ from packing._binary import (
 from packing._params import params_from
 from rigs import Rig, bounding_box
 
-
 #: How eq. 6's edge ratios become a triangle's distortion: the paper's sum, or its excess over 2.
 Distortion = Literal["paper", "excess"]
 DISTORTIONS: tuple[str, ...] = ("paper", "excess")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import packing
-from packing._importance import DegenerateDistortionWarning, triangle_distortion
 import rigs
+from packing._importance import DegenerateDistortionWarning, triangle_distortion
 from rigs import Rig, RigError
 
 # Unit square in the z = 0 plane, split into triangles (0, 1, 2) and (1, 3, 2).
