@@ -163,7 +163,7 @@ def choose_beta(spectra: Spectra, low: float, high: float) -> BetaChoice:
     scores = gcv_scores(spectra, grid)
     if spectra.eigenvalues.size == 0:
         return BetaChoice(float("nan"), grid, scores, float("nan"))
-    from scipy.optimize import minimize_scalar  # importing transfer loads no scipy (plugins are listed cheaply)
+    from scipy.optimize import minimize_scalar  # importing transfer must not load scipy
 
     best = int(np.argmin(scores))
     if steps == 1:

@@ -184,7 +184,7 @@ class RiggingState:
         #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`).
         self.expressions: BoundedMemo[Fitted] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
         #: GCV spectra of single expressions and choices of ``beta`` (`GradientSpaceRigging.choose_beta`).
-        self.spectra: BoundedMemo[Spectra] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
+        self.expression_spectra: BoundedMemo[Spectra] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
         self.choices: BoundedMemo[BetaChoice] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
 
 
@@ -265,9 +265,9 @@ class GradientSpaceRigging:
         digest = hashlib.blake2b(weights.tobytes(), digest_size=16)
         digest.update(np.ascontiguousarray(self.examples[: weights.shape[0]]).data)
         key = (digest.hexdigest(), float(low), float(high))
-        return self.state.choices.get_or_build(key, lambda: choose_beta(self._spectra(weights), low, high))
+        return self.state.choices.get_or_build(key, lambda: choose_beta(self.spectra(weights), low, high))
 
-    def _spectra(self, weights: np.ndarray) -> Spectra:
+    def spectra(self, weights: np.ndarray) -> Spectra:
         """GCV spectra of the systems `blendshapes` solves for ``weights`` (see `choose_beta`)."""
         if _disjoint(weights):
             parts = []
@@ -281,8 +281,9 @@ class GradientSpaceRigging:
 
     def _expression_spectra(self, j: int, row: np.ndarray, shapes: np.ndarray) -> Spectra:
         """Spectra of expression ``j`` alone (no other expression holds its shapes), memoised."""
-        return self.state.spectra.get_or_build(
-            self._expression_key(j, row), lambda: self._system_spectra(row[None, shapes], shapes, np.array([j]))
+        return self.state.expression_spectra.get_or_build(
+            self._expression_key(j, row),
+            lambda: self._system_spectra(row[None, shapes], shapes, np.array([j])),
         )
 
     def _system_spectra(self, weights: np.ndarray, shapes: np.ndarray, expressions: np.ndarray) -> Spectra:
@@ -530,7 +531,7 @@ class ExampleBasedRigging(RiggingSettings, Transfer):
             ``beta``, the GCV score curve on a log grid, and the score at ``beta`` (`transfer._gcv`);
             memoised, so asking after a ``beta="gcv"`` transfer costs nothing.
         """
-        inputs = self._checked(template, target_neutral, weights, examples)
+        inputs = self.checked(template, target_neutral, weights, examples)
         return self.rigging(inputs).choose_beta(inputs.weights, *self.beta_range)
 
     def beta_used(
@@ -547,9 +548,10 @@ class ExampleBasedRigging(RiggingSettings, Transfer):
             return float(self.beta)
         return rigging.choose_beta(weights, *self.beta_range).beta
 
-    def _checked(
+    def checked(
         self, template: object, target_neutral: object, weights: object, examples: object
     ) -> TransferInputs:
+        """The arguments of a call, checked (`transfer._inputs.check_inputs`)."""
         return check_inputs(
             template, target_neutral, weights, examples, method=self.name, binary=self.binary_weights
         )
