@@ -219,7 +219,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     target_neutral : (N, 3) array or Rig, optional
         Neutral of the target character B, for triangle distortion (eqs. 6-7).
     **params
-        `PackingParams` fields: ``mu``, ``alpha``, ``beta``, ``importance``, ``symmetry``,
+        `PackingParams` fields: ``mu``, ``alpha``, ``beta``, ``importance``, ``distortion``, ``symmetry``,
         ``shape_symmetry``, ``motion_symmetry``, ``max_per_expression``, ... (or ``params=`` a
         `PackingParams`).
 
@@ -259,7 +259,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("binary")
     if settings.importance and target is None:
         warn_missing_target(settings.alpha)
-    terms = importance_terms(rig, active, norms, target if settings.importance else None)
+    terms = importance_terms(rig, active, norms, target if settings.importance else None, settings.distortion)
     lap("importance")
     together, apart = resolve_constraints(rig, settings, empty)
     symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart)

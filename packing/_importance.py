@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -19,6 +20,10 @@ from packing._binary import (
 )
 from packing._params import params_from
 from rigs import Rig, bounding_box
+
+#: How eq. 6's edge ratios become a triangle's distortion: the paper's sum, or its excess over 2.
+Distortion = Literal["paper", "excess"]
+DISTORTIONS: tuple[str, ...] = ("paper", "excess")
 
 
 class MissingTargetWarning(UserWarning):
@@ -48,22 +53,36 @@ def displacement_strength(norms: np.ndarray, masks: np.ndarray) -> np.ndarray:
     return _normalised(mean)
 
 
-def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def triangle_distortion(
+    template: np.ndarray,
+    target: np.ndarray,
+    triangles: np.ndarray,
+    distortion: Distortion = "paper",
+) -> np.ndarray:
     """Edge-ratio distortion ``s_t`` of every triangle between two neutrals (eq. 6).
 
     For triangle ``uvw`` (v its second vertex) with edge vectors ``vu = u - v`` and ``vw = w - v``,
-    ``s_t = max(|vu_A|/|vu_B|, |vu_B|/|vu_A|) + max(|vw_A|/|vw_B|, |vw_B|/|vw_A|)``, ranging over
-    [2, inf); 2 means both edges kept their lengths.
+    ``s_t = max(|vu_A|/|vu_B|, |vu_B|/|vu_A|) + max(|vw_A|/|vw_B|, |vw_B|/|vw_A|)``.
 
     Parameters
     ----------
     template, target : (N, 3) arrays
         The neutral of the template rig A and of the target character B (same topology).
     triangles : (T, 3) int array
+    distortion : {"paper", "excess"}, default "paper"
+        ``"paper"`` is eq. 6 as printed, in [2, inf). ``"excess"`` is ``s_t - 2`` (clipped at 0 against
+        rounding), in [0, inf), as the authors' code computes it: eq. 7 then sums pure distortion,
+        whereas eq. 6 as printed adds 2 for every touched triangle, so that ``lambda_TD`` mostly counts
+        the triangles around a shape's active vertices.
 
     Returns
     -------
     (T,) array.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``distortion``.
 
     Notes
     -----
@@ -71,7 +90,14 @@ def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.
     in either of them (a collapsed edge or a sliver, common in scans and welded seams) has an unbounded
     ratio that would swamp the normalisation of eq. 7: it gets ``s_t = 0`` (left out of ``lambda_TD``) and
     a `DegenerateDistortionWarning` reports how many there are.
+
+    Each ratio term ``max(a/b, b/a)`` is at least 1, with equality exactly when the edge keeps its
+    length, so ``s_t = 2`` exactly when both edges at v keep their lengths: a congruent triangle, or one
+    sheared about v (eq. 6 does not see the third edge). A similar but scaled triangle (factor
+    ``c != 1``) has ``s_t = 2 max(c, 1/c) > 2``: a uniformly scaled target has excess everywhere.
     """
+    if distortion not in DISTORTIONS:
+        raise ValueError(f"distortion must be one of {', '.join(map(repr, DISTORTIONS))}, got {distortion!r}")
     scale = max(_diagonal(template), _diagonal(target)) or 1.0
     ratios, degenerate = [], np.zeros(len(triangles), dtype=bool)
     for corner in (0, 2):  # vu, then vw
@@ -82,8 +108,10 @@ def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.
         ratio = np.zeros(len(triangles))
         ratio[~short] = np.maximum(length_a[~short] / length_b[~short], length_b[~short] / length_a[~short])
         ratios.append(ratio)
-    distortion = ratios[0] + ratios[1]
-    distortion[degenerate] = 0.0
+    summed = ratios[0] + ratios[1]
+    if distortion == "excess":
+        summed = np.maximum(summed - 2.0, 0.0)
+    summed[degenerate] = 0.0
     if degenerate.any():
         first = int(np.flatnonzero(degenerate)[0])
         warnings.warn(
@@ -93,7 +121,7 @@ def triangle_distortion(template: np.ndarray, target: np.ndarray, triangles: np.
             DegenerateDistortionWarning,
             stacklevel=2,
         )
-    return distortion
+    return summed
 
 
 def _diagonal(points: np.ndarray) -> float:
@@ -227,17 +255,21 @@ class ImportanceTerms:
 
 
 def importance_terms(
-    rig: Rig, masks: np.ndarray, norms: np.ndarray, target: np.ndarray | None
+    rig: Rig,
+    masks: np.ndarray,
+    norms: np.ndarray,
+    target: np.ndarray | None,
+    distortion: Distortion = "paper",
 ) -> ImportanceTerms:
-    """Eqs. 5-7 for a rig whose binary blendshapes are known."""
+    """Eqs. 5-7 for a rig whose binary blendshapes are known (``distortion``: see `triangle_distortion`)."""
     displacement = displacement_strength(norms, masks)
     if target is None:
-        distortion = np.zeros(rig.n_shapes)
+        strength = np.zeros(rig.n_shapes)
     else:
-        distortion = distortion_strength(
-            triangle_distortion(rig.neutral, target, rig.triangles), masks, rig.triangles
+        strength = distortion_strength(
+            triangle_distortion(rig.neutral, target, rig.triangles, distortion), masks, rig.triangles
         )
-    return ImportanceTerms(displacement, distortion, target is not None, rig.deltas)
+    return ImportanceTerms(displacement, strength, target is not None, rig.deltas)
 
 
 def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray | None:
@@ -314,6 +346,7 @@ def importance(
     used: Iterable[str | int] = (),
     mu: float = 0.3,
     noise_floor: float = 1e-6,
+    distortion: Distortion = "paper",
 ) -> np.ndarray:
     """Importance weight ``lambda_k`` of every blendshape (Carrigan et al. 2020, eq. 4).
 
@@ -336,6 +369,9 @@ def importance(
         Threshold of the binary blendshapes (eq. 2).
     noise_floor : float
         Relative noise floor below which a shape is empty (see `PackingParams`).
+    distortion : {"paper", "excess"}, default "paper"
+        Triangle distortion of eq. 6 as printed (``s_t >= 2``) or its excess ``s_t - 2`` (see
+        `triangle_distortion`).
 
     Returns
     -------
@@ -347,14 +383,14 @@ def importance(
         For parameters out of range, a target with other topology, unknown ``used`` names, or a rig
         whose every shape is empty.
     """
-    params = params_from(mu=mu, alpha=alpha, beta=beta, noise_floor=noise_floor)
+    params = params_from(mu=mu, alpha=alpha, beta=beta, noise_floor=noise_floor, distortion=distortion)
     target = target_neutral_of(rig, target_neutral)
     norms, empty, masks = rig_masks(rig, params.mu, params.noise_floor)
     require_nonempty(rig, empty)
     if target is None:
         warn_missing_target(params.alpha)
     used_shapes = used_mask(rig, used)
-    terms = importance_terms(rig, masks, norms, target)
+    terms = importance_terms(rig, masks, norms, target, params.distortion)
     return terms.combine(params.alpha, params.beta, used_shapes, ~used_shapes & ~empty)
 
 

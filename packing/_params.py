@@ -8,7 +8,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from os import PathLike
-from typing import Any
+from typing import Any, Literal
 
 from packing._constraints import as_pairs
 
@@ -34,6 +34,10 @@ class PackingParams:
         Weight of the uniqueness term (eqs. 4, 8); 0 switches it off.
     importance : bool
         False gives the paper's "no importance" mode: every blendshape weighs 1 (sec. 5.2).
+    distortion : {"paper", "excess"}
+        Triangle distortion of eq. 6 as printed (``s_t >= 2``, so ``lambda_TD`` of eq. 7 largely counts
+        touched triangles) or its excess ``s_t - 2`` as in the authors' code
+        (`packing._importance.triangle_distortion`).
     symmetry : bool
         Master switch of the symmetry constraints (eq. 3d); ``shape_symmetry`` and
         ``motion_symmetry`` select the two kinds (secs. 4.4.1, 4.4.2).
@@ -79,6 +83,7 @@ class PackingParams:
     alpha: float = 0.5
     beta: float = 0.0
     importance: bool = True
+    distortion: Literal["paper", "excess"] = "paper"
     symmetry: bool = True
     shape_symmetry: bool = True
     motion_symmetry: bool = True
@@ -99,6 +104,8 @@ class PackingParams:
         check_range("mu", self.mu, 0.0, 1.0, low_open=True)
         check_range("alpha", self.alpha, 0.0, 1.0)
         check_range("beta", self.beta, 0.0, math.inf)
+        if self.distortion not in ("paper", "excess"):
+            raise ValueError(f"distortion must be 'paper' or 'excess', got {self.distortion!r}")
         check_range("shape_tol", self.shape_tol, 0.0, math.inf, low_open=True)
         check_range("pair_overlap", self.pair_overlap, 0.0, 1.0)
         check_range("motion_cos", self.motion_cos, -1.0, 1.0)

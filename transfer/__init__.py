@@ -16,6 +16,9 @@ expressions as a function of J (Carrigan et al. 2020, sec. 5.2 evaluate sequence
 Training expressions come ideal (`training_expressions`, the linear sum of the target's ground truth, as in
 the paper) or scan-like (`scan_expressions` with a `ScanModel`: correctives, scanner noise, head motion
 removed by rigid alignment).
+
+``transfer.get("ebfr", beta="gcv")`` chooses Li et al.'s balance ``beta`` from the examples by generalized
+cross-validation; `beta_curve` shows the RMS error against ground truth over ``beta`` beside that choice.
 """
 
 from transfer._base import Transfer
@@ -23,12 +26,15 @@ from transfer._expressions import training_expressions
 from transfer._metrics import TransferMetrics, metrics, rms
 from transfer._registry import availability, get, info, names
 from transfer._scan import ScanModel, scan_expressions
+from transfer._sweep import BetaCurve, beta_curve
 
 __all__ = [
+    "BetaCurve",
     "ScanModel",
     "Transfer",
     "TransferMetrics",
     "availability",
+    "beta_curve",
     "get",
     "info",
     "metrics",

@@ -5,13 +5,14 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import numpy as np
 
 from transfer._base import Transfer, check_positive
 from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
-from transfer._inputs import TransferInputs
+from transfer._gcv import BetaChoice, Spectra, choose_beta, ridge_spectra
+from transfer._inputs import TransferInputs, check_inputs
 from transfer._memo import BoundedMemo
 from transfer._reconstruct import displacement_lengths
 from transfer._setup import TransferSetup, transfer_setup
@@ -182,6 +183,9 @@ class RiggingState:
         self.regularisation = Regularisation(setup, kappa, theta, motion_scale)
         #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`).
         self.expressions: BoundedMemo[Fitted] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
+        #: GCV spectra of single expressions and choices of ``beta`` (`GradientSpaceRigging.choose_beta`).
+        self.expression_spectra: BoundedMemo[Spectra] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
+        self.choices: BoundedMemo[BetaChoice] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
 
 
 class GradientSpaceRigging:
@@ -243,9 +247,53 @@ class GradientSpaceRigging:
         self.apply(result, weights, beta)
         return result
 
-    def prefixes(self, weights: np.ndarray, beta: float) -> Callable[[int], np.ndarray]:
-        """``blendshapes(weights[:j], beta)`` as a function of j (see `RisingPrefixes`)."""
-        return RisingPrefixes(self, weights, beta)
+    def prefixes(
+        self, weights: np.ndarray, beta: float | Callable[[int], float]
+    ) -> Callable[[int], np.ndarray]:
+        """``blendshapes(weights[:j], beta)`` as a function of j (see `RisingPrefixes`); ``beta`` may
+        be a function of j (as `choose_beta` of the first j expressions)."""
+        return RisingPrefixes(self, weights, beta if callable(beta) else lambda count: beta)
+
+    def choose_beta(self, weights: np.ndarray, low: float, high: float) -> BetaChoice:
+        """``beta`` in ``[low, high]`` by generalized cross-validation of step A (`transfer._gcv`).
+
+        Uses the template, the target neutral and the training expressions only. The per-triangle
+        systems are those `blendshapes` solves: for a packing, each expression's shapes on the triangles
+        around their free vertices, whose spectra are memoised per expression as the fits are; otherwise
+        all covered shapes jointly. The choice is memoised per weights and examples.
+        """
+        digest = hashlib.blake2b(weights.tobytes(), digest_size=16)
+        digest.update(np.ascontiguousarray(self.examples[: weights.shape[0]]).data)
+        key = (digest.hexdigest(), float(low), float(high))
+        return self.state.choices.get_or_build(key, lambda: choose_beta(self.spectra(weights), low, high))
+
+    def spectra(self, weights: np.ndarray) -> Spectra:
+        """GCV spectra of the systems `blendshapes` solves for ``weights`` (see `choose_beta`)."""
+        if _disjoint(weights):
+            parts = []
+            for j, row in enumerate(weights):
+                shapes = np.flatnonzero(row)
+                if shapes.size:
+                    parts.append(self._expression_spectra(j, row, shapes))
+            return Spectra.join(parts)
+        covered = np.flatnonzero(np.any(weights != 0, axis=0))
+        return self._system_spectra(weights[:, covered], covered, np.arange(weights.shape[0]))
+
+    def _expression_spectra(self, j: int, row: np.ndarray, shapes: np.ndarray) -> Spectra:
+        """Spectra of expression ``j`` alone (no other expression holds its shapes), memoised."""
+        return self.state.expression_spectra.get_or_build(
+            self._expression_key(j, row),
+            lambda: self._system_spectra(row[None, shapes], shapes, np.array([j])),
+        )
+
+    def _system_spectra(self, weights: np.ndarray, shapes: np.ndarray, expressions: np.ndarray) -> Spectra:
+        """Spectra of the systems of `_fitted` with the same arguments, without fitting."""
+        setup = self.setup
+        faces = setup.faces(shapes)
+        observed = edge_vectors(self.offsets[..., expressions], setup.triangles[faces])
+        prior = setup.prior.block(faces, shapes).reshape(faces.size, 6, shapes.size)
+        residual = observed.reshape(faces.size, 6, -1) - prior @ weights.T
+        return ridge_spectra(self.state.regularisation.block(faces, shapes), weights, residual)
 
     def apply(self, result: np.ndarray, weights: np.ndarray, beta: float, start: int = 0) -> None:
         """Write the fitted shapes of expressions ``start`` onward of ``weights`` into ``result``.
@@ -283,12 +331,16 @@ class GradientSpaceRigging:
 
     def _expression(self, j: int, row: np.ndarray, shapes: np.ndarray, beta: float) -> Fitted:
         """The shapes of expression ``j`` alone (no other expression holds them), memoised."""
+        return self.state.expressions.get_or_build(
+            (self._expression_key(j, row), float(beta)),
+            lambda: self._fitted(row[None, shapes], shapes, np.array([j]), beta),
+        )
+
+    def _expression_key(self, j: int, row: np.ndarray) -> str:
+        """Digest of expression ``j``'s weights and example."""
         digest = hashlib.blake2b(row.tobytes(), digest_size=16)
         digest.update(np.ascontiguousarray(self.examples[j]).data)
-        key = (digest.hexdigest(), float(beta))
-        return self.state.expressions.get_or_build(
-            key, lambda: self._fitted(row[None, shapes], shapes, np.array([j]), beta)
-        )
+        return digest.hexdigest()
 
 
 class RisingPrefixes:
@@ -303,25 +355,31 @@ class RisingPrefixes:
     ----------
     rigging : GradientSpaceRigging
     weights : (J, K) array
-    beta : float
+    beta : callable
+        ``beta`` for the first j expressions, as a function of j; when it changes between calls the
+        estimate starts again from deformation transfer (fits already made at that ``beta`` are reused).
     """
 
-    def __init__(self, rigging: GradientSpaceRigging, weights: np.ndarray, beta: float) -> None:
+    def __init__(
+        self, rigging: GradientSpaceRigging, weights: np.ndarray, beta: Callable[[int], float]
+    ) -> None:
         self.rigging = rigging
         self.weights = weights
         self.beta = beta
         self._result: np.ndarray | None = None
         self._applied = 0
+        self._beta = float("nan")
 
     def __call__(self, count: int) -> np.ndarray:
         """``(K, N, 3)`` deltas from the first ``count`` expressions, a new array."""
         head = self.weights[:count]
+        beta = self.beta(count)
         if not _disjoint(head):
-            return self.rigging.blendshapes(head, self.beta)
-        if self._result is None or count < self._applied:
+            return self.rigging.blendshapes(head, beta)
+        if self._result is None or count < self._applied or beta != self._beta:
             self._result, self._applied = self.rigging.setup.transferred.copy(), 0
-        self.rigging.apply(self._result, head, self.beta, self._applied)
-        self._applied = count
+        self.rigging.apply(self._result, head, beta, self._applied)
+        self._applied, self._beta = count, beta
         return self._result.copy()
 
 
@@ -391,17 +449,23 @@ class ExampleBasedRigging(RiggingSettings, Transfer):
 
     Parameters
     ----------
-    beta : float, default 0.1
+    beta : float or "gcv", default 0.1
         Weight of the regulariser ``E_reg`` against the fit ``E_fit`` (Li et al.: 0.1 balances accuracy
         and robustness; over-fitting below about 0.05). ``beta -> infinity`` is deformation transfer.
+        ``"gcv"`` chooses it in ``beta_range`` for every set of training expressions by generalized
+        cross-validation (`choose_beta`).
+    beta_range : (float, float), default (1e-4, 1.0)
+        Interval searched by ``beta="gcv"``.
     kappa, theta, motion_scale, static_tolerance, align
         The regularisation (`RiggingSettings`).
 
     Examples
     --------
     >>> import transfer
-    >>> method = transfer.get("ebfr", beta=0.1)
+    >>> method = transfer.get("ebfr", beta="gcv")
     >>> deltas = method(template, target.neutral, weights, examples)  # doctest: +SKIP
+    >>> method.beta_used(template, target.neutral, weights, examples)  # doctest: +SKIP
+    0.00012
 
     Notes
     -----
@@ -412,20 +476,82 @@ class ExampleBasedRigging(RiggingSettings, Transfer):
     J and call on the same rig pair (`transfer._setup.transfer_setup`). Shapes in no training expression
     come out as deformation transfer; with J = 0 the method is deformation transfer. `prefixes` fits each
     expression of a packing once for all J (`RisingPrefixes`).
+
+    Why GCV for ``beta="gcv"``: a TD has the template, the target neutral and the J examples, not the
+    target's shapes, so ``beta`` must be judged on the examples. Hold-out validation fails there: when
+    each shape is in one expression, an expression left out takes its shapes' only data with it and its
+    prediction is the prior whatever ``beta`` (the leave-one-out residual ``e_j / (1 - H_jj)`` equals the
+    prior's residual). Generalized cross-validation (Golub, Heath & Wahba 1979) pools the closed-form
+    hat matrices of all per-triangle systems instead: triangles whose shapes may move freely (large
+    ``G_t = W D_t^-1 W^T``) against those held near the prior tell signal (residuals that grow with the
+    freedom) from noise (residuals that do not). It needs no noise level, unlike Morozov's discrepancy
+    principle, and it reuses the Woodbury form of the fit: O(T K J) for a packing, no extra fit.
     """
 
     name: ClassVar[str] = "ebfr"
     binary_weights: ClassVar[bool] = True
-    beta: float = 0.1
+    beta: float | Literal["gcv"] = 0.1
+    beta_range: tuple[float, float] = (1e-4, 1.0)
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_positive(self.beta, "beta")
+        if self.beta != "gcv":
+            if isinstance(self.beta, str):
+                raise ValueError(f"beta must be a positive number or 'gcv', got {self.beta!r}")
+            check_positive(self.beta, "beta")
+        low, high = self.beta_range
+        check_positive(low, "beta_range[0]")
+        check_positive(high, "beta_range[1]")
+        if low > high:
+            raise ValueError(f"beta_range must be (low, high) with low <= high, got {self.beta_range!r}")
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
         """Step A with the given weights."""
-        return self.rigging(inputs).blendshapes(inputs.weights, self.beta)
+        rigging = self.rigging(inputs)
+        return rigging.blendshapes(inputs.weights, self._beta(rigging, inputs.weights))
 
     def _prefixes(self, inputs: TransferInputs) -> Callable[[int], np.ndarray]:
-        """Step A with the first J expressions, each fitted once (`GradientSpaceRigging.prefixes`)."""
-        return self.rigging(inputs).prefixes(inputs.weights, self.beta)
+        """Step A with the first J expressions, each fitted once per ``beta`` (`RisingPrefixes`)."""
+        rigging = self.rigging(inputs)
+        return rigging.prefixes(inputs.weights, lambda count: self._beta(rigging, inputs.weights[:count]))
+
+    def choose_beta(
+        self, template: object, target_neutral: object, weights: object = None, examples: object = None
+    ) -> BetaChoice:
+        """The GCV choice of ``beta`` in ``beta_range`` for these inputs, whatever ``beta`` is.
+
+        Parameters
+        ----------
+        template, target_neutral, weights, examples
+            As for calling the method; never the target's blendshapes.
+
+        Returns
+        -------
+        BetaChoice
+            ``beta``, the GCV score curve on a log grid, and the score at ``beta`` (`transfer._gcv`);
+            memoised, so asking after a ``beta="gcv"`` transfer costs nothing.
+        """
+        inputs = self.checked(template, target_neutral, weights, examples)
+        return self.rigging(inputs).choose_beta(inputs.weights, *self.beta_range)
+
+    def beta_used(
+        self, template: object, target_neutral: object, weights: object = None, examples: object = None
+    ) -> float:
+        """The ``beta`` a call with these inputs fits with: the fixed one, or the GCV choice (NaN with
+        no training expression, where ``beta`` has no effect)."""
+        if self.beta != "gcv":
+            return float(self.beta)
+        return self.choose_beta(template, target_neutral, weights, examples).beta
+
+    def _beta(self, rigging: GradientSpaceRigging, weights: np.ndarray) -> float:
+        if self.beta != "gcv":
+            return float(self.beta)
+        return rigging.choose_beta(weights, *self.beta_range).beta
+
+    def checked(
+        self, template: object, target_neutral: object, weights: object, examples: object
+    ) -> TransferInputs:
+        """The arguments of a call, checked (`transfer._inputs.check_inputs`)."""
+        return check_inputs(
+            template, target_neutral, weights, examples, method=self.name, binary=self.binary_weights
+        )

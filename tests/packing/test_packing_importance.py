@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import packing
+import rigs
 from packing._importance import DegenerateDistortionWarning, triangle_distortion
 from rigs import Rig, RigError
 
@@ -193,3 +194,45 @@ def test_rig_whose_every_shape_is_empty_is_refused():
         packing.importance(rig, STRETCHED)
     with pytest.raises(ValueError, match="every one of its 2 blendshapes is empty"):
         packing.analyse(rig, STRETCHED)
+
+
+# The excess variant of eq. 6 (the authors' code: s_t - 2) ---------------------------------------------
+
+
+def test_excess_distortion_is_the_paper_value_minus_two():
+    paper = triangle_distortion(SQUARE, STRETCHED, TRIANGLES)
+    assert triangle_distortion(SQUARE, STRETCHED, TRIANGLES, "excess") == pytest.approx(paper - 2.0)
+    assert np.all(triangle_distortion(SQUARE, SQUARE, TRIANGLES, "excess") == 0.0)
+    # A similar triangle scaled by c has s_t = 2 max(c, 1/c): excess 2 (c - 1) even though no angle changed.
+    assert triangle_distortion(SQUARE, 1.5 * SQUARE, TRIANGLES, "excess") == pytest.approx([1.0, 1.0])
+
+
+def test_excess_distortion_of_a_target_equal_to_the_template_adds_nothing(square):
+    # The paper's eq. 6 gives 2 per touched triangle: A, C, D touch one triangle, B two.
+    assert packing.importance(square, SQUARE, alpha=0.0) == pytest.approx([0.5, 1.0, 0.5, 0.5, 0.0])
+    assert np.all(packing.importance(square, SQUARE, alpha=0.0, distortion="excess") == 0.0)
+    assert packing.importance(square, SQUARE, distortion="excess") == pytest.approx(
+        0.5 * np.array(_expected(MEAN))
+    )
+
+
+def test_excess_and_paper_rank_the_shapes_of_a_warped_rig_differently():
+    from scipy.stats import spearmanr
+
+    template = rigs.generate("toon")
+    target = rigs.warp(template, "alien+character")
+    paper = packing.importance(template, target, alpha=0.0)
+    excess = packing.importance(template, target, alpha=0.0, distortion="excess")
+    touched = paper > 0
+    assert not np.array_equal(np.argsort(-paper), np.argsort(-excess))
+    assert spearmanr(paper[touched], excess[touched]).statistic < 0.99
+    analysed = packing.analyse(template, target, distortion="excess", symmetry=False)
+    assert analysed.params.distortion == "excess"
+    assert analysed.terms.distortion == pytest.approx(excess)
+
+
+def test_unknown_distortion_is_refused(square):
+    with pytest.raises(ValueError, match="distortion must be"):
+        packing.importance(square, STRETCHED, distortion="ratio")
+    with pytest.raises(ValueError, match="distortion must be"):
+        triangle_distortion(SQUARE, STRETCHED, TRIANGLES, "ratio")
