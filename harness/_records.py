@@ -13,7 +13,9 @@ Layout of a run directory ``OUT/``:
 - ``OUT/.harness-manifest.json``: the files the harness wrote here (`harness._outdir`); ``OUT/.lock``: held
   by the run writing the folder.
 
-Records table (long format, one schema for every row, null where a column does not apply).
+Records table (long format, one schema for every row, null where a column does not apply). The schema
+grows: a part file written before a column was added reads with that column null, so adding a column keeps
+earlier runs readable and resumable (`schema_mismatch`, `conformed`).
 
 Columns identifying the cell, on every row:
 
@@ -265,6 +267,9 @@ def expression_section(
 RECORD_COLUMNS: dict[str, pa.DataType] = {**_CELL_COLUMNS, **expression_section(), **_TRANSFER_COLUMNS}
 RECORD_SCHEMA = pa.schema(list(RECORD_COLUMNS.items()))
 
+#: Columns every part file has had from the first release of the schema on: which cell, what kind of row.
+_REQUIRED_COLUMNS: tuple[str, ...] = ("cell", "kind", "status")
+
 #: Columns that differ between two runs of one configuration: the seconds (``*_time``), the in-worker
 #: reuse of a transfer, and where and when a cell ran.
 TIMING_COLUMNS: tuple[str, ...] = (
@@ -381,8 +386,9 @@ def part_problem(path: Path) -> str:
         table = handle.read()
     except (OSError, ValueError, pa.ArrowException) as error:
         return f"unreadable ({_first_line(error)})"
-    if not schema.equals(RECORD_SCHEMA, check_metadata=False):
-        return "its columns are not those of the records table"
+    foreign = schema_mismatch(schema)
+    if foreign:
+        return foreign
     metadata = schema.metadata or {}
     if metadata.get(_CELL_KEY) != cell.encode():
         return "its metadata names another cell or none"
@@ -392,6 +398,31 @@ def part_problem(path: Path) -> str:
     if set(table.column("cell").to_pylist()) != {cell} or kinds[:1] != ["cell"] or kinds.count("cell") != 1:
         return "its rows are not one cell's (one cell row first, then that cell's rows)"
     return ""
+
+
+def schema_mismatch(schema: pa.Schema) -> str:
+    """Why a part file's columns are not a part of the records table ("" when they are).
+
+    The records schema grows: a part written before a column was added holds a subset of today's columns,
+    each of today's type, and reads with the new columns null (`conformed`). A column the table does not
+    have, or one of another type, is not records of this table.
+    """
+    for field in schema:
+        if field.name not in RECORD_COLUMNS:
+            return f"its column {field.name!r} is not one of the records table"
+        if not field.type.equals(RECORD_COLUMNS[field.name]):
+            return f"its column {field.name!r} is {field.type}, not {RECORD_COLUMNS[field.name]}"
+    missing = [name for name in _REQUIRED_COLUMNS if name not in schema.names]
+    return f"it lacks the column(s) {', '.join(missing)}" if missing else ""
+
+
+def conformed(table: pa.Table) -> pa.Table:
+    """``table`` in today's records schema: columns in order, those it lacks added as nulls."""
+    columns = [
+        table.column(name) if name in table.column_names else pa.nulls(table.num_rows, type=kind)
+        for name, kind in RECORD_COLUMNS.items()
+    ]
+    return pa.Table.from_arrays(columns, schema=RECORD_SCHEMA)
 
 
 def check_parts(out: Path) -> tuple[set[str], dict[Path, str]]:
@@ -560,7 +591,11 @@ def read_records(out: str | os.PathLike) -> pd.DataFrame:
     tables = []
     for path in parts:
         try:
-            tables.append(pq.read_table(path, schema=RECORD_SCHEMA))
+            table = pq.read_table(path)
+            foreign = schema_mismatch(table.schema)
+            if foreign:
+                raise ValueError(foreign)
+            tables.append(conformed(table))
         except (OSError, ValueError, pa.ArrowException) as error:
             raise RecordsReadError(
                 f"{path}: not a readable part file ({_first_line(error)}); "

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 import packing
@@ -124,10 +125,48 @@ def _expression(**changes: object) -> Expression:
     return Expression(**fields)
 
 
-def test_the_derived_columns_are_those_of_the_files_written_so_far() -> None:
-    assert list(_records.RECORD_COLUMNS.items()) == PINNED_COLUMNS
-    assert _records.RECORD_SCHEMA.equals(pa.schema(PINNED_COLUMNS))
-    assert _records.TIMING_COLUMNS == PINNED_TIMING
+def test_the_columns_of_the_files_written_so_far_are_kept_with_their_types() -> None:
+    columns = dict(_records.RECORD_COLUMNS.items())
+    assert {name: columns.get(name) for name, _ in PINNED_COLUMNS} == dict(PINNED_COLUMNS)
+    assert set(PINNED_TIMING) <= set(_records.TIMING_COLUMNS)
+
+
+def test_a_part_written_before_a_column_was_added_reads_and_resumes(tmp_path) -> None:
+    from tests.harness.cli_helpers import invoke
+
+    grid = ["run", "--rigs", "tiny", "--solvers", "greedy", "--transfers", "delta", "--j-values", "1"]
+    assert invoke(*grid, "--out", tmp_path, "--quiet").exit_code == 0
+    (part,) = _records.part_files(tmp_path)
+    whole = pq.read_table(part)
+    older = whole.drop_columns(["rms_uncovered"]).replace_schema_metadata(whole.schema.metadata)
+    pq.write_table(older, part)
+    assert _records.part_problem(part) == ""
+    frame = _records.read_records(tmp_path)
+    assert list(frame.columns) == list(_records.RECORD_COLUMNS) and frame["rms_uncovered"].isna().all()
+    result = invoke(*grid, "--resume", tmp_path)
+    assert result.exit_code == 0 and "1 recorded before" in result.output, result.output
+    assert (
+        _records.part_files(tmp_path) == [part] and pq.read_table(part).num_columns == whole.num_columns - 1
+    )
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        (lambda t: t.append_column("surprise", pa.array([1] * t.num_rows)), "'surprise' is not one"),
+        (
+            lambda t: t.set_column(t.column_names.index("rms"), "rms", t.column("rms").cast(pa.string())),
+            "is string",
+        ),
+        (lambda t: t.drop_columns(["kind"]), "lacks the column(s) kind"),
+    ],
+)
+def test_a_part_with_foreign_columns_is_not_records(tmp_path, change, said) -> None:
+    part = sorted(BASELINE.glob("records/*.parquet"))[0]
+    whole = pq.read_table(part)
+    copy = tmp_path / part.name
+    pq.write_table(change(whole).replace_schema_metadata(whole.schema.metadata), copy)
+    assert said in _records.part_problem(copy)
 
 
 def test_the_committed_baseline_reads_back_in_the_schema() -> None:
@@ -135,7 +174,7 @@ def test_the_committed_baseline_reads_back_in_the_schema() -> None:
     assert parts, f"no part files in {BASELINE}"
     assert {path.name: _records.part_problem(path) for path in parts} == {path.name: "" for path in parts}
     frame = _records.read_records(BASELINE)
-    assert list(frame.columns) == [name for name, _ in PINNED_COLUMNS]
+    assert list(frame.columns) == list(_records.RECORD_COLUMNS)
     assert set(frame["kind"]) == {"cell", "expression", "transfer"}
 
 
