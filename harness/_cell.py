@@ -38,6 +38,7 @@ import solvers
 from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec, rig_digest
 from harness._rigspec import is_rig_file, resolve_rig
+from harness._settings import split_label
 from packing import Expression, Termination
 
 if TYPE_CHECKING:
@@ -137,6 +138,7 @@ def packing_params(spec: CellSpec) -> dict[str, object]:
         "symmetry": spec.symmetry,
         "importance": spec.importance,
         "max_per_expression": spec.cap,
+        "distortion": spec.distortion,
         "together": spec.together,
         "apart": spec.apart,
     }
@@ -244,10 +246,11 @@ def _pack(
 def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
     """The fewest expressions covering every shape, for cells whose solver declares that exact mode
     (``capabilities.minimum_cover``)."""
-    if not solvers.solver_class(spec.solver).capabilities.minimum_cover:
+    name = split_label(spec.solver)[0]
+    if not solvers.solver_class(name).capabilities.minimum_cover:
         return {}
     found = solvers.minimum_expressions(
-        analysis.problem, solver=spec.solver, time_limit=spec.time_limit, seed=spec.seed
+        analysis.problem, solver=name, time_limit=spec.time_limit, seed=spec.seed
     )
     return {"min_expressions": found.count, "min_expressions_status": str(found.status)}
 
@@ -388,6 +391,7 @@ def _transfer_rows(
                     examples.append(_examples(spec, target, _training_weights(template, expressions)))
                 estimate = functools.partial(first, j)
                 row.update(_transfer_metrics(transfer, name, spec, template, target, weights, estimate))
+                row["transfer_beta"] = _balance(name, template, target, weights, examples[0][:j])
             except Exception as error:  # noqa: BLE001 - recorded, the other J values still run
                 row.update(
                     status="error", message=_describe(error), transfer_time=time.perf_counter() - clock
@@ -419,19 +423,19 @@ class _FirstExpressions:
     def __call__(self, j: int) -> np.ndarray:
         if self.prefixes is None:
             whole = _training_weights(self.template, self.expressions)
-            method = self.transfer.get(self.name)
+            method = plugins.transfer_method(self.name)
             self.prefixes = method.prefixes(self.template, self.target.neutral, whole, self.examples[0])
         return self.prefixes(j)
 
 
 def _examples(spec: CellSpec, target: Rig, weights: np.ndarray) -> np.ndarray:
     """The training expressions of a cell's whole sequence (`harness._grid.EXAMPLES`): scan-like ones are
-    seeded by the cell's seed, so repetitions are independent capture sessions."""
+    seeded by the cell's scan seed, so repetitions are independent capture sessions."""
     import transfer
 
     if spec.examples == "ideal":
         return transfer.training_expressions(target, weights)
-    return transfer.scan_expressions(target, weights, seed=spec.seed)
+    return transfer.scan_expressions(target, weights, seed=spec.scan_seed)
 
 
 def _transfer_metrics(
@@ -448,9 +452,9 @@ def _transfer_metrics(
     sequence share one computation, and for a method that ignores the training expressions
     (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
     clock = time.perf_counter()
-    method = transfer.get(name)
+    method = plugins.transfer_method(name)
     rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name)
-    session = (spec.examples, spec.seed if spec.examples == "scan" else None)
+    session = (spec.examples, spec.scan_seed if spec.examples == "scan" else None)
     key = (*rig_key, *session, weights.shape, weights.tobytes())
     with _cache_lock:
         known = _transfer_memo.get(key)
@@ -482,6 +486,17 @@ def _transfer_metrics(
         while len(_transfer_memo) > _MEMO_SIZE:
             _transfer_memo.popitem(last=False)
     return {**result, "transfer_reused": reused, "transfer_time": time.perf_counter() - clock}
+
+
+def _balance(
+    name: str, template: Rig, target: Rig, weights: np.ndarray, examples: np.ndarray
+) -> float | None:
+    """The balance ``beta`` a transfer method fitted these J expressions with (Li et al. 2010, sec. 3A), for
+    a method that has one (``beta_used``): the fixed value or the one it chose from the data."""
+    method = plugins.transfer_method(name)
+    if not hasattr(method, "beta_used"):
+        return None
+    return _finite_or_none(method.beta_used(template, target.neutral, weights, examples))
 
 
 def _training_weights(template: Rig, expressions: list[Expression]) -> np.ndarray:

@@ -17,12 +17,25 @@ import click
 from click.core import ParameterSource
 from rich.markup import escape
 
-from harness._cli_types import CAPS, DURATION, FLOATS, NAMES, POSITIVE_INTS, SWITCH, Command, terminal
+from harness._cli_types import (
+    CAPS,
+    DURATION,
+    FLOATS,
+    NAMES,
+    PLUGINS,
+    POSITIVE_INTS,
+    SEEDS,
+    SWITCH,
+    CommaList,
+    Command,
+    terminal,
+)
 from harness._durations import format_duration
 from harness._executors import DaskExecutor, Executor, LocalExecutor
 from harness._grid import (
     CLAIM_SOLVERS,
     CLAIM_VARIATIONS,
+    DISTORTIONS,
     EXAMPLES,
     PRESETS,
     CellSpec,
@@ -37,6 +50,18 @@ from harness._run import RUN_FILE, read_run, run_grid
 EXIT_INCOMPLETE = 1
 
 DEFAULT_JOBS = min(2, os.cpu_count() or 1)
+
+
+def _distortion(text: str) -> tuple[str, ...]:
+    """A --distortion value: a name of `DISTORTIONS`, or both."""
+    if text == "both":
+        return DISTORTIONS
+    if text not in DISTORTIONS:
+        raise ValueError(text)
+    return (text,)
+
+
+DISTORTION_NAMES = CommaList(_distortion, "distortions (paper, excess or both)")
 
 
 def _preset_value(preset: str, key: str) -> Any:
@@ -126,14 +151,16 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--solvers",
-    type=NAMES,
+    type=PLUGINS,
     help="Solver plugins, comma-separated; all = every registered one (unavailable ones are skipped and "
-    "recorded as such). [default: all]",
+    "recorded as such). Settings in brackets are a grid axis, each one a case of its own: "
+    '"cpsat[workers=1,2],highs[presolve=off]" runs three solvers. [default: all]',
 )
 @click.option(
     "--transfers",
-    type=NAMES,
-    help=f"Transfer methods evaluated after each sequence. [default: {_preset_help('transfers')}]",
+    type=PLUGINS,
+    help="Transfer methods evaluated after each sequence, with settings as for --solvers "
+    f"(ebfr[beta=0.1,gcv]). [default: {_preset_help('transfers')}]",
 )
 @click.option("--mu", type=FLOATS, help="Binary blendshape threshold(s), eq. 2. [default: 0.3]")
 @click.option("--alpha", type=FLOATS, help="Importance mix(es), eq. 4. [default: 0.5]")
@@ -145,6 +172,12 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--cap", type=CAPS, help="Most shapes per expression (sec. 6), comma list; none = no cap. [default: none]"
+)
+@click.option(
+    "--distortion",
+    type=DISTORTION_NAMES,
+    help="Triangle distortion in the importance (eq. 6): paper (s_t as printed) or excess (s_t - 2, the "
+    "authors' code: 0 for an undistorted triangle); both = a grid axis. [default: paper]",
 )
 @click.option(
     "--jmax",
@@ -169,10 +202,22 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     f"[default: {_preset_help('timeout')}]",
 )
 @click.option(
-    "--seed",
+    "--seeds",
+    "seed",
+    type=SEEDS,
+    help="Seeds of the generated rigs and actors (warps with +character), a grid axis: 3, 0-4 or 0,2,7. "
+    "Claims are judged across them. [default: 0]",
+)
+@click.option(
+    "--solver-seed",
     type=click.IntRange(min=0),
-    default=0,
-    help="Rig generator seed; solver seed = seed + repetition.",
+    help="Solver seed of repetition 0; repetition r uses this + r. [default: 0]",
+)
+@click.option(
+    "--scan-seed",
+    type=click.IntRange(min=0),
+    help="Seed of the scan-like training expressions (the evaluation's capture noise and head motion) of "
+    "repetition 0; repetition r uses this + r. [default: 0]",
 )
 @click.option(
     "--repetitions",
@@ -183,9 +228,9 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "--examples",
     type=click.Choice(EXAMPLES),
     help="Training expressions of the transfers: scan (the actor is not the linear sum: correctives where "
-    "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by the solver "
-    "seed, so repetitions are independent sessions) or ideal (the exact sums of the target's blendshapes, "
-    "as in the paper). [default: scan]",
+    "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by --scan-seed "
+    "plus the repetition, so repetitions are independent sessions) or ideal (the exact sums of the "
+    "target's blendshapes, as in the paper). [default: scan]",
 )
 @click.option(
     "--variations",
@@ -193,7 +238,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     type=click.Choice(["claims", "none"]),
     help="Cells off the grid, one setting changed at a time and run with "
     f"{' and '.join(CLAIM_SOLVERS)} only: claims = no importance, alpha 0, alpha 1, no symmetry (what the "
-    "paper's claims compare). [default: paper: claims; others: none]",
+    "paper's claims compare) and the excess distortion. [default: paper: claims; others: none]",
 )
 @click.option(
     "--together",
@@ -283,6 +328,8 @@ def run(
         given["regions"] = read_regions(regions_file)
     if variations_name is not None:
         given["variations"] = CLAIM_VARIATIONS if variations_name == "claims" else ()
+    if "distortion" in given:
+        given["distortion"] = tuple(dict.fromkeys(name for names in given["distortion"] for name in names))
     grid.update(given)
     if executor == "dask" and not scheduler:
         raise click.UsageError("--executor dask needs --scheduler tcp://HOST:PORT")

@@ -126,6 +126,8 @@ def _setting_labels(rows: pd.DataFrame) -> list[str]:
         for column, value in zip(columns, row, strict=True):
             if column in ("symmetry", "importance"):
                 parts.append(f"{column} {'on' if value else 'off'}")
+            elif isinstance(value, str):
+                parts.append(f"{column}={value}")
             else:
                 parts.append(f"{column}={'none' if pd.isna(value) else f'{value:g}'}")
         labels.append(", ".join(parts))

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Generic, TypeVar
 import click
 
 from harness._durations import parse_duration
+from harness._settings import expand, split_requests
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -46,6 +47,56 @@ class CommaList(click.ParamType, Generic[Item]):
             except ValueError:
                 self.fail(f"{part!r} is not a valid {self.name} (in {value!r})", param, ctx)
         return tuple(converted)
+
+
+class PluginList(click.ParamType):
+    """``cpsat[workers=1,2],highs`` -> the labels it stands for (`harness._settings`), in order."""
+
+    name = "plugins"
+
+    def convert(
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[str, ...]:
+        if isinstance(value, tuple):
+            return value
+        try:
+            labels = [label for request in split_requests(str(value)) for label in expand(request)]
+        except ValueError as error:
+            self.fail(str(error), param, ctx)
+        if not labels:
+            self.fail(f"expected a comma-separated list of plugin names, got {value!r}", param, ctx)
+        return tuple(dict.fromkeys(labels))
+
+
+def seed_number(text: str) -> int:
+    """A seed: ASCII digits, >= 0 (ValueError otherwise)."""
+    if not text.isascii() or not text.isdigit():
+        raise ValueError(text)
+    return int(text)
+
+
+class SeedList(click.ParamType):
+    """``0-4`` or ``0,3,7`` (ranges inclusive, mixed as ``0-2,9``) -> the seeds, in order, without repeats."""
+
+    name = "seeds"
+
+    def convert(
+        self, value: object, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[int, ...]:
+        if isinstance(value, tuple):
+            return value
+        seeds: list[int] = []
+        for part in (part.strip() for part in str(value).split(",")):
+            first, _, last = part.partition("-")
+            try:
+                low = seed_number(first)
+                high = seed_number(last) if last else low
+            except ValueError:
+                self.fail(f"{part!r} is not a seed or a range of seeds like 0-4 (in {value!r})", param, ctx)
+            if high < low:
+                self.fail(f"{part!r}: a range goes up (in {value!r})", param, ctx)
+            seeds += range(low, high + 1)
+        return tuple(dict.fromkeys(seeds))
 
 
 class Duration(click.ParamType):
@@ -95,6 +146,8 @@ def positive_int(text: str) -> int:
 
 
 NAMES = CommaList(str, "names")
+PLUGINS = PluginList()
+SEEDS = SeedList()
 FLOATS = CommaList(float, "numbers")
 POSITIVE_INTS = CommaList(positive_int, "positive integers")
 CAPS = CommaList(positive_int, "caps", allow_none=True)

@@ -18,6 +18,8 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
+from harness._settings import settings_text, split_label
+
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
 #: whole sequence is always evaluated too.
 DEFAULT_J_VALUES: tuple[int, ...] = (2, 4, 7, 10, 15, 20, 25)
@@ -33,22 +35,29 @@ EXAMPLES: tuple[str, ...] = ("scan", "ideal")
 RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions", "examples")
 
 #: Setting fields a variation may change (`RunConfig.variations`).
-VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap")
+VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "distortion")
 
-#: A setting field's value: mu, alpha and beta floats, symmetry and importance bools, cap an int or None.
-SettingValue = float | bool | int | None
+#: Triangle distortion of eq. 6 (`packing.importance`): the paper's ``s_t``, or ``s_t - 2``, its excess
+#: over an undistorted triangle (the authors' code).
+DISTORTIONS: tuple[str, ...] = ("paper", "excess")
+
+#: A setting field's value: mu, alpha and beta floats, symmetry and importance bools, cap an int or None,
+#: distortion a name of `DISTORTIONS`.
+SettingValue = float | bool | int | str | None
 #: The ``(field, value)`` changes of one variation (`RunConfig.variations`).
 Variation = tuple[tuple[str, SettingValue], ...]
 #: One point of the setting axes, in `VARIATION_FIELDS` order.
-Setting = tuple[float, float, float, bool, bool, int | None]
+Setting = tuple[float, float, float, bool, bool, int | None, str]
 
 #: The one-at-a-time variations the paper's claims compare (Carrigan et al. 2020, sec. 5.2, Figs. 9-10):
-#: no importance, displacement-only and distortion-only importance (alpha 1 and 0), no symmetry.
+#: no importance, displacement-only and distortion-only importance (alpha 1 and 0), no symmetry; and the
+#: excess distortion of eq. 6 against the paper's.
 CLAIM_VARIATIONS: tuple[Variation, ...] = (
     (("importance", False),),
     (("alpha", 0.0),),
     (("alpha", 1.0),),
     (("symmetry", False),),
+    (("distortion", "excess"),),
 )
 
 #: Solvers that run the variations: the paper's greedy and an optimal solver.
@@ -65,6 +74,11 @@ class _Digest(Protocol):
     """What `rig_digest` feeds bytes to (a `hashlib.sha256` object)."""
 
     def update(self, data: bytes, /) -> None: ...
+
+
+def digest_key(argument: str, seed: int) -> str:
+    """The key of a rig and generator seed in ``run.json``'s ``rig_digests``: ``tiny@0``."""
+    return f"{argument}@{seed}"
 
 
 def rig_digest(argument: str, seed: int) -> str:
@@ -232,6 +246,9 @@ class CellSpec:
     repetition: int
     seed: int
     transfers: tuple[str, ...] = ()
+    distortion: str = "paper"
+    scan_seed: int = 0
+    solver_settings: str = ""
     j_values: tuple[int, ...] = DEFAULT_J_VALUES
     rig_digest: str = ""
     together: Pairs = ()
@@ -299,11 +316,14 @@ class RunConfig:
     symmetry: tuple[bool, ...] = (True,)
     importance: tuple[bool, ...] = (True,)
     cap: tuple[int | None, ...] = (None,)
+    distortion: tuple[str, ...] = ("paper",)
     jmax: int | None = None
     j_values: tuple[int, ...] = DEFAULT_J_VALUES
     time_limit: float | None = None
     timeout: float | None = None
-    seed: int = 0
+    seed: tuple[int, ...] = (0,)
+    solver_seed: int = 0
+    scan_seed: int = 0
     repetitions: int = 1
     preset: str = ""
     together: Pairs = ()
@@ -317,6 +337,11 @@ class RunConfig:
     def __post_init__(self) -> None:
         if self.examples not in EXAMPLES:
             raise ValueError(f"--examples must be one of {', '.join(EXAMPLES)}, got {self.examples!r}")
+        if not isinstance(self.seed, tuple) or not self.seed:
+            raise ValueError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
+        unknown = sorted(set(self.distortion) - set(DISTORTIONS))
+        if unknown:
+            raise ValueError(f"--distortion must be among {', '.join(DISTORTIONS)}, got {', '.join(unknown)}")
         for variation in self.variations:
             if not variation or any(len(change) != 2 for change in variation):
                 raise ValueError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
@@ -333,17 +358,19 @@ class RunConfig:
         Parameters
         ----------
         digests : mapping, optional
-            `rig_digest` of each rig argument (the run computes them once); without them the cells carry
-            no rig digest.
+            `rig_digest` of each rig argument and seed, by `digest_key` (the run computes them once);
+            without them the cells carry no rig digest.
         """
         digests = digests or {}
         settings = list(
-            itertools.product(self.mu, self.alpha, self.beta, self.symmetry, self.importance, self.cap)
+            itertools.product(
+                self.mu, self.alpha, self.beta, self.symmetry, self.importance, self.cap, self.distortion
+            )
         )
         cells = {
-            self._cell(rig, warp, setting, repetition, solver, digests): None
-            for rig, warp, setting, repetition, solver in itertools.product(
-                self.rigs, self.warps, settings, range(self.repetitions), self.solvers
+            self._cell(rig, seed, warp, setting, repetition, solver, digests): None
+            for rig, seed, warp, setting, repetition, solver in itertools.product(
+                self.rigs, self.seed, self.warps, settings, range(self.repetitions), self.solvers
             )
         }
         if settings and self.variations:
@@ -351,10 +378,10 @@ class RunConfig:
             base = dict(zip(VARIATION_FIELDS, settings[0], strict=True))
             varied = [tuple({**base, **dict(variation)}.values()) for variation in self.variations]
             transfers = tuple(name for name in self.transfers if name in self.variation_transfers)
-            for rig, warp, setting, repetition, solver in itertools.product(
-                self.rigs, self.warps, varied, range(self.repetitions), solvers
+            for rig, seed, warp, setting, repetition, solver in itertools.product(
+                self.rigs, self.seed, self.warps, varied, range(self.repetitions), solvers
             ):
-                cell = self._cell(rig, warp, setting, repetition, solver, digests)
+                cell = self._cell(rig, seed, warp, setting, repetition, solver, digests)
                 if cell not in cells:  # a grid point already runs it, with every transfer
                     cells[replace(cell, transfers=transfers)] = None
         return list(cells)
@@ -362,16 +389,17 @@ class RunConfig:
     def _cell(
         self,
         rig: str,
+        seed: int,
         warp: str,
         setting: Setting,
         repetition: int,
         solver: str,
         digests: Mapping[str, str],
     ) -> CellSpec:
-        mu, alpha, beta, symmetry, importance, cap = setting
+        mu, alpha, beta, symmetry, importance, cap, distortion = setting
         return CellSpec(
             rig=rig,
-            rig_seed=self.seed,
+            rig_seed=seed,
             warp=warp,
             solver=solver,
             mu=float(mu),
@@ -383,10 +411,13 @@ class RunConfig:
             jmax=self.jmax,
             time_limit=self.time_limit,
             repetition=repetition,
-            seed=self.seed + repetition,
+            seed=self.solver_seed + repetition,
             transfers=self.transfers,
+            distortion=distortion,
+            scan_seed=self.scan_seed + repetition,
+            solver_settings=settings_text(split_label(solver)[1]),
             j_values=self.j_values,
-            rig_digest=digests.get(rig, ""),
+            rig_digest=digests.get(digest_key(rig, seed), ""),
             together=self.together,
             apart=self.apart,
             regions=self.regions,

@@ -39,6 +39,7 @@ GROUP_COLUMNS: tuple[str, ...] = (
     "symmetry",
     "importance",
     "cap",
+    "distortion",
     "jmax",
     "time_limit",
     "repetition",

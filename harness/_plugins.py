@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from harness._grid import NO_WARP
 from harness._rigspec import is_rig_file
+from harness._settings import split_label
 
 if TYPE_CHECKING:
     from registry import PluginInfo
@@ -33,25 +34,35 @@ def transfer_names() -> list[str]:
     return list(transfer.names())
 
 
-def solver(name: str) -> LoadedSolver:
-    """The named solver plugin behind the framework's checks and normalisation (`solvers.get`)."""
+def solver(label: str) -> LoadedSolver:
+    """The solver plugin of a label (``cpsat`` or ``cpsat[workers=2]``), made with the label's settings and
+    behind the framework's checks and normalisation (`solvers.get`)."""
     import solvers
 
-    return solvers.get(name)
+    name, settings = split_label(label)
+    return solvers.get(name, **dict(settings))
 
 
-def solver_info(name: str) -> PluginInfo:
-    """Availability (with the reason), backend version and class of a solver, without solving."""
+def solver_info(label: str) -> PluginInfo:
+    """Availability (with the reason), backend version and class of a label's solver, without solving."""
     import solvers
 
-    return solvers.info([name])[0]
+    return solvers.info([split_label(label)[0]])[0]
 
 
-def transfer_info(name: str) -> PluginInfo:
-    """Availability (with the reason), version and class of a transfer method."""
+def transfer_method(label: str) -> object:
+    """The transfer method of a label (``ebfr`` or ``ebfr[beta=gcv]``), made with the label's settings."""
     import transfer
 
-    return transfer.info([name])[0]
+    name, settings = split_label(label)
+    return transfer.get(name, **dict(settings))
+
+
+def transfer_info(label: str) -> PluginInfo:
+    """Availability (with the reason), version and class of a label's transfer method."""
+    import transfer
+
+    return transfer.info([split_label(label)[0]])[0]
 
 
 def listing(info: PluginInfo) -> dict[str, Any]:
@@ -92,7 +103,8 @@ def _examples_clause(uses_examples: bool) -> str:
 
 
 def expand_names(requested: Iterable[str], known: list[str], what: str, option: str) -> tuple[str, ...]:
-    """Requested plugin names with ``all`` expanded to every known one, in order, without repeats.
+    """Requested plugin labels (a name, or a name with settings: `harness._settings`) with ``all`` expanded
+    to every known name, in order, without repeats.
 
     Raises
     ------
@@ -104,7 +116,7 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
         for expanded in known if name == ALL else [name]:
             if expanded not in names:
                 names.append(expanded)
-    unknown = [name for name in names if name not in known]
+    unknown = [name for name in names if split_label(name)[0] not in known]
     if unknown:
         raise ValueError(
             f"unknown {what} {', '.join(map(repr, unknown))} for {option}; valid: {', '.join(known)} or {ALL}"
@@ -112,6 +124,32 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
     if not names:
         raise ValueError(f"{option} names no {what}; valid: {', '.join(known)} or {ALL}")
     return tuple(names)
+
+
+def check_settings(solver_labels: Iterable[str], transfer_labels: Iterable[str]) -> None:
+    """Every label's settings make its plugin (a solver's class or a transfer method), before any cell runs.
+
+    Raises
+    ------
+    ValueError
+        Naming the option, the label and what the plugin said.
+    """
+    import solvers
+
+    for label in solver_labels:
+        name, settings = split_label(label)
+        if not settings:
+            continue
+        try:
+            solvers.solver_class(name)(**dict(settings))
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"--solvers {label}: {error}") from None
+    for label in transfer_labels:
+        if split_label(label)[1]:
+            try:
+                transfer_method(label)
+            except (TypeError, ValueError) as error:
+                raise ValueError(f"--transfers {label}: {error}") from None
 
 
 def check_rigs(names: Iterable[str]) -> None:

@@ -25,11 +25,11 @@ column         dtype          meaning
 cell           string         cell id, 16 hex digits of the SHA-256 of the canonical cell spec
 kind           string         ``cell`` (one per finished cell), ``expression`` or ``transfer``
 rig            string         rig preset name or rig file path, as given
-rig_seed       int64          generator seed (0 for rig files)
+rig_seed       int64          generator seed of rig and actor (a --seeds value; ignored by rig files)
 rig_digest     string         ``sha256:`` content digest of the rig (`harness._grid.rig_digest`): file bytes,
                                a folder's files, or a preset's name, seed and parameters
 warp           string         warp preset name; ``none`` means the target is the template itself
-solver         string         solver plugin name
+solver         string         solver label: plugin name with any settings (``cpsat[workers=2]``)
 mu             float64        binary blendshape threshold (eq. 2)
 alpha, beta    float64        importance mix (eq. 4)
 symmetry       bool           symmetry pairs forced together (sec. 4.4)
@@ -38,7 +38,7 @@ cap            int64, null    most shapes per expression (sec. 6); null = no cap
 jmax           int64, null    most expressions in the sequence; null = until every shape is used
 time_limit     float64, null  per-solve time limit in seconds
 repetition     int64          0-based repetition index
-seed           int64          solver seed of the cell (run seed + repetition)
+seed           int64          solver seed of the cell (run solver seed + repetition)
 n_vertices     int64, null    N of the rig (null when the rig could not be built)
 n_shapes       int64, null    K of the rig
 status         string         per kind, see below
@@ -99,7 +99,7 @@ coverage         float64        covered / n_shapes
 ``kind == "transfer"``, one per (cell, J, transfer method):
 
 ================ ============== ==============================================================================
-transfer         string         transfer plugin name
+transfer         string         transfer label: method name with any settings (``ebfr[beta=gcv]``)
 j                int64          leading expressions used as training examples: each --j-values entry
                                 capped by the sequence length (so the whole sequence is always included)
 rms              float64, null  per-vertex RMS error against the target's true blendshapes (rig units)
@@ -113,6 +113,16 @@ transfer_reused  bool           the estimate came from an identical earlier tran
                                 method that ignores the training expressions): time the method by rows
                                 where this is False
 status           string         ``ok`` or ``error`` (message says why)
+================ ============== ==============================================================================
+
+Columns added since (`_GROWN_COLUMNS`; null in part files written before them):
+
+================ ============== ==============================================================================
+distortion       string         triangle distortion of eq. 6 in the importance: ``paper`` or ``excess``
+scan_seed        int64          seed of the scan-like training expressions (run scan seed + repetition)
+solver_settings  string         the solver label's settings (``workers=2`` of ``cpsat[workers=2]``), or ""
+transfer_beta    float64, null  (transfer rows) the balance beta the method fitted with (Li et al. sec. 3A):
+                                its fixed value, or the one chosen from the data (``ebfr[beta=gcv]``)
 ================ ============== ==============================================================================
 
 The columns in `TIMING_COLUMNS` (every ``*_time`` column, ``transfer_reused``, ``worker`` and ``finished``)
@@ -231,6 +241,14 @@ _TRANSFER_COLUMNS: dict[str, pa.DataType] = {
     "transfer_reused": pa.bool_(),
 }
 
+#: Columns added since the first release, in the order they came (older part files read them as null).
+_GROWN_COLUMNS: dict[str, pa.DataType] = {
+    "distortion": pa.string(),
+    "scan_seed": pa.int64(),
+    "solver_settings": pa.string(),
+    "transfer_beta": pa.float64(),
+}
+
 
 def arrow_type(kind: ColumnType) -> pa.DataType:
     """The Arrow type of a records column of plain Python type ``kind`` (`harness._cell.column_type`)."""
@@ -264,7 +282,12 @@ def expression_section(
 
 
 #: Column name -> Arrow type of the records table, in file order.
-RECORD_COLUMNS: dict[str, pa.DataType] = {**_CELL_COLUMNS, **expression_section(), **_TRANSFER_COLUMNS}
+RECORD_COLUMNS: dict[str, pa.DataType] = {
+    **_CELL_COLUMNS,
+    **expression_section(),
+    **_TRANSFER_COLUMNS,
+    **_GROWN_COLUMNS,
+}
 RECORD_SCHEMA = pa.schema(list(RECORD_COLUMNS.items()))
 
 #: Columns every part file has had from the first release of the schema on: which cell, what kind of row.

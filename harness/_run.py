@@ -50,7 +50,7 @@ from harness import _environment as environment
 from harness import _plugins as plugins
 from harness._cell import Lost, Row, failure_rows
 from harness._executors import Executor
-from harness._grid import NO_WARP, CellSpec, RunConfig, rig_digest
+from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._outdir import OutputFolder
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
 from harness._records import (
@@ -187,6 +187,7 @@ def validate_config(config: RunConfig) -> RunConfig:
     if any(j < 1 for j in config.j_values):
         raise ValueError(f"--j-values must be positive integers, got {list(config.j_values)}")
     _check_packing_params(config)
+    plugins.check_settings(solvers, transfers)
     for option, value in (("--time-limit", config.time_limit), ("--timeout", config.timeout)):
         if value is not None and value <= 0:
             raise ValueError(f"{option} must be positive, got {value}")
@@ -198,9 +199,9 @@ def _check_packing_params(config: RunConfig) -> None:
     `packing.analyse` judge the artist constraints and regions on every rig, before any cell runs."""
     import packing
 
-    for values in itertools.product(config.mu, config.alpha, config.beta, config.cap):
-        mu, alpha, beta, cap = values
-        packing.PackingParams(mu=mu, alpha=alpha, beta=beta, max_per_expression=cap)
+    for values in itertools.product(config.mu, config.alpha, config.beta, config.cap, config.distortion):
+        mu, alpha, beta, cap, distortion = values
+        packing.PackingParams(mu=mu, alpha=alpha, beta=beta, max_per_expression=cap, distortion=distortion)
     if not (config.together or config.apart or config.regions):
         return
     from harness._cell import packing_params
@@ -210,7 +211,7 @@ def _check_packing_params(config: RunConfig) -> None:
     given = " ".join(f"--{name}" for name in options)
     spec = config.cells()[0]
     for argument in config.rigs:
-        rig = resolve_rig(argument, seed=config.seed)
+        rig = resolve_rig(argument, seed=config.seed[0])
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -287,11 +288,13 @@ def same_rigs(previous: dict[str, Any], digests: dict[str, str], out: Path) -> N
         Naming the rig and both digests.
     """
     stored = previous.get("rig_digests") or {}
-    for rig, digest in digests.items():
-        if rig in stored and stored[rig] != digest:
+    for key, digest in digests.items():
+        if key in stored and stored[key] != digest:
+            rig, _, seed = key.rpartition("@")
+            named = rig if is_rig_file(rig) else f"{rig} (seed {seed})"
             raise RunDirectoryError(
-                f"--resume {out}: rig {rig} changed since the run started (content {digest[:19]}..., "
-                f"the run has {stored[rig][:19]}...); restore it to finish the run, or start a new run "
+                f"--resume {out}: rig {named} changed since the run started (content {digest[:19]}..., "
+                f"the run has {stored[key][:19]}...); restore it to finish the run, or start a new run "
                 "with --force or another --out"
             )
 
@@ -404,7 +407,7 @@ def run_grid(
         raise ValueError("run_grid needs a configuration unless it resumes a run")
     else:
         config = validate_config(config)
-    digests = {rig: rig_digest(rig, config.seed) for rig in config.rigs}
+    digests = {digest_key(rig, seed): rig_digest(rig, seed) for rig in config.rigs for seed in config.seed}
     if previous is not None:
         same_rigs(previous, digests, out)
     _check_apart_from_rigs(out, config.rigs)

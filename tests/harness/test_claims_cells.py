@@ -27,23 +27,24 @@ def config(**fields) -> harness.RunConfig:
 
 
 def settings(cells) -> list[tuple]:
-    return [(c.solver, c.importance, c.alpha, c.symmetry, c.transfers) for c in cells]
+    return [(c.solver, c.importance, c.alpha, c.symmetry, c.distortion, c.transfers) for c in cells]
 
 
 def test_variations_change_one_setting_and_run_with_the_claim_solvers_and_transfers():
     cells = config(variations=CLAIM_VARIATIONS).cells()
     grid, varied = cells[:3], cells[3:]
     assert settings(grid) == [
-        (s, True, 0.5, True, ("ebfr", "plbs", "dt", "delta")) for s in ("greedy", "cpsat", "highs")
+        (s, True, 0.5, True, "paper", ("ebfr", "plbs", "dt", "delta")) for s in ("greedy", "cpsat", "highs")
     ]
     transfers = tuple(name for name in ("ebfr", "plbs", "dt", "delta") if name in CLAIM_TRANSFERS)
     assert settings(varied) == [
-        (solver, importance, alpha, symmetry, transfers)
-        for importance, alpha, symmetry in (
-            (False, 0.5, True),
-            (True, 0.0, True),
-            (True, 1.0, True),
-            (True, 0.5, False),
+        (solver, importance, alpha, symmetry, distortion, transfers)
+        for importance, alpha, symmetry, distortion in (
+            (False, 0.5, True, "paper"),
+            (True, 0.0, True, "paper"),
+            (True, 1.0, True, "paper"),
+            (True, 0.5, False, "paper"),
+            (True, 0.5, True, "excess"),
         )
         for solver in ("greedy", "cpsat")
     ]
@@ -61,7 +62,7 @@ def test_variations_need_their_solvers_in_the_run():
     assert len(config(solvers=("highs",), variations=CLAIM_VARIATIONS).cells()) == 1
     assert [c.solver for c in config(solvers=("cpsat",), variations=CLAIM_VARIATIONS).cells()] == [
         "cpsat"
-    ] * 5
+    ] * 6
 
 
 def test_variations_and_examples_survive_run_json():
@@ -104,12 +105,13 @@ def _rms(spec) -> list[float]:
     return [row["rms"] for row in rows if row["kind"] == "transfer" and row["transfer"] == "ebfr"]
 
 
-def test_scan_sessions_differ_by_seed_and_ideal_examples_do_not():
+def test_scan_sessions_differ_by_scan_seed_and_ideal_examples_do_not():
     spec = replace(
         config(solvers=("greedy",), transfers=("ebfr",), j_values=(2, 3)).cells()[0], rig_digest=""
     )
-    scan = [_rms(replace(spec, seed=seed, repetition=seed)) for seed in (0, 1)]
-    ideal = [_rms(replace(spec, seed=seed, repetition=seed, examples="ideal")) for seed in (0, 1)]
+    scan = [_rms(replace(spec, scan_seed=seed, repetition=seed)) for seed in (0, 1)]
+    ideal = [_rms(replace(spec, scan_seed=seed, repetition=seed, examples="ideal")) for seed in (0, 1)]
+    assert _rms(replace(spec, seed=1)) == scan[0]  # the solver's seed is not the scan's
     assert scan[0] != scan[1] and ideal[0] == ideal[1]
     assert not np.allclose(scan[0], ideal[0])
     assert _rms(spec) == scan[0]  # a session is reproducible
@@ -145,7 +147,7 @@ def test_run_options_reach_run_json_and_the_grid(tmp_path):
     )
     assert result.exit_code == 0, result.output
     stored = harness.read_run(out)
-    assert stored["config"]["examples"] == "ideal" and stored["n_cells"] == 2 + 4 * 2
+    assert stored["config"]["examples"] == "ideal" and stored["n_cells"] == 2 + 5 * 2
     assert stored["config"]["warps"] == ["character"]
     records = harness.read_records(out)
     assert set(records.loc[records["kind"] == "cell", "status"]) == {"ok"}

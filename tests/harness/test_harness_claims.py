@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 import harness
-from harness._claims import HELD, NOT_HELD, NOT_MEASURED, claims_table
+from harness._claims import HELD, NOT_HELD, NOT_MEASURED, UNSTABLE, claims_table
 from harness._grid import CLAIM_VARIATIONS
 from harness.cli import cli
 
@@ -37,7 +37,13 @@ def run(tmp_path_factory) -> tuple:
 
 def _ebfr(records: pd.DataFrame, **where: object) -> pd.Series:
     rows = records[(records["kind"] == "transfer") & (records["transfer"] == "ebfr")]
-    for column, value in {"importance": True, "symmetry": True, "alpha": 0.5, **where}.items():
+    for column, value in {
+        "importance": True,
+        "symmetry": True,
+        "alpha": 0.5,
+        "distortion": "paper",
+        **where,
+    }.items():
         rows = rows[rows[column] == value]
     return rows.groupby("j")["rms"].median()
 
@@ -46,7 +52,7 @@ def test_the_table_reads_this_runs_records(run):
     _, records = run
     table = claims_table(records).set_index("claim")
     verdicts = set(table["verdict"])
-    assert verdicts <= {HELD, NOT_HELD, NOT_MEASURED}
+    assert verdicts <= {HELD, NOT_HELD, UNSTABLE, NOT_MEASURED}
     # Every RMS claim has its cells in this grid.
     for claim in table.index:
         if "transfer" in claim or "importance" in claim or "alpha" in claim or "symmetry" in claim:
@@ -56,10 +62,8 @@ def test_the_table_reads_this_runs_records(run):
     wins = int((optimal < greedy).sum())
     median = float(((optimal - greedy) / greedy).median())
     measured = table.loc["optimal expressions transfer better than greedy's", "measured"]
-    assert measured == (
-        f"cpsat below greedy at {wins} of {len(optimal)} (rig, warp, J) points; "
-        f"median difference {median:+.1%}"
-    )
+    assert measured.startswith(f"cpsat below greedy at {wins} of {len(optimal)} (seed, rig, warp, J) points")
+    assert f"median difference {median:+.1%}" in measured
     held = wins * 2 > len(optimal) and median < 0
     assert table.loc["optimal expressions transfer better than greedy's", "verdict"] == (
         HELD if held else NOT_HELD

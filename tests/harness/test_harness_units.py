@@ -166,12 +166,34 @@ def _config(**changes) -> RunConfig:
 
 
 def test_grid_is_the_product_of_its_axes_with_solvers_innermost() -> None:
-    config = _config(importance=(True, False), cap=(None, 4), repetitions=3, seed=7)
+    config = _config(importance=(True, False), cap=(None, 4), repetitions=3, solver_seed=7, scan_seed=20)
     cells = config.cells()
     assert len(cells) == 2 * 2 * 2 * 3 * 2
     assert [c.solver for c in cells[:4]] == ["greedy", "cpsat", "greedy", "cpsat"]
-    assert {c.seed for c in cells} == {7, 8, 9}
+    assert {c.seed for c in cells} == {7, 8, 9} and {c.scan_seed for c in cells} == {20, 21, 22}
+    assert {(c.repetition, c.seed, c.scan_seed) for c in cells} == {(r, 7 + r, 20 + r) for r in range(3)}
     assert len({c.id for c in cells}) == len(cells)
+
+
+def test_rig_seeds_and_distortions_are_axes_and_settings_are_cases() -> None:
+    config = _config(
+        seed=(0, 3),
+        distortion=("paper", "excess"),
+        solvers=("greedy", "cpsat[workers=1]", "cpsat[workers=2]"),
+    )
+    cells = config.cells({"r1@3": "sha256:3"})
+    assert len(cells) == 2 * 2 * 2 * 3
+    assert {(c.rig_seed, c.distortion) for c in cells} == {
+        (s, d) for s in (0, 3) for d in ("paper", "excess")
+    }
+    assert {c.solver_settings for c in cells} == {"", "workers=1", "workers=2"}
+    assert {c.rig_digest for c in cells if c.rig == "r1" and c.rig_seed == 3} == {"sha256:3"}
+    assert {c.rig_digest for c in cells if (c.rig, c.rig_seed) != ("r1", 3)} == {""}
+
+
+def test_a_config_from_before_the_seed_axis_is_refused_by_name() -> None:
+    with pytest.raises(ValueError, match="seed must be a tuple of rig generator seeds, got 7"):
+        _config(seed=7)
 
 
 def test_cell_ids_are_stable_and_depend_on_every_field() -> None:
@@ -188,6 +210,9 @@ def test_cell_ids_are_stable_and_depend_on_every_field() -> None:
         {"together": ()},
         {"apart": (("a", "b"),)},
         {"regions": {"lip": [3, 5]}},
+        {"distortion": "excess"},
+        {"scan_seed": 5},
+        {"solver_settings": "workers=2"},
     ):
         changed = CellSpec.from_dict({**cell.to_dict(), **change})
         assert changed.id != cell.id

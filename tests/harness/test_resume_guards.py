@@ -15,7 +15,7 @@ import harness
 import rigs
 from harness import _records
 from harness._cell import Lost, run_cell
-from harness._grid import RunConfig, rig_digest
+from harness._grid import RunConfig, digest_key, rig_digest
 from harness._run import locked
 from harness.cli import cli
 
@@ -92,7 +92,7 @@ def test_a_rig_replaced_before_resume_is_refused_and_never_mixed(rig_file, tmp_p
 def test_a_rig_changed_under_a_running_cell_is_no_result(rig_file, tmp_path) -> None:
     rig = tmp_path / "rig.npz"
     shutil.copy(rig_file, rig)
-    [spec] = _config(rig, solvers=("greedy",)).cells({str(rig): rig_digest(str(rig), 0)})
+    [spec] = _config(rig, solvers=("greedy",)).cells({digest_key(str(rig), 0): rig_digest(str(rig), 0)})
     rigs.save(rigs.generate("tiny"), rig)
     outcome = run_cell(spec)
     assert isinstance(outcome, Lost) and f"rig {rig} changed since the run started" in outcome.reason
