@@ -1,7 +1,7 @@
 """Reports of runs: timing, overlap and expression-count tables, coverage and RMS figures, expression contact
 sheets, a self-contained HTML page with its Markdown twin, run-to-run comparison for CI, and the history of CI
-runs' timings as ratios to a reference solver (`read_history`, `append_history`, `run_figures`), and solver
-benchmark summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More
+runs' timings as ratios to each run's median exact solver (`read_history`, `append_history`, `run_figures`),
+and solver benchmark summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More
 performance profiles (`solve_outcomes`, `performance_profile`).
 
 Everything here reads a run's records (`harness.read_records`); nothing is recomputed.

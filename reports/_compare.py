@@ -28,7 +28,6 @@ from reports._history import (
     HISTORY_COLUMNS,
     RUN_COLUMNS,
     Spread,
-    identify_legacy_rows,
     read_history,
     run_identity,
     spreads,
@@ -306,7 +305,8 @@ def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
     Parameters
     ----------
     run_dir : path
-        A run directory (``harness run --out``) with `BASELINE_SOLVER` cells.
+        A run directory (``harness run --out``) with at least `MIN_REFERENCE_SOLVERS` exact solvers in
+        every group.
 
     Returns
     -------
@@ -353,17 +353,14 @@ def _figure_labels(metrics: list[Metric]) -> dict[tuple, str]:
 def _history_spreads(
     path: Path, new: Path, *, window: int, k: float, tolerance: float, min_runs: int
 ) -> dict[tuple[str, str], Spread]:
-    """Spreads of the figures in the history at ``path`` by (`case_id`, figure), leaving out the rows of run
-    ``new`` itself; a row written before ``case_id`` stands for the case of ``new`` its label names."""
+    """Spreads of the figures in the history at ``path`` by (`case_id`, figure) over its commits
+    (`reports._history.spreads`), leaving out the rows of run ``new`` itself."""
     if not (new / "records").is_dir():
         raise ValueError(f"compare: a history applies to run directories, not to {new}")
     history = read_history(path)
     identity = run_identity(harness.read_run(new))
     own = (history[list(RUN_COLUMNS)] == pd.Series({c: identity[c] for c in RUN_COLUMNS})).all(axis=1)
-    labels = _figure_labels(_time_metrics(_read_run(new), ratios=True))
-    case_ids = {label: case_id(case) for case, label in labels.items()}
-    earlier = identify_legacy_rows(history[~own], case_ids)
-    return spreads(earlier, window=window, k=k, tolerance=tolerance, min_runs=min_runs)
+    return spreads(history[~own], window=window, k=k, tolerance=tolerance, min_runs=min_runs)
 
 
 # -- judging changes ---------------------------------------------------------------------------------------
@@ -470,11 +467,12 @@ def compare(
         1.4826 MAD, threshold * median)`` of the per-commit medians of its last ``window`` commits, faster
         below the median by as much.
     window : int
-        Latest runs of a figure in the history that give its spread.
+        Latest commits of a figure in the history that give its spread (each commit counts once, with the
+        median of its runs; runs from a dirty tree or without a commit are left out).
     spread : float
         Robust standard deviations (1.4826 MAD) a ratio may move from its history's median.
     min_runs : int
-        Fewest runs of a figure in the history for it to be judged by the history.
+        Fewest commits of a figure in the history for it to be judged by the history.
 
     Returns
     -------
@@ -589,4 +587,5 @@ def comparison_table(
 def _spread_text(spread: Spread | None) -> str:
     if spread is None:
         return ""
-    return f"median {spread.median:.4g} in [{spread.low:.4g}, {spread.high:.4g}] over {spread.runs} runs"
+    limits = f"[{spread.low:.4g}, {spread.high:.4g}]"
+    return f"median {spread.median:.4g} in {limits} over {spread.commits} commits"

@@ -252,23 +252,18 @@ def _case_style(index: int) -> dict:
 
 
 def _history_lines(rows: pd.DataFrame) -> pd.Series:
-    """The legend label of each history row's case: its ``case`` label, numbered (``label [2]``) where
-    cases of other grids share it. A row written before ``case_id`` joins the one case of its label when
-    there is one (`reports.identify_legacy_rows`), else stands alone under its label."""
-    known = rows[rows["case_id"] != ""].drop_duplicates("case_id")
-    only = known.groupby("case")["case_id"].agg(lambda ids: ids.iloc[0] if len(ids) == 1 else "")
-    identity = rows["case_id"].where(rows["case_id"] != "", rows["case"].map(only).fillna(""))
-    identity = identity.where(identity != "", "label:" + rows["case"])
+    """The legend label of each history row's case (``case_id``): its ``case`` label, numbered
+    (``label [2]``) where cases of other grids share it."""
     labels = {}
-    for case, ids in pd.DataFrame({"case": rows["case"], "id": identity}).groupby("case", sort=True)["id"]:
+    for case, ids in rows.groupby("case", sort=True)["case_id"]:
         for number, key in enumerate(dict.fromkeys(ids), start=1):
             labels[key] = case if number == 1 else f"{case} [{number}]"
-    return identity.map(labels)
+    return rows["case_id"].map(labels)
 
 
 def history_figure(history: pd.DataFrame) -> Figure:
-    """Each figure's ratio to the reference solver over the CI runs: a panel per figure, a line per case
-    (per ``case_id``; see `_history_lines`).
+    """Each figure's ratio to the median exact solver of its run over the CI runs: a panel per figure, a
+    line per case (per ``case_id``; see `_history_lines`).
 
     Parameters
     ----------

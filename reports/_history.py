@@ -1,8 +1,9 @@
-"""The history of CI benchmark figures: a CSV file, committed with the code, with one row per (run, figure).
+"""The history of CI benchmark figures: a CSV file committed with the code, one row per (run, case, figure).
 
-A figure is one timing of one case of a run (``first expression / naive-pulp-cbc`` of
-``arkit52/none/cpsat``) as a ratio to the reference solver's time measured in the same run, so that the
-speed of the machine cancels out; the raw seconds are kept beside it. Columns (`HISTORY_COLUMNS`):
+A figure is one timing of one case of a run (``sequence / median exact solver`` of
+``arkit52/none/cpsat``): the case's median sequence time as a ratio to the median exact solver measured in
+the same run (`reports._timing`), so that the speed of the machine cancels out; the raw seconds are kept
+beside it. Columns (`HISTORY_COLUMNS`):
 
 - ``date``: when the run started (ISO 8601, UTC, from its ``run.json``)
 - ``commit``, ``dirty``: the git commit the run ran from, and whether the tree had uncommitted changes
@@ -15,21 +16,23 @@ speed of the machine cancels out; the raw seconds are kept beside it. Columns (`
 
 A run is identified by (``date``, ``commit``, ``machine``); appending a run twice adds nothing. The file is
 only ever rewritten whole and atomically, with the earlier rows byte for byte, and only when its first line
-is this format's header or the earlier one without ``case_id`` (`LEGACY_COLUMNS`): any other file is
-refused, never overwritten. Appending to a file of the earlier format writes the current header in place of
-its first line and keeps its rows, which read with an empty ``case_id``: such a row stands for the case its
-label names in the run being judged (`identify_legacy_rows`).
+is exactly this format's header and every row parses with a ``case_id``: any other file is refused, never
+overwritten.
 
-The spread rule (`spreads`) judges a new ratio against the same figure's last runs: it is slower when above
+The spread rule (`spreads`) judges a new ratio against the same figure's history *across commits*, not
+across runs: back-to-back runs of one commit share the code and mostly the moment of the machine, so their
+agreement says nothing about how much a figure moves from one commit to the next. The runs of one commit are
+collapsed to one value, the median of their ratios; a run from a dirty tree, or from no git checkout, stands
+for no commit and is left out (it is still recorded and plotted). Over the per-commit values of the last
+``window`` commits (in the order of each commit's first run), a new ratio is slower when above
 ``median + max(k * 1.4826 * MAD, tolerance * median)`` (1.4826 MAD is a robust standard deviation: one
-outlier run does not widen it), faster when below the median by as much, and not judged by the history when
-the figure has fewer than ``min_runs`` runs there.
+outlier commit does not widen it), faster when below the median by as much, and not judged by the history
+when the figure has fewer than ``min_runs`` commits there.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,9 +53,6 @@ HISTORY_COLUMNS: tuple[str, ...] = (
     "case_id",
 )
 
-#: Columns of the history format before ``case_id``; such a file is still read, and upgraded on append.
-LEGACY_COLUMNS: tuple[str, ...] = HISTORY_COLUMNS[:-1]
-
 #: Columns that identify one run in a history.
 RUN_COLUMNS: tuple[str, ...] = ("date", "commit", "machine")
 
@@ -60,7 +60,6 @@ RUN_COLUMNS: tuple[str, ...] = ("date", "commit", "machine")
 MAD_SCALE = 1.4826
 
 _HEADER = ",".join(HISTORY_COLUMNS)
-_LEGACY_HEADER = ",".join(LEGACY_COLUMNS)
 _TEXT_COLUMNS = ("date", "commit", "dirty", "machine", "case", "figure", "case_id")
 _FLOAT_FORMAT = "%.6g"
 
@@ -71,21 +70,21 @@ class HistoryError(ValueError):
 
 @dataclass(frozen=True)
 class Spread:
-    """Run-to-run spread of one figure's ratio over the last runs of a history, and the limits it sets.
+    """Commit-to-commit spread of one figure's ratio over the last commits of a history, and its limits.
 
     Attributes
     ----------
-    runs : int
-        Runs that gave the spread (at most the window).
+    commits : int
+        Commits that gave the spread (at most the window), each counted once however many runs it has.
     median : float
-        Median ratio over those runs.
+        Median over those commits of each commit's median ratio.
     mad : float
-        Scaled median absolute deviation (``MAD_SCALE`` x MAD) of the ratio over those runs.
+        Scaled median absolute deviation (``MAD_SCALE`` x MAD) of the per-commit ratios.
     low, high : float
         A new ratio below ``low`` is faster, above ``high`` slower; in between it is within the spread.
     """
 
-    runs: int
+    commits: int
     median: float
     mad: float
     low: float
@@ -107,15 +106,15 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
     Returns
     -------
     DataFrame with the `HISTORY_COLUMNS`: text columns as str, ``dirty`` as bool, ``ratio`` and
-    ``seconds`` as float (NaN where the run had none), in file order. Rows written before ``case_id``
-    (`LEGACY_COLUMNS`) have an empty one.
+    ``seconds`` as float (NaN where the run had none), in file order.
 
     Raises
     ------
     FileNotFoundError
         When ``path`` does not exist.
     HistoryError
-        When the file does not start with a history header or a row does not parse.
+        When the file's first line is not exactly the `HISTORY_COLUMNS` header, a row does not parse or a
+        row has no ``case_id``.
     """
     path = Path(path)
     try:
@@ -125,7 +124,7 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
         raise _not_a_history(path, "not UTF-8 text") from None
     except IsADirectoryError:
         raise _not_a_history(path, "a directory") from None
-    if first not in (_HEADER, _LEGACY_HEADER):
+    if first != _HEADER:
         raise _not_a_history(path, f"its first line is not {_HEADER!r}")
     text = dict.fromkeys(_TEXT_COLUMNS, str)
     try:
@@ -140,33 +139,9 @@ def read_history(path: str | os.PathLike) -> pd.DataFrame:
     flags = frame["dirty"].map({"True": True, "False": False})
     if flags.isna().any():
         raise _not_a_history(path, "the dirty column holds other values than True and False")
-    if "case_id" not in frame.columns:
-        frame["case_id"] = ""
+    if (frame["case_id"] == "").any():
+        raise _not_a_history(path, "a row has no case_id")
     return frame.assign(dirty=flags.astype(bool))[list(HISTORY_COLUMNS)]
-
-
-def identify_legacy_rows(history: pd.DataFrame, case_ids: Mapping[str, str]) -> pd.DataFrame:
-    """``history`` with the rows written before ``case_id`` given one, or dropped.
-
-    Such a row has only its run's label of the case. It stands for the case that the run being judged
-    labels alike (``case_ids``: label -> ``case_id``, from `reports.run_figures` of that run); a row whose
-    label names no case there is dropped. Rows with a ``case_id`` are kept as they are.
-
-    Parameters
-    ----------
-    history : DataFrame
-        `read_history` of a file.
-    case_ids : mapping
-        The ``case`` label of each case of the judged run -> its ``case_id``.
-
-    Returns
-    -------
-    DataFrame with the `HISTORY_COLUMNS`, every ``case_id`` filled.
-    """
-    legacy = history["case_id"] == ""
-    derived = history.loc[legacy, "case"].map(case_ids)
-    identified = history.assign(case_id=history["case_id"].where(~legacy, derived))
-    return identified[identified["case_id"].notna()].reset_index(drop=True)
 
 
 def run_identity(run: dict) -> dict[str, object]:
@@ -195,7 +170,7 @@ def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     ----------
     path : path
         The history file. An existing file must be one (`read_history` accepts it); its rows are kept
-        byte for byte, under the current header when it had the earlier one (`LEGACY_COLUMNS`).
+        byte for byte.
     rows : DataFrame
         Rows with the `HISTORY_COLUMNS`, e.g. `reports.run_figures` of a run.
 
@@ -218,10 +193,31 @@ def append_history(path: str | os.PathLike, rows: pd.DataFrame) -> int:
     before = path.read_text(encoding="utf-8") if path.exists() else _HEADER + "\n"
     if not before.endswith("\n"):
         before += "\n"
-    if before.startswith(_LEGACY_HEADER + "\n"):
-        before = _HEADER + before[len(_LEGACY_HEADER) :]
     atomic_write(path, before + _rows_text(new))
     return len(new)
+
+
+def commit_ratios(history: pd.DataFrame) -> pd.DataFrame:
+    """Each figure's ratio per commit: the median over the commit's runs, in the order of its first run.
+
+    Parameters
+    ----------
+    history : DataFrame
+        `read_history` of a file. Rows from a dirty tree or without a commit, and rows without a ratio, are
+        left out: they stand for no commit.
+
+    Returns
+    -------
+    DataFrame with ``case_id``, ``figure``, ``commit``, ``date`` (the commit's first run), ``runs`` (how
+    many runs it had) and ``ratio`` (their median), sorted by figure and then ``date``.
+    """
+    rows = history[history["ratio"].notna() & ~history["dirty"] & (history["commit"] != "")]
+    per_commit = (
+        rows.groupby(["case_id", "figure", "commit"], sort=False)
+        .agg(date=("date", "min"), runs=("ratio", "size"), ratio=("ratio", "median"))
+        .reset_index()
+    )
+    return per_commit.sort_values(["case_id", "figure", "date"], kind="stable").reset_index(drop=True)
 
 
 def spreads(
@@ -232,35 +228,35 @@ def spreads(
     tolerance: float = 0.25,
     min_runs: int = 5,
 ) -> dict[tuple[str, str], Spread]:
-    """Spread of each figure's ratio over its last ``window`` runs in ``history``.
+    """Spread of each figure's ratio over its last ``window`` commits in ``history``.
 
     Parameters
     ----------
     history : DataFrame
-        `read_history` of a file, without the run being judged; rows without a ``case_id`` are left out
-        (`identify_legacy_rows` gives them one).
+        `read_history` of a file, without the run being judged. Each commit counts once, with the median of
+        its runs (`commit_ratios`); runs from a dirty tree or without a commit are left out.
     window : int
-        Latest runs (by date) of a figure that give its spread.
+        Latest commits (in the order of their first run) of a figure that give its spread.
     k : float
         Scaled MADs (robust standard deviations) a ratio may move from the median before it counts.
     tolerance : float
         Least margin, relative to the median: a very steady figure still tolerates this much.
     min_runs : int
-        Fewest runs with a ratio a figure needs; figures with fewer get no spread.
+        Fewest commits with a ratio a figure needs; figures with fewer get no spread, however many runs
+        their commits have.
 
     Returns
     -------
     dict
         ``(case_id, figure) -> Spread``, with ``high = median + margin`` and ``low = max(median - margin, 0)``
-        where ``margin = max(k * MAD_SCALE * MAD, tolerance * median)``.
+        where ``margin = max(k * MAD_SCALE * MAD, tolerance * median)`` over the per-commit ratios.
 
     Notes
     -----
     O(R log R) for R history rows.
     """
-    rows = history[history["ratio"].notna() & (history["case_id"] != "")].sort_values("date", kind="stable")
     result = {}
-    for (case_id, figure), of_figure in rows.groupby(["case_id", "figure"], sort=True):
+    for (case_id, figure), of_figure in commit_ratios(history).groupby(["case_id", "figure"], sort=True):
         ratios = of_figure["ratio"].tail(window)
         if len(ratios) < min_runs:
             continue

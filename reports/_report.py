@@ -35,6 +35,7 @@ from reports._tables import (
     varying_settings,
     worst_shapes_table,
 )
+from reports._timing import REFERENCE
 
 _EXAMPLES = {
     "scan": "scan-like (transfer.scan_expressions: correctives where combined shapes meet, scanner noise, "
@@ -221,15 +222,16 @@ def _history_section(path: Path) -> Section:
     return Section(
         "Performance history",
         [
-            f"Times of the {runs} runs recorded in {path}, each as a ratio to {BASELINE_SOLVER} measured in "
+            f"Times of the {runs} runs recorded in {path}, each as a ratio to the {REFERENCE} measured in "
             "the same run, so that the machine's speed cancels out. `harness compare --history` flags a "
-            "ratio above its figure's run-to-run spread there: median + max(k x 1.4826 MAD, threshold x "
-            "median) over its last runs (`harness compare --help` gives the defaults).",
+            "ratio, of a case with too few repetitions to test, above its figure's commit-to-commit spread "
+            "there: median + max(k x 1.4826 MAD, threshold x median) over its last commits, each commit "
+            "the median of its runs (`harness compare --help` gives the defaults).",
             Image(
                 "history",
                 png_bytes(history_figure(history)),
-                f"Ratio to {BASELINE_SOLVER} of each case's first expression and whole sequence over the "
-                "runs of the history (log scale; + after a commit: uncommitted changes).",
+                f"Ratio to the {REFERENCE} of each case's whole sequence over the runs of the history (log "
+                "scale; + after a commit: uncommitted changes).",
             ),
         ],
     )

@@ -62,8 +62,9 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
 @click.command(
     "compare",
     help="Compare two runs (record directories) or two pytest-benchmark JSON files, OLD then NEW. "
-    "With --history, NEW's times (as ratios to naive-pulp-cbc in the same run) are judged against their "
-    "run-to-run spread in earlier runs, and --append records them there. "
+    "With --history, a time of NEW with too few repetitions to test (as a ratio to the median exact solver "
+    "in the same run) is judged against its commit-to-commit spread in earlier commits, and --append "
+    "records NEW there. "
     "Exit code 1 when a quality figure changed (or, with --fail-on-time, a time regressed), 2 on unusable "
     "input, else 0.",
 )
@@ -118,8 +119,10 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     show_default="none",
-    help="History file of earlier runs' ratios (e.g. benchmarks/history.csv): a time of NEW is slower when "
-    "above its figure's median + max(SPREAD x 1.4826 MAD, THRESHOLD x median) over the last WINDOW runs.",
+    help="History file of earlier runs' ratios (e.g. benchmarks/history.csv): a time of NEW with too few "
+    "repetitions to test is slower when above its figure's median + max(SPREAD x 1.4826 MAD, THRESHOLD x "
+    "median) over the last WINDOW commits, each commit one value (the median of its runs; runs from a dirty "
+    "tree are left out).",
 )
 @click.option(
     "--append",
@@ -132,7 +135,7 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     type=click.IntRange(min=1),
     default=10,
     show_default=True,
-    help="Latest runs of a figure in the history that give its spread.",
+    help="Latest commits of a figure in the history that give its spread.",
 )
 @click.option(
     "--spread",
@@ -146,8 +149,8 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     type=click.IntRange(min=1),
     default=5,
     show_default=True,
-    help="Fewest runs of a figure in the history to judge it by its spread; with fewer, NEW/OLD and "
-    "--threshold judge it.",
+    help="Fewest commits of a figure in the history to judge it by its spread (several runs of one commit "
+    "count once); with fewer, a time with too few repetitions to test is left untested.",
 )
 def compare(
     old: Path,

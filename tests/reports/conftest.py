@@ -102,7 +102,9 @@ class RunSpec:
     transfers: tuple[str, ...] = ("ebfr", "dt")
     importance: tuple[bool, ...] = (True,)
     lower_bound: int = 3
-    jitter: float = 0.1  # relative time change from one repetition to the next
+    jitter: float = 0.1  # relative time change from one repetition to the next, the same for every solver
+    wobble: float = 0.0  # each solver's own relative time change per repetition, up to this much either way
+    wobble_seed: int = 0  # which wobble: runs of one spec and seed wobble alike
     skipped: dict[str, str] = field(default_factory=dict)
     objective_scale: float = 1.0  # multiplies every objective (to fake floating-point noise)
     noise: float = 0.0  # relative change of the learned transfers' RMS from one repetition to the next
@@ -117,6 +119,12 @@ def _rms(covered: int, transfer: str, importance: bool, repetition: int = 0, noi
         return _SCALE[transfer] / 4.0
     wobble = 1.0 + noise * (repetition - 0.5)
     return _SCALE[transfer] * (1.1 if not importance else 1.0) / (1.0 + covered) * wobble
+
+
+def _wobble(spec: RunSpec, solver: str, repetition: int) -> float:
+    """A factor in ``[1 - spec.wobble, 1 + spec.wobble]``, fixed by solver, repetition and ``wobble_seed``."""
+    key = hashlib.sha256(json.dumps([solver, repetition, spec.wobble_seed]).encode()).digest()
+    return 1.0 + spec.wobble * (2.0 * int.from_bytes(key[:8]) / 2**64 - 1.0)
 
 
 def cell_group(rig: str, *, importance: bool = True, repetition: int = 0) -> dict[str, object]:
@@ -163,7 +171,9 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
                 pq.write_table(pa.Table.from_pylist(rows, schema=schema), records_dir / f"{cell}.parquet")
                 continue
             sequence = spec.sequences[solver]
-            seconds = spec.seconds[solver] * (1.0 + spec.jitter * repetition)
+            seconds = (
+                spec.seconds[solver] * (1.0 + spec.jitter * repetition) * _wobble(spec, solver, repetition)
+            )
             group_rows[-1][1][solver] = sequence
             rows, covered = [], 0
             for position, shapes in enumerate(sequence, start=1):

@@ -12,9 +12,16 @@ import pytest
 from click.testing import CliRunner
 
 from reports import compare
+from reports._timing import REFERENCE
 from reports.cli import compare as compare_command
 
-SLOW = {"naive-pulp-cbc": 2.0, "highs": 0.06, "cpsat": 0.03, "greedy": 0.001}  # highs sleeps 0.04 s per solve
+SEQUENCE = f"sequence / {REFERENCE}"
+TIMES = {"naive-pulp-cbc": 2.0, "highs": 0.02, "cpsat": 0.03, "greedy": 0.001}
+#: naive-pulp-cbc sleeps 2 s more per solve; it stays the slowest of the exact solvers, so the reference
+#: (the log-median of the four exact solvers: highs and cpsat in the middle) does not move
+SLOW = TIMES | {"naive-pulp-cbc": 4.0}
+#: enough repetitions for the test, each solver's time wobbling by up to 5 % from one to the next
+TESTED = {"repetitions": 5, "wobble": 0.05}
 
 
 def _invoke(*args: object):
@@ -27,48 +34,60 @@ def _verdicts(comparison, verdict):
     return sorted((c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.changes if c.verdict == verdict)
 
 
+def _time(comparison, solver: str):
+    """The one time change of ``solver``'s case."""
+    (change,) = [c for c in comparison.changes if c.kind == "time" and c.case.endswith(f"/{solver}")]
+    return change
+
+
 def test_identical_runs_pass(make_run):
-    old, new = make_run("old"), make_run("new")
+    old, new = make_run("old", **TESTED), make_run("new", **TESTED)
     comparison = compare(old, new)
     assert {c.verdict for c in comparison.changes} == {"same"}
-    assert comparison.time_basis == "ratio to naive-pulp-cbc in the same run"
+    assert comparison.time_basis == f"ratio to the {REFERENCE} in the same run"
+    assert _time(comparison, "highs").where == "(p=1, 5+5 repetitions, 30 solves)"
+    other_noise = make_run("other-noise", **TESTED, wobble_seed=1)  # the same code on another moment
+    assert {c.verdict for c in compare(old, other_noise).changes} == {"same"}
     result = _invoke(old, new, "--fail-on-time")
     assert result.exit_code == 0
     assert "0 regressions, 0 timing warnings" in result.output
 
 
 def test_a_slowed_solver_warns_by_default_and_fails_with_fail_on_time(make_run):
-    old, new = make_run("old"), make_run("new", seconds=SLOW)
+    untested = compare(make_run("old-2"), make_run("new-2", seconds=SLOW))
+    assert _verdicts(untested, "slower") == []  # two repetitions a side: no test, and no history
+    assert _time(untested, "naive-pulp-cbc").where.startswith("(untested: 2+2 repetitions")
+
+    old, new = make_run("old", **TESTED), make_run("new", seconds=SLOW, **TESTED)
     comparison = compare(old, new)
-    assert _verdicts(comparison, "slower") == [
-        ("highs", "first expression / naive-pulp-cbc"),
-        ("highs", "sequence / naive-pulp-cbc"),
-    ]
-    slower = next(c for c in comparison.changes if c.verdict == "slower")
-    assert slower.ratio == pytest.approx(3.0)
+    assert _verdicts(comparison, "slower") == [("naive-pulp-cbc", SEQUENCE)]
+    assert _verdicts(comparison, "faster") == []
+    slower = _time(comparison, "naive-pulp-cbc")
+    assert slower.ratio == pytest.approx(2.0) and slower.where.startswith("(p=")
     assert comparison.regressions() == []
-    assert len(comparison.warnings()) == 2
+    assert len(comparison.warnings()) == 1
 
     result = _invoke(old, new)
     assert result.exit_code == 0
-    assert "0 regressions, 2 timing warnings" in result.output
+    assert "0 regressions, 1 timing warnings" in result.output
     result = _invoke(old, new, "--fail-on-time")
     assert result.exit_code == 1
-    assert "2 regressions" in result.output
+    assert "1 regressions" in result.output
 
 
 def test_a_slower_machine_is_not_a_regression(make_run):
-    old = make_run("old")
-    new = make_run("new", seconds={solver: 2.5 * s for solver, s in SLOW.items()} | {"highs": 0.05})
+    old = make_run("old", **TESTED)
+    new = make_run("new", seconds={solver: 2.5 * s for solver, s in TIMES.items()}, **TESTED, wobble_seed=1)
     comparison = compare(old, new)
+    assert _time(comparison, "highs").where.startswith("(p=")  # tested, and 2.5x in seconds
     assert _verdicts(comparison, "slower") == []
-    assert _verdicts(comparison, "faster") == []  # highs: 0.05 / 5.0 is the same ratio as 0.02 / 2.0
+    assert _verdicts(comparison, "faster") == []
 
 
 def test_a_threshold_decides_what_is_slower(make_run):
-    old, new = make_run("old"), make_run("new", seconds=SLOW)
-    assert _verdicts(compare(old, new, threshold=2.5), "slower") == []
-    assert len(_verdicts(compare(old, new, threshold=1.5), "slower")) == 2
+    old, new = make_run("old", **TESTED), make_run("new", seconds=SLOW, **TESTED)
+    assert _verdicts(compare(old, new, threshold=1.5), "slower") == []
+    assert _verdicts(compare(old, new, threshold=0.5), "slower") == [("naive-pulp-cbc", SEQUENCE)]
 
 
 def test_a_solver_that_drops_a_shape_fails(make_run, fabric):
@@ -171,7 +190,7 @@ def test_unusable_inputs_exit_2_with_one_line(make_run, tmp_path):
         compare(run, run, threshold=-1)
 
 
-def test_a_baseline_that_fails_in_the_new_run_is_a_regression_compared_in_seconds(make_run, fabric):
+def test_an_exact_solver_that_fails_in_the_new_run_is_a_regression(make_run, fabric):
     old = make_run("old")
     new = make_run(
         "new",
@@ -179,17 +198,34 @@ def test_a_baseline_that_fails_in_the_new_run_is_a_regression_compared_in_second
         skipped={"naive-pulp-cbc": "pulp failed to import"},
     )
     comparison = compare(old, new)
-    assert comparison.time_basis == "seconds (no naive-pulp-cbc in both)"
+    assert comparison.time_basis == f"ratio to the {REFERENCE} in the same run"  # three exact solvers left
     failing = {(c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.regressions()}
     assert ("naive-pulp-cbc", "cell status per repetition") in failing
-    assert ("highs", "first expression (s)") not in failing
+    assert {solver for solver, _ in failing} == {"naive-pulp-cbc"}  # the others keep their ratios
+    assert ("naive-pulp-cbc", SEQUENCE) in _verdicts(comparison, "missing")
+    assert _invoke(old, new).exit_code == 1
+
+
+def test_a_run_with_one_exact_solver_left_is_compared_in_seconds(make_run, fabric):
+    old = make_run("old")
+    new = make_run(
+        "new",
+        sequences={"highs": fabric["optimal"]},
+        skipped={solver: "failed to import" for solver in ("naive-pulp-cbc", "cpsat", "greedy")},
+    )
+    comparison = compare(old, new)
+    assert comparison.time_basis == "seconds (fewer than 2 exact solvers in a group of a run)"
+    failing = {(c.case.rsplit("/", 1)[-1], c.metric) for c in comparison.regressions()}
+    assert ("naive-pulp-cbc", "cell status per repetition") in failing
+    assert ("highs", "sequence (s)") not in failing
+    assert ("highs", "sequence (s)") in _verdicts(comparison, "same")
     assert _invoke(old, new).exit_code == 1
 
 
 def test_times_below_the_noise_floor_are_not_judged(make_run):
-    old, new = make_run("old"), make_run("new", seconds=SLOW | {"greedy": 0.002})  # greedy 2x slower, in ms
-    greedy = [c for c in compare(old, new).changes if c.case.endswith("/greedy") and c.kind == "time"]
-    assert {(c.verdict, c.where) for c in greedy} == {("same", "(< 0.01 s)")}
-    assert greedy[0].ratio == pytest.approx(2.0)
-    sensitive = compare(old, new, min_time=0.0).changes
-    assert {c.verdict for c in sensitive if c.case.endswith("/greedy") and c.kind == "time"} == {"slower"}
+    old = make_run("old", **TESTED)
+    new = make_run("new", seconds=SLOW | {"greedy": 0.002}, **TESTED)  # greedy 2x slower, in ms
+    greedy = _time(compare(old, new), "greedy")
+    assert (greedy.verdict, greedy.where) == ("same", "(< 0.01 s)")
+    assert greedy.ratio == pytest.approx(2.0)
+    assert _time(compare(old, new, min_time=0.0), "greedy").verdict == "slower"
