@@ -22,7 +22,14 @@ from harness._grid import NO_WARP, CellSpec
 if TYPE_CHECKING:
     from harness._cell import Row
 
-_STATUS_STYLE = {"ok": "green", "skipped": "yellow", "error": "red", "timeout": "red", "invalid": "magenta"}
+_STATUS_STYLE = {
+    "ok": "green",
+    "skipped": "yellow",
+    "error": "red",
+    "timeout": "red",
+    "invalid": "magenta",
+    "inconsistent": "magenta",
+}
 
 
 def _group(spec: CellSpec) -> str:

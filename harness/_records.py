@@ -50,9 +50,12 @@ message        string         error, skip, timeout or check message; empty other
 a solver reported an error; message), ``timeout`` (killed after ``--timeout``) or ``invalid`` (`packing.check`
 rejected the sequence, checked by the harness with its own symmetry pairs and the solver's declared
 ``capabilities.max_overlap``: overlapping shapes, a bound below the objective, an expression of a solver
-that ran to its end with room left for an unused shape; message = the violation). A cell lost to the
-infrastructure (its worker process died, the Dask scheduler went away) has no part file at all, so
-``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows:
+that ran to its end with room left for an unused shape; message = the violation) or ``inconsistent`` (the
+run's cross-solver certificate, `harness._certificate`: its optimality claim disagrees with other exact
+solvers' on the same instance, or another solver's packing beats a bound it proved; message = the
+instance, the other solver and both values; like ``invalid``, a quality failure, never a result). A cell
+lost to the infrastructure (its worker process died, the Dask scheduler went away) has no part file at
+all, so ``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows:
 
 ================ ============== ==============================================================================
 analysis_time    float64        seconds of rig analysis (binary shapes, importance, symmetry, presolve)

@@ -49,6 +49,7 @@ import pyarrow as pa
 from harness import _environment as environment
 from harness import _plugins as plugins
 from harness._cell import Lost, Row, failure_rows
+from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._outdir import OutputFolder
@@ -480,6 +481,7 @@ def _run_locked(
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
                     _record(out, folder, spec, outcome, summary, reporter)
+        _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         write_overlap(out, folder)
         summary.seconds = time.perf_counter() - clock
     except KeyboardInterrupt:
@@ -536,6 +538,20 @@ def _record(
     write_listed(folder, f"{RECORDS_DIR}/{spec.id}.parquet", part_bytes(spec.id, rows))
     summary.statuses[rows[0]["status"]] += 1
     reporter.cell_finished(spec, rows)
+
+
+def _certify(
+    out: Path, folder: OutputFolder, session: set[str], summary: RunSummary, reporter: Reporter
+) -> None:
+    """Mark the cells whose claims the run's other cells contradict (`harness._certificate`), over every
+    cell recorded so far, whichever process or session computed it."""
+    for cell, message in certify(out, folder).items():
+        if cell in session:
+            summary.statuses["ok"] -= 1
+            if summary.statuses["ok"] <= 0:
+                del summary.statuses["ok"]
+        summary.statuses[INCONSISTENT] += 1
+        reporter.notice(f"cell {cell} is {INCONSISTENT}: {message}")
 
 
 def _lose(

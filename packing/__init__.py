@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
-    from packing._analysis import Analysis, analyse, build_problem, tie_break_perturbation
+    from packing._analysis import TIE_BREAK_SCALE, Analysis, analyse, build_problem, tie_break_perturbation
     from packing._binary import binary_blendshapes, empty_shapes
     from packing._bounds import (
         ExpressionBound,
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_analysis": ["Analysis", "analyse", "build_problem", "tie_break_perturbation"],
+        "_analysis": ["TIE_BREAK_SCALE", "Analysis", "analyse", "build_problem", "tie_break_perturbation"],
         "_binary": ["binary_blendshapes", "empty_shapes"],
         "_bounds": [
             "conflict_set_bound",

@@ -200,7 +200,8 @@ def _solver_section(run: dict, records: pd.DataFrame) -> Section:
                 "completed, drawn at the limit they are charged.",
             ),
             f"Whole sequences (Algorithm 1) per cell, sgm with shift {shift}; a failed cell (error, timeout, "
-            "invalid) is charged at the run's cell timeout. Each solver's sequence holds its own problems.",
+            "invalid, inconsistent) is charged at the run's cell timeout. Each solver's sequence holds its "
+            "own problems.",
             sequence_table(records, config.get("timeout")),
         ],
     )

@@ -341,7 +341,8 @@ def _minimum_label(cells: pd.DataFrame) -> str:
 
 
 def problem_table(records: pd.DataFrame) -> pd.DataFrame:
-    """Cells that did not finish ``ok`` (skipped, error, timeout, invalid): how many, with their messages."""
+    """Cells that did not finish ``ok`` (skipped, error, timeout, invalid, inconsistent): how many, with
+    their messages."""
     cells = records[(records["kind"] == "cell") & (records["status"] != "ok")]
     columns = ["rig", "warp", "solver", "status", "message"]
     table = cells.groupby(columns, sort=True).size().rename("cells").reset_index()

@@ -19,11 +19,35 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from packing import Termination
 from solvers._base import Availability, Stopwatch, distribution_version, package_availability
 
 #: Which CBC executable to run: the newest found, the cbcbox wheel's, or the one bundled with PuLP.
 CBC_CHOICES = ("auto", "cbcbox", "bundled")
+
+#: CBC's cutoff increment (``-increment``): once CBC has an incumbent, it only looks for solutions better
+#: by this much, and prunes every node whose bound is not, yet still reports the incumbent as *optimal*.
+#: Its default is absolute: 1e-4 in the cbcbox CBC and 1e-5 in PuLP's CBC 2.10.3, and the MIP gaps do
+#: not override it. cbc-mip answered OPTIMAL 3.8e-5 below the optimum on a 655-item K=2000 problem
+#: (DESIGN.md, "Pitfalls"). Two packings' objectives that matter differ by much less: by the tie-break
+#: alone (`packing.tie_break_perturbation`), an exchange of up to three items moves the objective by at
+#: least ``1e-5 / (4 (I + 1))`` (1.2e-9 at I = 2000 items), so any increment must be far below 1e-9; 0
+#: (a new incumbent must merely be better) makes the gap-0 proof the only stopping rule.
+CBC_INCREMENT = 0.0
+
+
+def objective_scale(weights: np.ndarray) -> float:
+    """Factor that makes the largest objective coefficient 1 (1 when every weight is 0).
+
+    CBC's LP tolerances (primal, dual: 1e-7) are absolute. With every weight near 0.01 they are 1e-5 of
+    an item's weight, enough to prune the node of the optimum (seen on random 120-item problems); with the
+    weights scaled to at most 1, they are again far below the tie-break (1e-9). Bounds read back are
+    divided by the same factor.
+    """
+    largest = float(np.abs(weights).max()) if np.size(weights) else 0.0
+    return 1.0 / largest if largest > 0 else 1.0
 
 
 @dataclass(frozen=True)
@@ -159,7 +183,8 @@ def _last_float(pattern: str, text: str) -> float | None:
 
 
 def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple[CbcOutcome, float]:
-    """Solve a ``pulp.LpProblem`` with ``COIN_CMD`` on ``binary``: gaps 0, one thread, seeded.
+    """Solve a ``pulp.LpProblem`` with ``COIN_CMD`` on ``binary``: gaps 0, cutoff increment
+    `CBC_INCREMENT`, one thread, seeded.
 
     Returns
     -------
@@ -179,7 +204,10 @@ def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple
             gapRel=0,
             gapAbs=0,
             threads=1,
-            options=[f"randomCbcSeed {seed % (2**31 - 1) + 1}"],  # 0 would mean "seed from the clock"
+            options=[
+                f"randomCbcSeed {seed % (2**31 - 1) + 1}",  # 0 would mean "seed from the clock"
+                f"increment {CBC_INCREMENT:g}",
+            ],
             logPath=log_path,
         )
         command.tmpDir = folder

@@ -22,7 +22,8 @@ WORKER_GRACE = 120.0
 
 
 class MipCbcSolver(ExactSolver):
-    """Eq. 3 after presolve, solved by python-mip's CBC (gaps 0, one thread, seeded, native time limit)."""
+    """Eq. 3 after presolve, solved by python-mip's CBC (gaps 0, cutoff increment 0, weights scaled to at
+    most 1, one thread, seeded, native time limit: see `solvers._cbc.CBC_INCREMENT`)."""
 
     name: ClassVar[str] = "cbc-mip"
     capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, isolated_process=True)
@@ -42,6 +43,9 @@ class MipCbcSolver(ExactSolver):
 def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> Result:
     """Build and solve the clique model with python-mip (runs inside the worker process)."""
     import mip
+    from mip.cbc import cbc_set_parameter
+
+    from solvers._cbc import CBC_INCREMENT, objective_scale
 
     clock = Stopwatch()
     lp = mip.Model(sense=mip.MAXIMIZE, solver_name=mip.CBC)
@@ -50,7 +54,10 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
     lp.seed = int(seed)
     lp.max_mip_gap = 0.0
     lp.max_mip_gap_abs = 0.0
-    chosen = [lp.add_var(var_type=mip.BINARY, obj=float(w)) for w in model.weights]
+    # python-mip sets the gaps, not CBC's cutoff increment (1e-4 absolute by default in this CBC).
+    cbc_set_parameter(lp.solver, "increment", f"{CBC_INCREMENT:g}")
+    scale = objective_scale(model.weights)
+    chosen = [lp.add_var(var_type=mip.BINARY, obj=float(w) * scale) for w in model.weights]
     for r in range(model.n_rows):
         lp.add_constr(mip.xsum(chosen[i] for i in model.row(r).tolist()) <= 1)
     if model.cap is not None:
@@ -65,7 +72,7 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
     if status in (mip.OptimizationStatus.OPTIMAL, mip.OptimizationStatus.FEASIBLE) and lp.num_solutions:
         values = np.array([x.x for x in chosen], dtype=float)
         items = tuple(np.flatnonzero(values > 0.5).tolist())
-    bound = float(lp.objective_bound) if np.isfinite(lp.objective_bound) else None
+    bound = float(lp.objective_bound) / scale if np.isfinite(lp.objective_bound) else None
     if status is mip.OptimizationStatus.OPTIMAL:
         return Result(items, Termination.OPTIMAL, bound, build_time, solve_time, version)
     if status in (mip.OptimizationStatus.FEASIBLE, mip.OptimizationStatus.NO_SOLUTION_FOUND):

@@ -7,7 +7,7 @@ from typing import ClassVar
 import numpy as np
 
 from solvers._base import Availability, Capabilities, Result, Stopwatch
-from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, run_cbc
+from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, objective_scale, run_cbc
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
@@ -16,7 +16,8 @@ class PulpCbcSolver(ExactSolver):
     """Eq. 3 after presolve (one row per conflict set, one cap row), written by PuLP and solved by CBC.
 
     Expressions are built from coefficient lists (``LpAffineExpression``), not by summing terms in
-    Python. CBC runs as a subprocess with ``ratio 0``, ``allow 0``, one thread and a fixed seed.
+    Python. CBC runs as a subprocess with ``ratio 0``, ``allow 0``, ``increment 0``, one thread and a fixed
+    seed, on weights scaled to at most 1 (`solvers._cbc.objective_scale`).
 
     Parameters
     ----------
@@ -46,7 +47,9 @@ class PulpCbcSolver(ExactSolver):
         clock = Stopwatch()
         lp = pulp.LpProblem("expression", pulp.LpMaximize)
         chosen = [pulp.LpVariable(f"x{i}", cat=pulp.LpBinary) for i in range(model.n_items)]
-        lp.setObjective(pulp.LpAffineExpression(zip(chosen, model.weights.tolist(), strict=True)))
+        scale = objective_scale(model.weights)
+        weights = (model.weights * scale).tolist()
+        lp.setObjective(pulp.LpAffineExpression(zip(chosen, weights, strict=True)))
         for r in range(model.n_rows):
             row = pulp.LpAffineExpression([(chosen[i], 1) for i in model.row(r).tolist()])
             lp.addConstraint(pulp.LpConstraint(row, pulp.LpConstraintLE, rhs=1), name=f"clique{r}")
@@ -60,6 +63,5 @@ class PulpCbcSolver(ExactSolver):
         if outcome.has_solution:
             values = np.array([v.varValue or 0.0 for v in chosen])
             items = tuple(np.flatnonzero(values > 0.5).tolist())
-        return Result(
-            items, outcome.termination, outcome.bound, build_time, solve_time, version, outcome.message
-        )
+        bound = None if outcome.bound is None else outcome.bound / scale
+        return Result(items, outcome.termination, bound, build_time, solve_time, version, outcome.message)

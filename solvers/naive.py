@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from solvers._base import Availability, Capabilities, Result, Stopwatch
-from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, run_cbc
+from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, objective_scale, run_cbc
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
@@ -69,8 +69,9 @@ class NaivePulpCbcSolver(ExactSolver):
             for shape in shapes:
                 shape_vars[shape] = pulp.LpVariable(f"w{shape}", cat=pulp.LpBinary)
         carrier = [shape_vars[shapes[0]] for shapes in problem.items]  # holds the item's vertex set
+        scale = objective_scale(problem.weights)  # CBC's tolerances are absolute (`solvers._cbc`)
         lp += pulp.lpSum(
-            problem.weights[item] / len(shapes) * shape_vars[shape]
+            scale * problem.weights[item] / len(shapes) * shape_vars[shape]
             for item, shapes in enumerate(problem.items)
             for shape in shapes
         )
@@ -96,4 +97,5 @@ class NaivePulpCbcSolver(ExactSolver):
         message = "; ".join(
             filter(None, [f"{lp.numConstraints()} rows, {len(shape_vars)} variables", outcome.message])
         )
-        return Result(items, outcome.termination, outcome.bound, build_time, solve_time, version, message)
+        bound = None if outcome.bound is None else outcome.bound / scale
+        return Result(items, outcome.termination, bound, build_time, solve_time, version, message)

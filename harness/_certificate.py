@@ -1,0 +1,171 @@
+"""The cross-solver certificate of a run: exact solvers that claim optimality on one instance agree, and no
+solver's packing beats a bound another one proved (DESIGN.md, "Benchmark verdicts": certificates).
+
+An *instance* is one expression's packing problem within one group of cells (`GROUP_COLUMNS`: the cells that
+solve the same problems with different solvers, one repetition each). Expression 1 is the same instance for
+every solver of a group; expression e > 1 is the same instance for two solvers when they chose the same
+primary shapes (as sets) for each of the expressions 1..e-1, because Algorithm 1 derives each problem from the
+shapes used so far. Extra examples (sec. 6) are never removed from the next problem, so they do not matter.
+
+Two rules, checked on every instance among the ``ok`` cells:
+
+- **Optimal claims agree.** Every ``optimal`` objective must equal the others within `TOLERANCE`. The
+  tie-break perturbation (`packing.tie_break_perturbation`) makes the optimum unique, so exact solvers with
+  MIP gap 0 choose the same packing and their recorded objectives (importance sums recomputed by `packing`,
+  never reported by the solver) differ only by float64 summation, about 1e-15 relative for a few hundred
+  weights in [0, 1]. Packings that matter differ by at least the tie-break's smallest step,
+  ``1e-5 / (4 (I + 1))`` (1.2e-9 at I = 2000 items). 1e-9 relative to ``max(1, |objective|)`` lies between
+  the two. When claims disagree, which solver is wrong is not always known: the claims that differ from the
+  majority are marked, or every claim when no value has a strict majority.
+- **No packing beats a proved bound.** A bound recorded with ``optimal`` or ``time_limit`` is a claim of
+  proof; every other solver's packing of that instance was checked valid by the harness, so an objective
+  above the bound refutes the bound, and the cell that claimed it is marked. The bound of an ``optimal``
+  expression is recorded as its own objective (`solvers.make_solution`), which bounds the perturbed optimum
+  only up to the tie-break of its items, so it is allowed ``TIE_BREAK_SCALE`` per chosen shape more.
+
+Marked cells become ``inconsistent``: their part file is rewritten (through the run's folder manifest, as
+the run writes it) to their ``cell`` row alone, with the status and a message naming the instance, the
+other solver and both values, as an ``invalid`` cell is recorded.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import pandas as pd
+import pyarrow.parquet as pq
+
+from harness._outdir import OutputFolder
+from harness._overlap import GROUP_COLUMNS
+from harness._records import RECORD_SCHEMA, RECORDS_DIR, part_bytes, part_path, read_records, write_listed
+from packing import TIE_BREAK_SCALE
+
+#: Relative tolerance (to ``max(1, |value|)``) of the comparisons (see the module docstring).
+TOLERANCE = 1e-9
+#: Status of a cell whose claims another cell's records contradict.
+INCONSISTENT = "inconsistent"
+#: Terminations whose bound is a claim of proof.
+_PROVING = ("optimal", "time_limit")
+
+Instance = tuple[tuple[object, ...], int, tuple[frozenset[str], ...]]
+
+
+def _close(a: float, b: float) -> bool:
+    return abs(a - b) <= TOLERANCE * max(1.0, abs(a), abs(b))
+
+
+def instance_keys(expressions: pd.DataFrame) -> pd.Series:
+    """The instance of every expression row: (group values, expression, earlier shapes as sets).
+
+    Parameters
+    ----------
+    expressions : DataFrame
+        ``kind == "expression"`` rows of a run's records (`harness.read_records`).
+
+    Returns
+    -------
+    Series of `Instance`, indexed like ``expressions``.
+    """
+    keys = {}
+    for _, rows in expressions.groupby("cell", sort=False):
+        rows = rows.sort_values("expression")
+        earlier: list[frozenset[str]] = []
+        for index, row in rows.iterrows():
+            group = tuple(None if pd.isna(row[column]) else row[column] for column in GROUP_COLUMNS)
+            keys[index] = (group, int(row["expression"]), tuple(earlier))
+            earlier.append(frozenset(row["shapes"] or ()))
+    return pd.Series(keys, dtype=object).reindex(expressions.index)
+
+
+def violations(records: pd.DataFrame) -> dict[str, list[str]]:
+    """The cells each rule marks, with why, over the ``ok`` cells of ``records``.
+
+    Returns
+    -------
+    dict of str to list of str
+        Cell id -> messages (one per contradiction found), for the cells to mark ``inconsistent``.
+    """
+    ok = records.loc[(records["kind"] == "cell") & (records["status"] == "ok"), "cell"]
+    expressions = records[(records["kind"] == "expression") & records["cell"].isin(ok)]
+    found: dict[str, list[str]] = defaultdict(list)
+    if expressions.empty:
+        return {}
+    for key, rows in expressions.groupby(instance_keys(expressions), sort=False):
+        _disagreeing_optima(key, rows, found)
+        _refuted_bounds(key, rows, found)
+    return dict(found)
+
+
+def _where(key: Instance, row: pd.Series) -> str:
+    return f"rig {row['rig']} (warp {row['warp']}, repetition {row['repetition']}) expression {key[1]}"
+
+
+def _disagreeing_optima(key: Instance, rows: pd.DataFrame, found: dict[str, list[str]]) -> None:
+    """Mark optimal claims outside the strict majority of agreeing values (all of them without one)."""
+    claims = rows[rows["termination"] == "optimal"]
+    values: list[float] = []  # one representative per cluster of agreeing objectives
+    cluster = []
+    for objective in claims["objective"]:
+        match = next((i for i, value in enumerate(values) if _close(value, objective)), None)
+        if match is None:
+            values.append(objective)
+            match = len(values) - 1
+        cluster.append(match)
+    if len(values) < 2:
+        return
+    sizes = Counter(cluster).most_common()
+    majority = sizes[0][0] if sizes[0][1] > sizes[1][1] else None
+    members = list(zip(cluster, claims.itertuples(), strict=True))
+    for (mine, row), (theirs, other) in itertools.permutations(members, 2):
+        if mine != majority and mine != theirs and (majority is None or theirs == majority):
+            found[row.cell].append(
+                f"{_where(key, rows.loc[row.Index])}: {row.solver} claims the optimum {row.objective:.12g}, "
+                f"{other.solver} claims {other.objective:.12g}"
+                + ("" if majority is not None else " (no majority: every claim is marked)")
+            )
+
+
+def _refuted_bounds(key: Instance, rows: pd.DataFrame, found: dict[str, list[str]]) -> None:
+    """Mark the cell whose proved bound another solver's (valid) packing exceeds."""
+    proving = rows[rows["termination"].isin(_PROVING) & rows["bound"].notna()]
+    for claim in proving.itertuples():
+        slack = TIE_BREAK_SCALE * claim.n_chosen if claim.termination == "optimal" else 0.0
+        above = rows[rows["objective"] > claim.bound + slack + TOLERANCE * max(1.0, abs(claim.bound))]
+        for other in above.itertuples():
+            found[claim.cell].append(
+                f"{_where(key, rows.loc[claim.Index])}: {claim.solver} proves the bound {claim.bound:.12g} "
+                f"({claim.termination}), {other.solver}'s packing reaches {other.objective:.12g}"
+            )
+
+
+def certify(out: Path, folder: OutputFolder) -> dict[str, str]:
+    """Check the run in ``out`` and rewrite the part file of every marked cell as ``inconsistent``.
+
+    Parameters
+    ----------
+    out : Path
+        The run directory.
+    folder : OutputFolder
+        Its manifest, held by the running process.
+
+    Returns
+    -------
+    dict of str to str
+        Id -> message of each cell marked now.
+    """
+    try:
+        records = read_records(out)
+    except FileNotFoundError:
+        return {}
+    marked = {}
+    for cell, messages in sorted(violations(records).items()):
+        table = pq.read_table(part_path(out, cell), schema=RECORD_SCHEMA)
+        (row,) = [row for row in table.to_pylist() if row["kind"] == "cell"]
+        unique = list(dict.fromkeys(messages))
+        message = "; ".join(unique[:3]) + (f"; and {len(unique) - 3} more" if len(unique) > 3 else "")
+        row.update(status=INCONSISTENT, message=f"inconsistent with other solvers: {message}")
+        write_listed(folder, f"{RECORDS_DIR}/{cell}.parquet", part_bytes(cell, [row]))
+        marked[cell] = row["message"]
+    return marked
