@@ -158,8 +158,11 @@ def _last_float(pattern: str, text: str) -> float | None:
         return None
 
 
-def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple[CbcOutcome, float]:
-    """Solve a ``pulp.LpProblem`` with ``COIN_CMD`` on ``binary``: gaps 0, one thread, seeded.
+def run_cbc(
+    lp, binary: CbcBinary, time_limit: float | None, seed: int, *, warm_start: bool = False
+) -> tuple[CbcOutcome, float]:
+    """Solve a ``pulp.LpProblem`` with ``COIN_CMD`` on ``binary``: gaps 0, one thread, seeded; with
+    ``warm_start``, the variables' initial values (``LpVariable.setInitialValue``) are CBC's start.
 
     Returns
     -------
@@ -181,6 +184,7 @@ def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple
             threads=1,
             options=[f"randomCbcSeed {seed % (2**31 - 1) + 1}"],  # 0 would mean "seed from the clock"
             logPath=log_path,
+            warmStart=warm_start,
         )
         command.tmpDir = folder
         clock = Stopwatch()

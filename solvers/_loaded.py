@@ -134,6 +134,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
         backend=backend,
         version=answer.version or _version(plugin),
         message=answer.message,
+        fallback=answer.fallback,
     )
 
 
