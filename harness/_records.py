@@ -222,6 +222,7 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
     "clique_rows",
     "covered",
     "coverage",
+    "fallback",
 )
 #: ``kind == "expression"`` columns the cell computes from the sequence (`harness._cell`).
 _SEQUENCE_COLUMNS: dict[str, pa.DataType] = {

@@ -47,6 +47,10 @@ class Solution:
         Solver plugin name; ``version`` the backend library version.
     message : str
         Details, e.g. the error text.
+    fallback : str
+        The method that supplied ``items`` instead of the backend (``"greedy"``: Algorithm 2's packing,
+        answered when a time limit stopped an exact backend with no incumbent or a worse one); empty when
+        the items are the backend's own.
     """
 
     items: tuple[int, ...]
@@ -59,6 +63,7 @@ class Solution:
     backend: str = ""
     version: str = ""
     message: str = ""
+    fallback: str = ""
 
     @property
     def status(self) -> SolutionStatus:
@@ -160,3 +165,8 @@ class Expression:
     def message(self) -> str:
         """The solver's message, if any."""
         return self.solution.message
+
+    @property
+    def fallback(self) -> str:
+        """The method that supplied the items instead of the backend (`Solution.fallback`), if any."""
+        return self.solution.fallback

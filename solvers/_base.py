@@ -58,6 +58,10 @@ class Capabilities:
     minimum_cover : bool
         Also proves the fewest expressions that cover every item (`solvers.minimum_expressions`): the
         plugin implements ``solve_colouring(problem, start, lower, *, time_limit, seed)``.
+    warm_start : bool
+        An `ExactSolver` whose ``solve_model`` takes a start packing, ``start=`` (indices of the model's
+        items, possibly empty), and hands it to its backend as an incumbent or hint. The framework passes
+        ``start`` only to plugins that declare it, so a plugin written before it existed keeps working.
     """
 
     exact: bool
@@ -67,6 +71,7 @@ class Capabilities:
     isolated_process: bool = False
     max_overlap: float = 0.0
     minimum_cover: bool = False
+    warm_start: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.max_overlap < 1.0:
@@ -104,6 +109,9 @@ class Result:
         The backend version that ran, when it differs from what ``availability()`` reports.
     message : str
         Details for the records (an error text, the options used).
+    fallback : str
+        The method that supplied ``items`` when they are not the backend's own (``"greedy"``: Algorithm 2's
+        packing answered for a backend stopped by its time limit with none or a worse one); empty otherwise.
     """
 
     items: Sequence[int]
@@ -113,6 +121,7 @@ class Result:
     solve_time: float | None = None
     version: str = ""
     message: str = ""
+    fallback: str = ""
 
 
 @runtime_checkable
@@ -170,6 +179,7 @@ def make_solution(
     backend: str,
     version: str,
     message: str = "",
+    fallback: str = "",
 ) -> Solution:
     """A `Solution` with items sorted, shape names and the objective recomputed from the problem's weights.
 
@@ -199,6 +209,7 @@ def make_solution(
         backend=backend,
         version=version,
         message=message,
+        fallback=fallback,
     )
 
 

@@ -182,9 +182,12 @@ def _last_float(pattern: str, text: str) -> float | None:
         return None
 
 
-def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple[CbcOutcome, float]:
+def run_cbc(
+    lp, binary: CbcBinary, time_limit: float | None, seed: int, *, warm_start: bool = False
+) -> tuple[CbcOutcome, float]:
     """Solve a ``pulp.LpProblem`` with ``COIN_CMD`` on ``binary``: gaps 0, cutoff increment
-    `CBC_INCREMENT`, one thread, seeded.
+    `CBC_INCREMENT`, one thread, seeded; with ``warm_start``, the variables' initial values
+    (``LpVariable.setInitialValue``) are CBC's start.
 
     Returns
     -------
@@ -209,6 +212,7 @@ def run_cbc(lp, binary: CbcBinary, time_limit: float | None, seed: int) -> tuple
                 f"increment {CBC_INCREMENT:g}",
             ],
             logPath=log_path,
+            warmStart=warm_start,
         )
         command.tmpDir = folder
         clock = Stopwatch()

@@ -3,23 +3,27 @@
 An exact plugin implements ``solve_model(model, *, time_limit, seed) -> Result`` on the `CliqueModel`
 (arrays of eq. 3 after presolve). `ExactSolver.solve` answers the empty problem, applies the exact
 reductions of `solvers._reduce` (dominated items out, conflict-free items in: the optimal packings stay
-exactly the same) so that the backend sees only the kernel, maps the kernel's items back to the problem's,
-times the array preparation and, when a time limit stops a backend with no incumbent or one worse than
-Algorithm 2's packing, answers that packing instead (valid by construction), so a time-limited solve
-always has an incumbent at least as good as the greedy one. The framework (`solvers.load`) then checks and
-normalises the answer as for any plugin.
+exactly the same) so that the backend sees only the kernel, maps the kernel's items back to the problem's
+and times the array preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets a start
+packing, ``solve_model(..., start=...)``: Algorithm 2's packing of the kernel, which its backend takes as
+an incumbent or hint. When a time limit stops a backend with no incumbent or one worse than Algorithm 2's
+packing, the base answers that packing instead (valid by construction) and says so in ``Result.fallback``,
+so a time-limited solve always has an incumbent at least as good as the greedy one. The framework
+(`solvers.load`) then checks and normalises the answer as for any plugin.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
 
 from packing import Termination
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
 from solvers._model import CliqueModel
-from solvers._reduce import reduce_problem
+from solvers._reduce import Reduction, reduce_problem
 
 if TYPE_CHECKING:
     from packing import PackingProblem
@@ -33,6 +37,12 @@ class ExactSolver:
     ``solve_model`` gets the model of the kernel; a plugin that must see the problem as given (the
     paper's per-vertex formulation, ``naive-pulp-cbc``) sets it False and overrides `solve_problem`.
 
+    A subclass that declares ``Capabilities(warm_start=True)`` accepts ``start`` in ``solve_model``.
+    The start is opted into by that typed flag rather than detected from the signature: it is declared
+    where every other ability is (``harness list`` shows it), a wrapped or ``**kwargs`` ``solve_model``
+    cannot be misread, and a plugin written before the start existed keeps its signature and works
+    unchanged. Declaring the flag False on a subclass solves without the start (for comparisons).
+
     Examples
     --------
     ``examples/solver_plugin/example_scipy_milp.py`` is a complete plugin on SciPy's MILP interface:
@@ -44,7 +54,9 @@ class ExactSolver:
     capabilities: ClassVar[Capabilities]
     reduces: ClassVar[bool] = True
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
         """Solve ``max w.x`` over the model's clique rows and cap row, x binary (eq. 3 after presolve).
 
         Parameters
@@ -54,6 +66,9 @@ class ExactSolver:
             Seconds for the backend's search.
         seed : int
             The backend's random seed.
+        start : sequence of int
+            A feasible packing of ``model`` (indices of its items, possibly empty) to start the search
+            from; passed only when the plugin declares ``Capabilities(warm_start=True)``.
 
         Returns
         -------
@@ -64,10 +79,19 @@ class ExactSolver:
         raise NotImplementedError(f"{type(self).__name__} must implement solve_model")
 
     def solve_problem(
-        self, problem: PackingProblem, model: CliqueModel, *, time_limit: float | None, seed: int
+        self,
+        problem: PackingProblem,
+        model: CliqueModel,
+        *,
+        time_limit: float | None,
+        seed: int,
+        start: Sequence[int] | None = None,
     ) -> Result:
-        """The backend's answer for ``problem``, presolved as ``model`` (by default `solve_model`'s)."""
-        return self.solve_model(model, time_limit=time_limit, seed=seed)
+        """The backend's answer for ``problem``, presolved as ``model`` (by default `solve_model`'s), with
+        the start packing of ``model``'s items when the plugin declares ``warm_start`` (else None)."""
+        if start is None:
+            return self.solve_model(model, time_limit=time_limit, seed=seed)
+        return self.solve_model(model, time_limit=time_limit, seed=seed, start=start)
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
         """Solve eq. 3 to proven optimality (MIP gap 0) or until ``time_limit`` (build time not included).
@@ -76,7 +100,13 @@ class ExactSolver:
         -------
         Result
             Items of ``problem``; at a time limit the better of the backend's incumbent and Algorithm 2's
-            packing, with a bound no lower than it.
+            packing (``fallback="greedy"`` when that packing is the answer), with a bound no lower than it.
+
+        Notes
+        -----
+        A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`). Algorithm 1
+        removes every chosen item before the next expression, so the previous expression's optimum has
+        nothing left to offer as a start; the greedy packing is the only one.
         """
         clock = Stopwatch()
         if problem.n_items == 0:
@@ -84,22 +114,28 @@ class ExactSolver:
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
         reduction = reduce_problem(problem, cap_binds) if self.reduces else None
         model = CliqueModel.from_problem(problem) if reduction is None else reduction.model
+        start = start_packing(problem, reduction) if self.capabilities.warm_start else None
         prepare_time = clock.lap()
         if model.n_items == 0:  # the reductions decided every item
             result = Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         else:
-            result = self.solve_problem(problem, model, time_limit=time_limit, seed=seed)
+            hint = {} if start is None else {"start": start}  # `solve_problem` overrides may not take one
+            result = self.solve_problem(problem, model, time_limit=time_limit, seed=seed, **hint)
         items, message, bound = _model_items(result.items, model.n_items), result.message, result.bound
         if reduction is not None:
             items = reduction.items(items)
             if bound is not None:
                 bound += float(problem.weights[reduction.taken].sum())
+        fallback = result.fallback
         if result.termination is Termination.TIME_LIMIT:
             from solvers.greedy import greedy_items
 
-            fallback = greedy_items(problem)
-            if not items or problem.objective(fallback) > problem.objective(items):
-                items = fallback
+            candidates = [tuple(sorted(greedy_items(problem)))]  # sorted: one sum order per packing
+            if start is not None:
+                candidates.append(start if reduction is None else reduction.items(start))
+            greedy = max(candidates, key=problem.objective)
+            if not items or problem.objective(greedy) > problem.objective(items):
+                items, fallback = greedy, "greedy"
                 message = (
                     message + "; " if message else ""
                 ) + "incumbent at the time limit: Algorithm 2's packing"
@@ -110,14 +146,58 @@ class ExactSolver:
             items=items,
             bound=bound,
             message=message,
+            fallback=fallback,
             build_time=prepare_time + (result.build_time or 0.0),
             solve_time=result.solve_time if result.solve_time is not None else clock.lap(),
         )
 
 
+def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple[int, ...]:
+    """A start for eq. 3 from Algorithm 2 (sec. 4.5.2), as indices of the kernel's model.
+
+    Two greedy packings of the kernel and the items every optimum takes (`Reduction.taken`), the better
+    by eq. 3a: Algorithm 2 visiting only those items in `solvers.greedy.greedy_order` (no dominated item
+    blocks a better one), and Algorithm 2's packing of the whole problem without its dominated items,
+    completed greedily in the same order. With no reduction it is Algorithm 2's packing of the problem.
+
+    Parameters
+    ----------
+    problem : PackingProblem
+    reduction : Reduction or None
+        The exact reductions applied before the backend, if any.
+
+    Returns
+    -------
+    tuple of int, ascending: items of ``reduction.model`` (of ``problem`` when ``reduction`` is None).
+
+    Notes
+    -----
+    O(I log I) for the order plus three runs of Algorithm 2 on the presolved conflict sets.
+    """
+    from solvers.greedy import greedy_items, greedy_order
+
+    if reduction is None:
+        return tuple(sorted(greedy_items(problem)))
+    order = greedy_order(problem)
+    live = np.zeros(problem.n_items, dtype=bool)
+    live[reduction.kept] = True
+    live[reduction.taken] = True
+    whole = np.asarray(greedy_items(problem, order=order), dtype=np.int64)
+    kept_whole = np.zeros(problem.n_items, dtype=bool)
+    kept_whole[whole[live[whole]]] = True
+    orders = (
+        order[live[order]],
+        np.concatenate([order[kept_whole[order]], order[live[order] & ~kept_whole[order]]]),
+    )
+    best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
+    chosen = np.sort(np.asarray(best, dtype=np.int64))
+    return tuple(np.searchsorted(reduction.kept, chosen[np.isin(chosen, reduction.kept)]).tolist())
+
+
 def _model_items(items: Iterable[int], n_items: int) -> tuple[int, ...]:
-    """The backend's items as Python ints, each an item of the model it solved, none twice."""
+    """The backend's items as Python ints, ascending (one summation order of eq. 3a per packing), each an
+    item of the model it solved, none twice."""
     chosen = [int(i) for i in items]
     if any(not 0 <= i < n_items for i in chosen) or len(set(chosen)) != len(chosen):
         raise ValueError(f"the backend answered items {chosen} for a model of {n_items} items")
-    return tuple(chosen)
+    return tuple(sorted(chosen))

@@ -4,9 +4,9 @@ A plugin's ``solve`` returns a `Result`: its items, why it stopped and any bound
 a `LoadedSolver`, whose ``solve`` checks the arguments before the plugin sees them, times the call, turns
 an exception or a malformed answer into ``Termination.ERROR`` with a message naming the plugin, and
 builds the `Solution`: items sorted, their shapes, the objective recomputed as the importance sum of
-eq. 3a, the bound never below it, the backend name and version. `solvers.get` returns loaded solvers, so
-every caller (the expression sequence, the harness, the conformance checks) sees the same normalised
-answer whoever wrote the plugin.
+eq. 3a, the bound never below it, the backend name and version, the fallback that supplied the items, if
+any. `solvers.get` returns loaded solvers, so every caller (the expression sequence, the harness, the
+conformance checks) sees the same normalised answer whoever wrote the plugin.
 """
 
 from __future__ import annotations
@@ -134,6 +134,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
         backend=backend,
         version=answer.version or _version(plugin),
         message=answer.message,
+        fallback=answer.fallback,
     )
 
 

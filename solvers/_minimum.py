@@ -261,7 +261,7 @@ def colour_highs(problem, start, lower, time_limit, seed):
     """The colouring model as a HiGHS MILP: (colours, proved lower bound, proved optimal, version)."""
     import highspy
 
-    from solvers.highs import configured_highs, highs_lp
+    from solvers.highs import configured_highs, highs_lp, highs_solution
 
     n_items, n_colours = problem.n_items, int(start.max()) + 1
     n_x = n_items * n_colours  # x[i, c] is column i * n_colours + c, used[c] is column n_x + c
@@ -320,7 +320,7 @@ def colour_highs(problem, start, lower, time_limit, seed):
     hint = np.zeros(n_x + n_colours)
     hint[np.arange(n_items) * n_colours + start] = 1.0
     hint[n_x:] = 1.0
-    highs.setSolution(_highs_solution(highspy, hint))
+    highs.setSolution(highs_solution(highspy, hint))
     highs.run()
     version = f"highspy {highs.version()}"
     info = highs.getInfo()
@@ -330,13 +330,6 @@ def colour_highs(problem, start, lower, time_limit, seed):
     colour = _compact(np.argmax(values, axis=1))
     bound = int(np.ceil(info.mip_dual_bound - 1e-6)) if np.isfinite(info.mip_dual_bound) else lower
     return colour, bound, highs.getModelStatus() == highspy.HighsModelStatus.kOptimal, version
-
-
-def _highs_solution(highspy, values: np.ndarray):
-    solution = highspy.HighsSolution()
-    solution.col_value = values.tolist()
-    solution.value_valid = True
-    return solution
 
 
 def ordered_minimum_sequence(

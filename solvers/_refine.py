@@ -114,6 +114,7 @@ def refine(
     rejected: list[int] = []
     pending: list[int] = []
     terminations: list[Termination] = []
+    fallback = ""  # the first (re)solve whose items came from a fallback names it
     build_time = solve_time = 0.0
     version = ""
     while True:
@@ -130,6 +131,7 @@ def refine(
             solve_time += solution.solve_time
             version = solution.version
             terminations.append(solution.termination)
+            fallback = fallback or solution.fallback
             if solution.termination is Termination.ERROR:
                 return make_solution(
                     problem, accepted, termination=Termination.ERROR, bound=None, build_time=build_time,
@@ -181,6 +183,7 @@ def refine(
         backend=f"{solver.name}+refine",
         version=version,
         message=message,
+        fallback=fallback,
     )
 
 

@@ -7,6 +7,7 @@ persistent worker (`solvers._worker`), which measures the build and solve times 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -26,22 +27,30 @@ class MipCbcSolver(ExactSolver):
     most 1, one thread, seeded, native time limit: see `solvers._cbc.CBC_INCREMENT`)."""
 
     name: ClassVar[str] = "cbc-mip"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, isolated_process=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(
+        exact=True, time_limit=True, isolated_process=True, warm_start=True
+    )
 
     @classmethod
     def availability(cls) -> Availability:
         """Available when the ``mip`` distribution is installed (it is only imported in the worker)."""
         return package_availability("mip", hint="pip install mip")
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
+        """Solve the model in the worker; the start travels with it, as a tuple of item indices."""
         timeout = None if time_limit is None else time_limit + WORKER_GRACE
         return worker(self.name).call(
-            "solvers.cbc_mip:solve_clique_model", model, time_limit, seed, timeout=timeout
+            "solvers.cbc_mip:solve_clique_model", model, time_limit, seed, tuple(start), timeout=timeout
         )
 
 
-def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> Result:
-    """Build and solve the clique model with python-mip (runs inside the worker process)."""
+def solve_clique_model(
+    model: CliqueModel, time_limit: float | None, seed: int, start: Sequence[int] = ()
+) -> Result:
+    """Build and solve the clique model with python-mip (runs inside the worker process); ``start`` is
+    CBC's initial solution (``Model.start``, every variable given)."""
     import mip
     from mip.cbc import cbc_set_parameter
 
@@ -64,6 +73,8 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
         lp.add_constr(
             mip.xsum(c * x for c, x in zip(model.shape_counts.tolist(), chosen, strict=True)) <= model.cap
         )
+    hinted = set(int(i) for i in start)
+    lp.start = [(x, 1.0 if i in hinted else 0.0) for i, x in enumerate(chosen)]
     build_time = clock.lap()
     status = lp.optimize(max_seconds=time_limit if time_limit is not None else mip.INF)
     solve_time = clock.lap()

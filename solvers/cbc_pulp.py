@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -26,7 +27,7 @@ class PulpCbcSolver(ExactSolver):
     """
 
     name: ClassVar[str] = "cbc-pulp"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, warm_start=True)
 
     def __init__(self, cbc: str = "auto") -> None:
         if cbc not in CBC_CHOICES:
@@ -38,7 +39,11 @@ class PulpCbcSolver(ExactSolver):
         """PuLP installed and a CBC executable found (cbcbox's or PuLP's own)."""
         return cbc_availability()
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
+        """Solve the model with CBC, ``start`` given as initial values (PuLP's ``warmStart``: CBC's
+        ``-mips`` file)."""
         import pulp
 
         binary = find_cbc(self.cbc)
@@ -56,8 +61,11 @@ class PulpCbcSolver(ExactSolver):
         if model.cap is not None:
             row = pulp.LpAffineExpression(zip(chosen, model.shape_counts.tolist(), strict=True))
             lp.addConstraint(pulp.LpConstraint(row, pulp.LpConstraintLE, rhs=model.cap), name="cap")
+        hinted = set(int(i) for i in start)
+        for i, x in enumerate(chosen):
+            x.setInitialValue(1 if i in hinted else 0)
         build_time = clock.lap()
-        outcome, solve_time = run_cbc(lp, binary, time_limit, seed)
+        outcome, solve_time = run_cbc(lp, binary, time_limit, seed, warm_start=True)
         version = f"pulp {pulp.__version__}, {binary.version}"
         items: tuple[int, ...] = ()
         if outcome.has_solution:

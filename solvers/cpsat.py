@@ -7,6 +7,7 @@ without importing ``cp_model``, which imports pandas (0.7 s) only for its pandas
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -68,7 +69,9 @@ class CpSatSolver(ExactSolver):
     """
 
     name: ClassVar[str] = "cpsat"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, minimum_cover=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(
+        exact=True, time_limit=True, minimum_cover=True, warm_start=True
+    )
 
     def __init__(self, workers: int = 1) -> None:
         if not isinstance(workers, int) or workers < 1:
@@ -86,11 +89,21 @@ class CpSatSolver(ExactSolver):
 
         return colour_cpsat(problem, start, lower, time_limit, seed)
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
+        """Solve the model, with ``start`` as a complete solution hint (DESIGN.md, "Pitfalls": cut short
+        by a time limit, CP-SAT may otherwise have no incumbent on film-sized problems). The hint is only
+        a hint: ``repair_hint`` and ``fix_variables_to_their_hinted_value`` stay off, so optima are
+        unchanged."""
         from ortools.sat.python import cp_model_helper
 
         clock = Stopwatch()
         proto = _model_proto(cp_model_helper, model)
+        hinted = np.zeros(model.n_items, dtype=np.int64)
+        hinted[np.asarray(start, dtype=np.int64)] = 1
+        proto.solution_hint.vars.extend(range(model.n_items))
+        proto.solution_hint.values.extend(hinted.tolist())
         parameters = cp_model_helper.SatParameters()
         set_parameters(parameters, time_limit, seed, self.workers)
         # The model is presolved already (maximal conflict sets, no dominated items: `packing._presolve`):

@@ -7,6 +7,7 @@ version loads beside it in one process, so availability checks the pair.
 from __future__ import annotations
 
 import importlib.metadata
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -30,7 +31,9 @@ class HighsSolver(ExactSolver):
     """
 
     name: ClassVar[str] = "highs"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, minimum_cover=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(
+        exact=True, time_limit=True, minimum_cover=True, warm_start=True
+    )
 
     @classmethod
     def availability(cls) -> Availability:
@@ -57,7 +60,10 @@ class HighsSolver(ExactSolver):
 
         return colour_highs(problem, start, lower, time_limit, seed)
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
+        """Solve the model, with ``start`` given to HiGHS as a complete solution (``setSolution``)."""
         import highspy
 
         clock = Stopwatch()
@@ -71,6 +77,9 @@ class HighsSolver(ExactSolver):
                 np.zeros(n_items), np.ones(n_items), maximise=True,
             )
         )  # fmt: skip
+        values = np.zeros(n_items)
+        values[np.asarray(start, dtype=np.int64)] = 1.0
+        highs.setSolution(highs_solution(highspy, values))
         build_time = clock.lap()
         highs.run()
         solve_time = clock.lap()
@@ -104,6 +113,14 @@ def configured_highs(highspy, time_limit: float | None, seed: int):
     if time_limit is not None:
         highs.setOptionValue("time_limit", float(time_limit))
     return highs
+
+
+def highs_solution(highspy, values: np.ndarray):
+    """``highspy.HighsSolution`` with the column values ``values`` (a start for ``Highs.setSolution``)."""
+    solution = highspy.HighsSolution()
+    solution.col_value = np.asarray(values, dtype=np.float64).tolist()
+    solution.value_valid = True
+    return solution
 
 
 def highs_lp(

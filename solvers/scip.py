@@ -6,6 +6,7 @@ process, in either import order (tests/solvers/test_solvers_coexist.py), so it r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -20,7 +21,7 @@ class ScipSolver(ExactSolver):
     """Eq. 3 after presolve solved by SCIP (gaps 0, one thread, seeded, native time limit)."""
 
     name: ClassVar[str] = "scip"
-    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, warm_start=True)
 
     @classmethod
     def availability(cls) -> Availability:
@@ -29,12 +30,17 @@ class ScipSolver(ExactSolver):
             "PySCIPOpt", "pyscipopt", hint="pip install expression-packing-harness[scip]"
         )
 
-    def solve_model(self, model: CliqueModel, *, time_limit: float | None, seed: int) -> Result:
-        return solve_clique_model(model, time_limit, seed)
+    def solve_model(
+        self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
+    ) -> Result:
+        return solve_clique_model(model, time_limit, seed, start)
 
 
-def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) -> Result:
-    """Build and solve the clique model with PySCIPOpt."""
+def solve_clique_model(
+    model: CliqueModel, time_limit: float | None, seed: int, start: Sequence[int] = ()
+) -> Result:
+    """Build and solve the clique model with PySCIPOpt; ``start`` is added as a (complete) partial
+    solution, which SCIP checks and keeps as its first incumbent."""
     import pyscipopt
 
     clock = Stopwatch()
@@ -52,6 +58,11 @@ def solve_clique_model(model: CliqueModel, time_limit: float | None, seed: int) 
     if model.cap is not None:
         counts = model.shape_counts.tolist()
         scip.addCons(pyscipopt.quicksum(c * x for c, x in zip(counts, chosen, strict=True)) <= model.cap)
+    hinted = set(int(i) for i in start)
+    given = scip.createPartialSol()
+    for i, x in enumerate(chosen):
+        scip.setSolVal(given, x, 1.0 if i in hinted else 0.0)
+    scip.addSol(given)
     build_time = clock.lap()
     scip.optimize()
     solve_time = clock.lap()

@@ -71,6 +71,7 @@ PINNED_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("clique_rows", pa.int64()),
     ("covered", pa.int64()),
     ("coverage", pa.float64()),
+    ("fallback", pa.string()),
     ("transfer", pa.string()),
     ("j", pa.int64()),
     ("rms", pa.float64()),
@@ -280,6 +281,7 @@ def test_an_expression_record_holds_plain_values() -> None:
         "build_time": 0.25,
         "solve_time": 0.5,
         "message": "",
+        "fallback": "",
     }
     assert type(record["termination"]) is str and type(record["status"]) is str
 
