@@ -28,6 +28,12 @@ symmetry barely matters      the optimal solver's RMS with and without symmetry 
                              `SYMMETRY_CHANGE` at every (seed, rig, warp, J) point
 excess distortion            (not the paper's; sec. 4.3) ``ebfr`` RMS with eq. 6's excess ``s_t - 2``
                              below the paper's ``s_t``, by the rule of "optimal below greedy"
+scan examples matter         (not the paper's) ``ebfr`` RMS with ideal examples below scan-like ones (the
+                             same packings; ``--examples both``), by the rule of "optimal below greedy"
+evaluation sanity            (not the paper's) with every shape in an expression of its own and every
+                             expression a training example (``--preset sanity``), ``ebfr`` RMS at most
+                             `SANITY_RATIO` of ``dt``'s with ideal examples; scan-like examples and
+                             ebfr's fixed betas are shown beside it (where fitting noise begins)
 ============================ ==========================================================================
 """
 
@@ -41,6 +47,7 @@ import pandas as pd
 from scipy import stats
 
 from harness._overlap import overlap_table
+from harness._settings import settings_text, split_label
 
 #: The transfer the claims read (the paper's example-based facial rigging).
 CLAIM_TRANSFER = "ebfr"
@@ -62,13 +69,17 @@ COVERAGE_EXPRESSIONS = 20
 #: "adding the symmetry constraint to the optimal solution had basically no influence on the RMS-error".
 SYMMETRY_CHANGE = 0.02
 
+#: With every shape scanned alone and exactly, example-based rigging has the target's own shapes as
+#: examples: it must recover most of what deformation transfer misses.
+SANITY_RATIO = 0.35
+
 HELD, NOT_HELD, UNSTABLE, NOT_MEASURED = "held", "not held", "unstable across seeds", "not measured"
 #: Confidence of the interval of a claim's share of points (Wilson score interval).
 CONFIDENCE = 0.95
 CLAIM_COLUMNS: tuple[str, ...] = ("claim", "paper", "measured", "verdict")
 
 #: Columns that pair cells across solvers or settings (everything but the compared field and solver).
-_CASE = ("rig", "rig_seed", "warp", "mu", "beta", "cap", "jmax", "time_limit")
+_CASE = ("rig", "rig_seed", "warp", "mu", "beta", "cap", "jmax", "time_limit", "examples")
 
 
 @dataclass(frozen=True)
@@ -102,6 +113,8 @@ def claims_table(records: pd.DataFrame) -> pd.DataFrame:
         _coverage,
         _symmetry_barely_matters,
         _excess_distortion,
+        _scan_matters,
+        _sanity,
     ]
     return pd.DataFrame([vars(check(records)) for check in checks], columns=list(CLAIM_COLUMNS))
 
@@ -336,3 +349,59 @@ def _excess_distortion(records: pd.DataFrame) -> Claim:
         ("excess", "paper"),
         "needs cells with the excess distortion (--variations claims or --distortion both)",
     )
+
+
+def _scan_matters(records: pd.DataFrame) -> Claim:
+    title = "scan-like examples cost accuracy that ideal ones do not"
+    paper = "evaluation check, not a claim of the paper: the scan model (correctives, noise, head motion)"
+    rms = _rms(records, _optimal_solver(records))
+    modes = set(rms.index.get_level_values("examples")) if not rms.empty else set()
+
+    def of(mode: str) -> pd.Series:
+        return rms.xs(mode, level="examples") if mode in modes else pd.Series(dtype=float)
+
+    return _compare(
+        title,
+        paper,
+        of("ideal"),
+        of("scan"),
+        ("ideal", "scan"),
+        "needs both kinds of examples (--examples both)",
+    )
+
+
+def _sanity(records: pd.DataFrame) -> Claim:
+    title = "every shape scanned alone: ebfr recovers the target"
+    paper = (
+        f"evaluation sanity, not a claim of the paper: ebfr RMS <= {SANITY_RATIO:g} x dt with exact examples"
+    )
+    cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
+    isolated = cells[(cells["cap"].astype("Float64") == 1) & (cells["symmetry"] == False)]  # noqa: E712
+    rows = records[
+        (records["kind"] == "transfer")
+        & (records["status"] == "ok")
+        & records["cell"].isin(isolated["cell"])
+        & records["rms"].notna()
+    ]
+    if rows.empty:
+        return Claim(title, paper, "needs cells with --cap 1 --no-symmetry (--preset sanity)", NOT_MEASURED)
+    rows = rows[rows["j"] == rows.groupby("cell")["j"].transform("max")]  # every expression trained on
+    keys = ["rig", "warp", "examples"]
+    table = rows.groupby([*keys, "transfer"], dropna=False)["rms"].median().unstack("transfer")
+    if "ebfr" not in table or "dt" not in table:
+        return Claim(title, paper, "needs the ebfr and dt transfers of those cells", NOT_MEASURED)
+    ratios = table.div(table["dt"], axis=0).drop(columns="dt")
+    parts, held, exact = [], True, False
+    for (rig, warp, examples), row in ratios.iterrows():
+        swept = ", ".join(
+            f"{settings_text(split_label(name)[1])} {value:.2f}"
+            for name, value in row.items()
+            if name != "ebfr"
+        )
+        parts.append(f"{rig}/{warp} {examples}: ebfr/dt {row['ebfr']:.3f}" + (f" ({swept})" if swept else ""))
+        if examples == "ideal":
+            exact = True
+            held &= bool(row["ebfr"] <= SANITY_RATIO)
+    if not exact:
+        return Claim(title, paper, "; ".join(parts) + "; needs ideal examples", NOT_MEASURED)
+    return Claim(title, paper, "; ".join(parts), HELD if held else NOT_HELD)

@@ -64,6 +64,18 @@ def _distortion(text: str) -> tuple[str, ...]:
 DISTORTION_NAMES = CommaList(_distortion, "distortions (paper, excess or both)")
 
 
+def _examples(text: str) -> tuple[str, ...]:
+    """An --examples value: a name of `EXAMPLES`, or both."""
+    if text == "both":
+        return EXAMPLES
+    if text not in EXAMPLES:
+        raise ValueError(text)
+    return (text,)
+
+
+EXAMPLE_NAMES = CommaList(_examples, "training expressions (scan, ideal or both)")
+
+
 def _preset_value(preset: str, key: str) -> Any:
     defaults = RunConfig(rigs=(), warps=(), solvers=(), transfers=())
     return PRESETS[preset].get(key, getattr(defaults, key))
@@ -139,7 +151,8 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     type=click.Choice(list(PRESETS)),
     default="quick",
     help="Named grid the other options start from. quick: CI smoke run (<= 60 s); paper: the paper's four "
-    "rigs with one warp each and all J values; full: every preset, warp and setting.",
+    "rigs with one warp each and all J values; sanity: every shape scanned alone, ideal and scan-like, "
+    "ebfr's beta swept (the evaluation's own check); full: every preset, warp and setting.",
 )
 @click.option(
     "--rigs", type=NAMES, help=f"Rig presets or rig files, comma-separated. [default: {_preset_help('rigs')}]"
@@ -226,11 +239,11 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--examples",
-    type=click.Choice(EXAMPLES),
+    type=EXAMPLE_NAMES,
     help="Training expressions of the transfers: scan (the actor is not the linear sum: correctives where "
     "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by --scan-seed "
-    "plus the repetition, so repetitions are independent sessions) or ideal (the exact sums of the "
-    "target's blendshapes, as in the paper). [default: scan]",
+    "plus the repetition, so repetitions are independent sessions), ideal (the exact sums of the "
+    "target's blendshapes, as in the paper) or both (a grid axis). [default: scan]",
 )
 @click.option(
     "--variations",
@@ -328,8 +341,9 @@ def run(
         given["regions"] = read_regions(regions_file)
     if variations_name is not None:
         given["variations"] = CLAIM_VARIATIONS if variations_name == "claims" else ()
-    if "distortion" in given:
-        given["distortion"] = tuple(dict.fromkeys(name for names in given["distortion"] for name in names))
+    for axis in ("distortion", "examples"):
+        if axis in given:
+            given[axis] = tuple(dict.fromkeys(name for names in given[axis] for name in names))
     grid.update(given)
     if executor == "dask" and not scheduler:
         raise click.UsageError("--executor dask needs --scheduler tcp://HOST:PORT")

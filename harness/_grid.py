@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
-from harness._settings import settings_text, split_label
+from harness._settings import expand, settings_text, split_label
 
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
 #: whole sequence is always evaluated too.
@@ -32,7 +32,7 @@ NO_WARP = "none"
 EXAMPLES: tuple[str, ...] = ("scan", "ideal")
 
 #: Cell fields that are the same for every cell of a run and so are no records column.
-RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions", "examples")
+RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions")
 
 #: Setting fields a variation may change (`RunConfig.variations`).
 VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "distortion")
@@ -295,10 +295,10 @@ class CellSpec:
 class RunConfig:
     """The exact configuration of a run (stored in ``run.json``; ``--resume`` rebuilds the grid from it).
 
-    Every tuple field up to ``cap`` is a grid axis; the grid is their Cartesian product with
-    ``repetitions``. ``together`` and ``apart`` (artist constraints by shape name) and ``regions`` (vertex
-    regions replacing the rigs' own, name -> indices) apply to every cell, and so does ``examples``
-    (`EXAMPLES`: the training expressions of every transfer).
+    Every tuple field up to ``distortion``, and ``seed`` (rig and actor generator seeds) and ``examples``
+    (`EXAMPLES`: the training expressions of the transfers), is a grid axis; the grid is their Cartesian
+    product with ``repetitions``. ``together`` and ``apart`` (artist constraints by shape name) and
+    ``regions`` (vertex regions replacing the rigs' own, name -> indices) apply to every cell.
 
     ``variations`` add cells off the grid: each is a set of ``(field, value)`` changes (`VARIATION_FIELDS`)
     applied to the first value of every axis, run on every rig, warp and repetition with those of
@@ -329,14 +329,14 @@ class RunConfig:
     together: Pairs = ()
     apart: Pairs = ()
     regions: Regions = ()
-    examples: str = "scan"
+    examples: tuple[str, ...] = ("scan",)
     variations: tuple[Variation, ...] = ()
     variation_solvers: tuple[str, ...] = CLAIM_SOLVERS
     variation_transfers: tuple[str, ...] = CLAIM_TRANSFERS
 
     def __post_init__(self) -> None:
-        if self.examples not in EXAMPLES:
-            raise ValueError(f"--examples must be one of {', '.join(EXAMPLES)}, got {self.examples!r}")
+        if not isinstance(self.examples, tuple) or not self.examples or set(self.examples) - set(EXAMPLES):
+            raise ValueError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
         if not isinstance(self.seed, tuple) or not self.seed:
             raise ValueError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
         unknown = sorted(set(self.distortion) - set(DISTORTIONS))
@@ -368,9 +368,15 @@ class RunConfig:
             )
         )
         cells = {
-            self._cell(rig, seed, warp, setting, repetition, solver, digests): None
-            for rig, seed, warp, setting, repetition, solver in itertools.product(
-                self.rigs, self.seed, self.warps, settings, range(self.repetitions), self.solvers
+            self._cell(rig, seed, warp, setting, repetition, solver, digests, examples): None
+            for rig, seed, warp, setting, examples, repetition, solver in itertools.product(
+                self.rigs,
+                self.seed,
+                self.warps,
+                settings,
+                self.examples,
+                range(self.repetitions),
+                self.solvers,
             )
         }
         if settings and self.variations:
@@ -378,10 +384,10 @@ class RunConfig:
             base = dict(zip(VARIATION_FIELDS, settings[0], strict=True))
             varied = [tuple({**base, **dict(variation)}.values()) for variation in self.variations]
             transfers = tuple(name for name in self.transfers if name in self.variation_transfers)
-            for rig, seed, warp, setting, repetition, solver in itertools.product(
-                self.rigs, self.seed, self.warps, varied, range(self.repetitions), solvers
+            for rig, seed, warp, setting, examples, repetition, solver in itertools.product(
+                self.rigs, self.seed, self.warps, varied, self.examples, range(self.repetitions), solvers
             ):
-                cell = self._cell(rig, seed, warp, setting, repetition, solver, digests)
+                cell = self._cell(rig, seed, warp, setting, repetition, solver, digests, examples)
                 if cell not in cells:  # a grid point already runs it, with every transfer
                     cells[replace(cell, transfers=transfers)] = None
         return list(cells)
@@ -395,6 +401,7 @@ class RunConfig:
         repetition: int,
         solver: str,
         digests: Mapping[str, str],
+        examples: str,
     ) -> CellSpec:
         mu, alpha, beta, symmetry, importance, cap, distortion = setting
         return CellSpec(
@@ -421,7 +428,7 @@ class RunConfig:
             together=self.together,
             apart=self.apart,
             regions=self.regions,
-            examples=self.examples,
+            examples=examples,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -437,8 +444,7 @@ class RunConfig:
             raise ValueError(
                 f"run.json config has unknown keys {unknown}; this harness knows {sorted(known)}"
             )
-        # Runs written before ``examples`` existed trained every transfer on ideal expressions.
-        return _from_dict(cls, {"examples": "ideal", **data})
+        return _from_dict(cls, data)
 
     def with_overrides(self, **overrides: object) -> RunConfig:
         """A copy with the given fields replaced (None values are ignored)."""
@@ -449,7 +455,11 @@ class RunConfig:
 #: (sec. 5.1: each rig against one warped version of itself), made character-specific (``alien+character``,
 #: `rigs.warp`) so that training expressions matter, with the one-at-a-time variations its claims compare
 #: (`CLAIM_VARIATIONS`) and the two references every RMS is reported against (``dt`` and ``delta``).
-#: ``full`` is every preset, warp and setting. Every preset trains on scan-like expressions.
+#: ``sanity`` checks the evaluation itself: every shape in an expression of its own (cap 1, no symmetry)
+#: and every expression a training example, ideal and scan-like, so that example-based rigging has all it
+#: could ever have; it must come close to the truth (the claims table's sanity row), and ebfr's balance
+#: beta swept over five decades shows where fitting scan noise begins. ``full`` is every preset, warp and
+#: setting. Every other preset trains on scan-like expressions.
 PRESETS: dict[str, dict[str, Any]] = {
     "quick": {
         "rigs": ("tiny", "arkit52"),
@@ -470,6 +480,18 @@ PRESETS: dict[str, dict[str, Any]] = {
         "time_limit": 60.0,
         "timeout": 600.0,
         "variations": CLAIM_VARIATIONS,
+    },
+    "sanity": {
+        "rigs": ("toon",),
+        "warps": ("alien+character",),
+        "solvers": ("greedy",),
+        "transfers": ("ebfr", *expand("ebfr[beta=0.0001,0.001,0.01,0.1,1]"), "dt"),
+        "cap": (1,),
+        "symmetry": (False,),
+        "examples": ("ideal", "scan"),
+        "j_values": (10_000,),
+        "time_limit": 10.0,
+        "timeout": 600.0,
     },
     "full": {
         "rigs": ("female", "male", "toon", "digidouble", "arkit52"),

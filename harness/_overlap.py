@@ -40,6 +40,7 @@ GROUP_COLUMNS: tuple[str, ...] = (
     "importance",
     "cap",
     "distortion",
+    "examples",
     "jmax",
     "time_limit",
     "repetition",

@@ -126,6 +126,7 @@ scan_seed        int64          seed of the scan-like training expressions (run 
 solver_settings  string         the solver label's settings (``workers=2`` of ``cpsat[workers=2]``), or ""
 transfer_beta    float64, null  (transfer rows) the balance beta the method fitted with (Li et al. sec. 3A):
                                 its fixed value, or the one chosen from the data (``ebfr[beta=gcv]``)
+examples         string         training expressions of the transfers: ``scan`` or ``ideal``
 ================ ============== ==============================================================================
 
 The columns in `TIMING_COLUMNS` (every ``*_time`` column, ``transfer_reused``, ``worker`` and ``finished``)
@@ -251,6 +252,7 @@ _GROWN_COLUMNS: dict[str, pa.DataType] = {
     "scan_seed": pa.int64(),
     "solver_settings": pa.string(),
     "transfer_beta": pa.float64(),
+    "examples": pa.string(),
 }
 
 

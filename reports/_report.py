@@ -60,10 +60,11 @@ def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
         f"{name} {info.get('version') or '?'}" if info.get("available") else f"{name} unavailable"
         for name, info in sorted(solvers.items())
     )
-    examples = (run.get("config") or {}).get("examples")
+    examples = (run.get("config") or {}).get("examples") or ()
+    trained = " and ".join(_EXAMPLES.get(mode, mode) for mode in examples) or "not recorded"
     return [
         f"Command: {' '.join(run.get('command', [])) or 'not recorded'}",
-        f"Training expressions: {_EXAMPLES.get(examples, 'not recorded')}",
+        f"Training expressions: {trained}",
         f"State: {run.get('state', 'unknown')}; started {run.get('started', '?')}, "
         f"finished {run.get('finished', '?')}.",
         f"Cells: {counts or 'none'}. Git commit: {git.get('commit') or 'none'}"

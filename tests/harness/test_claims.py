@@ -32,6 +32,8 @@ def cell(
     repetition: int = 0,
     seed: int = 0,
     distortion: str | None = None,
+    examples: str | None = None,
+    cap: int | None = None,
 ) -> list[dict]:
     """The record rows of one finished cell: its expressions and one ebfr row per J (``distortion`` None: a
     part written before the column existed)."""
@@ -46,7 +48,7 @@ def cell(
         "beta": 0.0,
         "symmetry": symmetry,
         "importance": importance,
-        "cap": None,
+        "cap": cap,
         "jmax": 25,
         "time_limit": 60.0,
         "repetition": repetition,
@@ -54,6 +56,7 @@ def cell(
         "n_vertices": 100,
         "n_shapes": len(SHAPES),
         "distortion": distortion,
+        "examples": examples,
     }
     setting["cell"] = hashlib.sha256(json.dumps(setting, sort_keys=True).encode()).hexdigest()[:16]
     rows = [
@@ -114,7 +117,7 @@ def claim_cells(optimal_rms=GOOD, greedy_rms=WORSE, flat_rms=WORSE, alphas=None,
 
 def test_every_claim_held_on_records_that_show_it(tmp_path):
     found = table(tmp_path, *claim_cells())
-    assert list(found.columns) == ["paper", "measured", "verdict"] and len(found) == 7
+    assert list(found.columns) == ["paper", "measured", "verdict"] and len(found) == 9
     assert verdict(found, "greedy and optimal")[0] == HELD  # 9 of 10 shapes = 90% at 5 expressions
     assert "90%" in verdict(found, "greedy and optimal")[1]
     assert verdict(found, "optimal expressions") == (
@@ -257,3 +260,30 @@ def test_the_excess_distortion_is_compared_with_the_papers(tmp_path):
     )
     held, measured = verdict(found, "the excess distortion")
     assert held == HELD and measured.startswith("excess below paper at 3 of 3")
+
+
+def test_scan_and_ideal_examples_are_compared_on_the_same_packings(tmp_path):
+    found = table(
+        tmp_path,
+        cell("cpsat", rms=GOOD, examples="ideal"),
+        cell("cpsat", rms=WORSE, examples="scan"),
+        cell("greedy", sequence=GREEDY, rms=WORSE, examples="scan"),
+    )
+    held, measured = verdict(found, "scan-like examples")
+    assert held == HELD and measured.startswith("ideal below scan at 3 of 3")
+
+
+@pytest.mark.parametrize(("ebfr", "expected"), [(0.3, HELD), (0.5, NOT_HELD)])
+def test_the_sanity_row_holds_ebfr_to_a_third_of_dt_with_exact_isolated_examples(tmp_path, ebfr, expected):
+    isolated = {"sequence": [[shape] for shape in SHAPES], "symmetry": False, "cap": 1, "examples": "ideal"}
+    rows = cell("greedy", rms={20: ebfr}, **isolated)
+    last = rows[-1]
+    rows += [{**last, "transfer": "dt", "rms": 1.0}, {**last, "transfer": "ebfr[beta=0.1]", "rms": 0.05}]
+    found = table(tmp_path, rows)
+    held, measured = verdict(found, "every shape scanned alone")
+    assert held == expected and f"ebfr/dt {ebfr:.3f} (beta=0.1 0.05)" in measured
+
+
+def test_the_sanity_row_needs_isolated_cells(tmp_path):
+    found = table(tmp_path, *claim_cells())
+    assert verdict(found, "every shape scanned alone")[0] == NOT_MEASURED

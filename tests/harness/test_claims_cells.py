@@ -66,24 +66,24 @@ def test_variations_need_their_solvers_in_the_run():
 
 
 def test_variations_and_examples_survive_run_json():
-    stored = config(variations=CLAIM_VARIATIONS, examples="ideal")
+    stored = config(variations=CLAIM_VARIATIONS, examples=("ideal",))
     data = json.loads(json.dumps(stored.to_dict()))
-    assert data["variations"][0] == [["importance", False]] and data["examples"] == "ideal"
+    assert data["variations"][0] == [["importance", False]] and data["examples"] == ["ideal"]
     again = harness.RunConfig.from_dict(data)
     assert again == stored and [c.id for c in again.cells()] == [c.id for c in stored.cells()]
 
 
-def test_a_run_json_from_before_the_examples_option_trained_on_ideal_expressions():
-    data = config().to_dict()
-    del data["examples"], data["variations"], data["variation_solvers"], data["variation_transfers"]
-    assert harness.RunConfig.from_dict(data).examples == "ideal"
-    assert config().examples == "scan"
+def test_examples_are_an_axis_scan_by_default():
+    assert config().examples == ("scan",)
+    cells = config(examples=("scan", "ideal")).cells()
+    assert len(cells) == 2 * len(config().cells()) and {c.examples for c in cells} == {"scan", "ideal"}
 
 
 @pytest.mark.parametrize(
     ("fields", "message"),
     [
-        ({"examples": "photos"}, "--examples must be one of scan, ideal, got 'photos'"),
+        ({"examples": ("photos",)}, "--examples must be among scan, ideal, got \\('photos',\\)"),
+        ({"examples": "scan"}, "--examples must be among scan, ideal, got 'scan'"),
         ({"variations": ((("jmax", 3),),)}, "changes jmax; a variation may change mu, alpha"),
         ({"variations": ((("alpha",),),)}, "a variation must be \\(field, value\\) pairs"),
     ],
@@ -93,10 +93,10 @@ def test_bad_grid_fields_are_one_line_errors(fields, message):
         config(**fields)
 
 
-def test_the_examples_are_part_of_the_cell_id_but_no_records_column():
-    scan, ideal = (config(examples=mode).cells()[0] for mode in EXAMPLES)
+def test_the_examples_are_part_of_the_cell_id_and_a_records_column():
+    scan, ideal = (config(examples=(mode,)).cells()[0] for mode in EXAMPLES)
     assert scan.id != ideal.id
-    assert "examples" not in scan.record_fields() and "examples" not in harness.RECORD_COLUMNS
+    assert scan.record_fields()["examples"] == "scan" and "examples" in harness.RECORD_COLUMNS
 
 
 def _rms(spec) -> list[float]:
@@ -147,7 +147,7 @@ def test_run_options_reach_run_json_and_the_grid(tmp_path):
     )
     assert result.exit_code == 0, result.output
     stored = harness.read_run(out)
-    assert stored["config"]["examples"] == "ideal" and stored["n_cells"] == 2 + 5 * 2
+    assert stored["config"]["examples"] == ["ideal"] and stored["n_cells"] == 2 + 5 * 2
     assert stored["config"]["warps"] == ["character"]
     records = harness.read_records(out)
     assert set(records.loc[records["kind"] == "cell", "status"]) == {"ok"}
