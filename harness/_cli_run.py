@@ -151,8 +151,9 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     type=click.Choice(list(PRESETS)),
     default="quick",
     help="Named grid the other options start from. quick: CI smoke run (<= 60 s); paper: the paper's four "
-    "rigs with one warp each and all J values; sanity: every shape scanned alone, ideal and scan-like, "
-    "ebfr's beta swept (the evaluation's own check); full: every preset, warp and setting.",
+    "rigs with one warp each and all J values; exact: the film rig's 40 largest problems, exact solvers "
+    "only, 3 repetitions (where the backends differ); sanity: every shape scanned alone, ideal and "
+    "scan-like, ebfr's beta swept (the evaluation's own check); full: every preset, warp and setting.",
 )
 @click.option(
     "--rigs", type=NAMES, help=f"Rig presets or rig files, comma-separated. [default: {_preset_help('rigs')}]"

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 import pandas as pd
+from rich.markup import escape
 from rich.table import Table
 
 from harness._cli_types import terminal
@@ -51,14 +52,16 @@ def show(out: Path) -> None:
         for column in ("rig", "warp", "solver", "status", "message"):
             table.add_column(column)
         for row in problems.itertuples():
-            table.add_row(row.rig, row.warp, row.solver, row.status, row.message or "")
+            table.add_row(*map(escape, (row.rig, row.warp, row.solver, row.status, row.message or "")))
         terminal().print(table)
 
 
 def _sequence_table(records: pd.DataFrame) -> Table:
-    """Per rig, warp and solver: expressions, coverage, first-expression and whole-sequence times (median)."""
+    """Per rig, warp and solver: expressions, coverage, first-expression and whole-sequence times (median),
+    and how every solve ended (termination; time-limited solves answered by Algorithm 2's packing)."""
     cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
-    first = records[(records["kind"] == "expression") & (records["expression"] == 1)]
+    expressions = records[(records["kind"] == "expression") & records["cell"].isin(cells["cell"])]
+    first = expressions[expressions["expression"] == 1]
     first_time = (first["build_time"] + first["solve_time"]).groupby(first["cell"]).first()
     table = Table(title="sequences (median over repetitions and parameter settings)")
     for column in (
@@ -73,13 +76,14 @@ def _sequence_table(records: pd.DataFrame) -> Table:
         "first expr.",
         "sequence",
         "analysis",
+        "solves",
     ):
         table.add_column(column, justify="left" if column in ("rig", "warp", "solver") else "right")
     for (rig, warp, solver), group in cells.groupby(["rig", "warp", "solver"], sort=True):
         table.add_row(
-            rig,
-            warp,
-            solver,
+            escape(rig),
+            escape(warp),
+            escape(solver),
             str(len(group)),
             str(group["n_vertices"].iloc[0]),
             str(group["n_shapes"].iloc[0]),
@@ -88,8 +92,19 @@ def _sequence_table(records: pd.DataFrame) -> Table:
             format_duration(float(first_time.reindex(group["cell"]).median())),
             format_duration(float(group["sequence_time"].median())),
             format_duration(float(group["analysis_time"].median())),
+            _terminations(expressions[expressions["cell"].isin(group["cell"])]),
         )
     return table
+
+
+def _terminations(expressions: pd.DataFrame) -> str:
+    """``48 optimal, 2 time_limit (1 greedy)``: how the solves ended, most common first, with the number of
+    time-limited answers that are Algorithm 2's packing (the ``fallback`` column)."""
+    counts = expressions["termination"].astype(str).value_counts()
+    text = ", ".join(f"{count} {termination}" for termination, count in counts.items())
+    fallback = expressions["fallback"].fillna("").astype(str) if "fallback" in expressions else pd.Series([])
+    used = fallback[fallback != ""].value_counts()
+    return text + "".join(f" ({count} {name})" for name, count in used.items())
 
 
 def _transfer_table(transfers: pd.DataFrame) -> Table:
@@ -113,7 +128,7 @@ def _transfer_table(transfers: pd.DataFrame) -> Table:
                 cells.append(f"{values[j]:.4g} ({values[j] / reference[j]:.2f})")
             else:
                 cells.append(f"{values[j]:.4g}")
-        table.add_row(rig, warp, setting or "-", method, solver, *cells)
+        table.add_row(*map(escape, (rig, warp, setting or "-", method, solver)), *cells)
     return table
 
 
@@ -144,5 +159,5 @@ def _claims_table(records: pd.DataFrame) -> Table:
         table.add_column(column)
     for row in claims_table(records).itertuples():
         colour = colours.get(row.verdict, "yellow")
-        table.add_row(row.claim, row.measured, f"[{colour}]{row.verdict}[/]")
+        table.add_row(escape(row.claim), escape(row.measured), f"[{colour}]{row.verdict}[/]")
     return table

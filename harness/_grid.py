@@ -455,11 +455,13 @@ class RunConfig:
 #: (sec. 5.1: each rig against one warped version of itself), made character-specific (``alien+character``,
 #: `rigs.warp`) so that training expressions matter, with the one-at-a-time variations its claims compare
 #: (`CLAIM_VARIATIONS`) and the two references every RMS is reported against (``dt`` and ``delta``).
-#: ``sanity`` checks the evaluation itself: every shape in an expression of its own (cap 1, no symmetry)
-#: and every expression a training example, ideal and scan-like, so that example-based rigging has all it
-#: could ever have; it must come close to the truth (the claims table's sanity row), and ebfr's balance
-#: beta swept over five decades shows where fitting scan noise begins. ``full`` is every preset, warp and
-#: setting. Every other preset trains on scan-like expressions.
+#: ``exact`` separates the exact backends: the first 40 expressions of the 1,000-shape film rig, the
+#: largest problems of its sequence (hundreds of items each), three repetitions so that `harness compare`
+#: can test their times. ``sanity`` checks the evaluation itself: every shape in an expression of its own
+#: (cap 1, no symmetry) and every expression a training example, ideal and scan-like, so that example-based
+#: rigging has all it could ever have; it must come close to the truth (the claims table's sanity row),
+#: and ebfr's balance beta swept over five decades shows where fitting scan noise begins. ``full`` is every
+#: preset, warp and setting. Every other preset trains on scan-like expressions.
 PRESETS: dict[str, dict[str, Any]] = {
     "quick": {
         "rigs": ("tiny", "arkit52"),
@@ -480,6 +482,16 @@ PRESETS: dict[str, dict[str, Any]] = {
         "time_limit": 60.0,
         "timeout": 600.0,
         "variations": CLAIM_VARIATIONS,
+    },
+    "exact": {
+        "rigs": ("film",),
+        "warps": ("alien",),
+        "solvers": ("cpsat", "highs", "scip", "cbc-mip", "cbc-pulp"),
+        "transfers": (),
+        "jmax": 40,
+        "repetitions": 3,
+        "time_limit": 60.0,
+        "timeout": 900.0,
     },
     "sanity": {
         "rigs": ("toon",),

@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
+from rich.markup import escape
 from rich.table import Table
 
 import harness
@@ -578,7 +579,7 @@ def comparison_table(
         style = "bold red" if change in failing else _STYLES[change.verdict]
         verdict = f"{change.verdict} {change.where}".strip() + (" (fails)" if change in failing else "")
         ratio = "" if change.ratio is None else f"{change.ratio:.3f}"
-        cells = [change.case, change.metric, _shown(change.old), _shown(change.new), ratio, verdict]
+        cells = [escape(change.case), change.metric, _shown(change.old), _shown(change.new), ratio, verdict]
         cells.append(change.termination)
         table.add_row(*cells, *([_spread_text(change.spread)] if history else []), style=style)
     return table
