@@ -190,6 +190,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @click.option(
     "--distortion",
     type=DISTORTION_NAMES,
+    metavar="paper|excess|both",
     help="Triangle distortion in the importance (eq. 6): paper (s_t as printed) or excess (s_t - 2, the "
     "authors' code: 0 for an undistorted triangle); both = a grid axis. [default: paper]",
 )
@@ -241,6 +242,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @click.option(
     "--examples",
     type=EXAMPLE_NAMES,
+    metavar="scan|ideal|both",
     help="Training expressions of the transfers: scan (the actor is not the linear sum: correctives where "
     "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by --scan-seed "
     "plus the repetition, so repetitions are independent sessions), ideal (the exact sums of the "

@@ -621,6 +621,8 @@ def read_overlap(out: str | Path) -> pd.DataFrame:
         raise FileNotFoundError(
             f"{out}: no {OVERLAP_FILE} (the run has not finished; run harness run --resume)"
         )
-    return pq.read_table(path).to_pandas(
+    frame = pq.read_table(path).to_pandas(
         types_mapper={pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}.get
     )
+    # A run made before a group column existed has none: its cells all had that column's one value.
+    return frame.reindex(columns=[*OVERLAP_COLUMNS, *(c for c in frame.columns if c not in OVERLAP_COLUMNS)])

@@ -157,9 +157,12 @@ def test_run_options_reach_run_json_and_the_grid(tmp_path):
 def test_the_paper_preset_has_the_claims_variations_and_none_removes_them():
     paper = harness.RunConfig(preset="paper", **harness.PRESETS["paper"])
     assert paper.variations == CLAIM_VARIATIONS and paper.warps == ("alien+character",)
-    assert {"plbs", "dt", "delta"} <= set(paper.transfers) and paper.examples == "scan"
+    assert {"plbs", "dt", "delta"} <= set(paper.transfers) and paper.examples == ("scan",)
     result = CliRunner().invoke(cli, ["run", "--help"])
-    assert "--examples [scan|ideal]" in result.output and "--variations [claims|none]" in result.output
+    assert (
+        "scan, ideal or both" in " ".join(result.output.split())
+        and "--variations [claims|none]" in result.output
+    )
 
 
 def test_variations_none_on_the_paper_preset(tmp_path):

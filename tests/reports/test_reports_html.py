@@ -97,7 +97,9 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     assert "| face | alien | scip | 4 | skipped | pyscipopt is not installed |" in markdown
     assert "| claim | paper | measured | verdict |" in markdown
     claim = next(line for line in markdown.splitlines() if line.startswith("| optimal expressions transfer"))
-    assert "cpsat below greedy at 1 of 3 (rig, warp, J) points" in claim and claim.endswith("| not held |")
+    assert "cpsat below greedy at 1 of 3 (seed, rig, warp, J) points" in claim and claim.endswith(
+        "| not held |"
+    )
     assert "RMS divided by the dt RMS of the same cell and J" in markdown
     assert "The run has no delta transfer: no RMS relative to it." in markdown
     assert "Training expressions: not recorded" in markdown  # the fabricated run.json has no config

@@ -76,7 +76,9 @@ def test_isolated_exact_examples_beat_dt_by_far(isolated):
     result = method(template, target.neutral, weights, examples)
     dt = transfer.get("dt")(template, target.neutral)
     ratio = transfer.rms(result, target.deltas) / transfer.rms(dt, target.deltas)
-    fixed = transfer.rms(transfer.get("ebfr")(template, target.neutral, weights, examples), target.deltas)
+    fixed = transfer.rms(
+        transfer.get("ebfr", beta=0.1)(template, target.neutral, weights, examples), target.deltas
+    )
     beta = method.beta_used(template, target.neutral, weights, examples)
     baseline = transfer.rms(dt, target.deltas)
     print(f"ebfr/dt: gcv {ratio:.4f} (beta {beta:.3g}), fixed 0.1 {fixed / baseline:.4f}")
@@ -109,13 +111,18 @@ def test_gcv_prefixes_choose_per_j_and_match_direct_calls(isolated):
         np.testing.assert_allclose(first(count), direct, rtol=0, atol=1e-12)
 
 
-def test_fixed_beta_stays_the_default(isolated):
+def test_gcv_is_the_default_and_a_fixed_beta_is_kept_as_given(isolated):
     template, target, weights = isolated
     examples = transfer.training_expressions(target, weights)
     default = transfer.get("ebfr")
-    assert default.beta == 0.1 and default.beta_used(template, target.neutral, weights, examples) == 0.1
-    explicit = transfer.get("ebfr", beta=0.1)(template, target.neutral, weights, examples)
-    assert np.array_equal(default(template, target.neutral, weights, examples), explicit)
+    chosen = transfer.get("ebfr", beta="gcv").beta_used(template, target.neutral, weights, examples)
+    assert default.beta == "gcv" and default.beta_used(template, target.neutral, weights, examples) == chosen
+    assert np.array_equal(
+        default(template, target.neutral, weights, examples),
+        transfer.get("ebfr", beta="gcv")(template, target.neutral, weights, examples),
+    )
+    fixed = transfer.get("ebfr", beta=0.1)
+    assert fixed.beta_used(template, target.neutral, weights, examples) == 0.1
 
 
 def test_beta_curve_reports_rms_and_the_choice(isolated):

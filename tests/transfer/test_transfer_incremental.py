@@ -101,7 +101,7 @@ def test_ebfr_regularisation_parameters_match_the_plain_solve(
 ):
     template, target, weights, examples = make_case(sheet, **sizes)
     scale = "absolute" if absolute else "peak"
-    found = transfer.get("ebfr", kappa=kappa, theta=theta, motion_scale=scale)(
+    found = transfer.get("ebfr", beta=0.1, kappa=kappa, theta=theta, motion_scale=scale)(
         template, target.neutral, weights, examples
     )
     expected = reference_step_a(
@@ -117,7 +117,7 @@ def test_shared_shapes_take_the_joint_path_at_every_j(sheet, reference_step_a, *
     rng = np.random.default_rng(sizes["seed"])
     shared = np.r_[weights, (rng.random((2, template.n_shapes)) < 0.5).astype(float)]
     shared_examples = np.r_[examples, noisy_examples(target, shared[-2:], rng)]
-    first = transfer.get("ebfr").prefixes(template, target.neutral, shared, shared_examples)
+    first = transfer.get("ebfr", beta=0.1).prefixes(template, target.neutral, shared, shared_examples)
     for j in range(shared.shape[0], -1, -1):  # falling J: the estimate is rebuilt, not updated
         expected = reference_step_a(template, target.neutral, shared[:j], shared_examples[:j])
         assert_close(first(j), expected)

@@ -164,7 +164,7 @@ def test_ebfr_full_with_one_iteration_is_ebfr(tiny_pair, packing):
     examples = transfer.training_expressions(target, weights)
     full, refitted = transfer.get("ebfr-full", iterations=1).fit(template, target.neutral, weights, examples)
     np.testing.assert_allclose(
-        full, transfer.get("ebfr")(template, target.neutral, weights, examples), atol=1e-12
+        full, transfer.get("ebfr", beta=0.1)(template, target.neutral, weights, examples), atol=1e-12
     )
     assert np.array_equal(refitted, weights)
 
