@@ -37,6 +37,7 @@ import rigs
 import solvers
 from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec, rig_digest
+from harness._journal import append_row
 from harness._rigspec import is_rig_file, resolve_rig
 from harness._settings import split_label
 from packing import Expression, Termination
@@ -162,12 +163,19 @@ def warm_up(solver_name: str) -> None:
         pass
 
 
-def run_cell(spec: CellSpec) -> list[Row] | Lost:
+def run_cell(spec: CellSpec, journal: str | None = None) -> list[Row] | Lost:
     """Run one cell and return its record rows (the ``cell`` row first).
 
     Never raises for a failing rig, solver, check or transfer: the failure becomes the ``status`` and
     ``message`` of the rows, as the records schema describes. A rig file whose content changed since the
     run started gives `Lost` (no result for this run's cell).
+
+    Parameters
+    ----------
+    spec : CellSpec
+    journal : str, optional
+        A file (`harness._journal`) to which each expression's row is appended as soon as the expression
+        is finished, so that an executor that stops the cell still has them.
     """
     base: Row = spec.record_fields()
     cell_row: Row = {
@@ -193,7 +201,8 @@ def run_cell(spec: CellSpec) -> list[Row] | Lost:
 
     try:
         solver = plugins.solver(spec.solver)
-        analysis, expressions, facts = _pack(spec, solver, template, target)
+        finished = _ExpressionRows(base, template.n_shapes, journal)
+        analysis, expressions, facts = _pack(spec, solver, template, target, finished)
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
     failed = _failed_expression(expressions)
@@ -218,10 +227,15 @@ def run_cell(spec: CellSpec) -> list[Row] | Lost:
 
 
 def _pack(
-    spec: CellSpec, solver: LoadedSolver, template: Rig, target: Rig
+    spec: CellSpec,
+    solver: LoadedSolver,
+    template: Rig,
+    target: Rig,
+    on_expression: Callable[[Expression], None] | None = None,
 ) -> tuple[Analysis, list[Expression], Row]:
     """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
-    bounds on the number of expressions."""
+    bounds on the number of expressions; ``on_expression`` sees each expression as soon as it is
+    finished."""
     target_neutral = None if spec.warp == NO_WARP else target.neutral
     with warnings.catch_warnings():
         # Without a warp there is no target: distortion importance is 0 by design, not by mistake.
@@ -230,7 +244,13 @@ def _pack(
         analysis = packing.analyse(template, target_neutral, **packing_params(spec))
         analysis_time = time.perf_counter() - clock
     expressions = packing.sequence(
-        template, solver, analysis=analysis, jmax=spec.jmax, time_limit=spec.time_limit, seed=spec.seed
+        template,
+        solver,
+        analysis=analysis,
+        jmax=spec.jmax,
+        time_limit=spec.time_limit,
+        seed=spec.seed,
+        on_expression=on_expression,
     )
     facts = {
         "analysis_time": analysis_time,
@@ -343,26 +363,42 @@ def _plain(value: object, kind: ColumnType) -> RecordValue:
 
 
 def _expression_rows(base: Row, expressions: list[Expression], n_shapes: int) -> list[Row]:
-    """One row per expression: its `expression_record`, with what the cell computes from the sequence
-    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``) and ``weight`` (the objective
-    again, kept for readers of the column)."""
-    rows = []
-    covered: set[str] = set()
+    """One row per expression (`_ExpressionRows`)."""
+    rows = _ExpressionRows(base, n_shapes)
     for expression in expressions:
+        rows(expression)
+    return rows.rows
+
+
+class _ExpressionRows:
+    """The ``expression`` rows of a sequence, made one expression at a time (``rows``).
+
+    A row is the expression's `expression_record`, with what the cell computes from the sequence
+    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``) and ``weight`` (the objective
+    again, kept for readers of the column). With a ``journal``, each row is also appended to that file
+    (`harness._journal`) as soon as it is made.
+    """
+
+    def __init__(self, base: Row, n_shapes: int, journal: str | None = None) -> None:
+        self.base, self.n_shapes, self.journal = base, n_shapes, journal
+        self.covered: set[str] = set()
+        self.rows: list[Row] = []
+
+    def __call__(self, expression: Expression) -> None:
         record = expression_record(expression)
-        covered.update(record["shapes"])
-        rows.append(
-            {
-                **base,
-                "kind": "expression",
-                **record,
-                "n_chosen": len(record["shapes"]),
-                "weight": record["objective"],
-                "covered": len(covered),
-                "coverage": len(covered) / n_shapes if n_shapes else 0.0,
-            }
-        )
-    return rows
+        self.covered.update(record["shapes"])
+        row: Row = {
+            **self.base,
+            "kind": "expression",
+            **record,
+            "n_chosen": len(record["shapes"]),
+            "weight": record["objective"],
+            "covered": len(self.covered),
+            "coverage": len(self.covered) / self.n_shapes if self.n_shapes else 0.0,
+        }
+        self.rows.append(row)
+        if self.journal is not None:
+            append_row(self.journal, row)
 
 
 def _transfer_rows(
@@ -530,3 +566,19 @@ def _worker_name() -> str:
 def failure_rows(spec: CellSpec, status: str, message: str) -> list[Row]:
     """The single ``cell`` row recorded for a cell without results (a timeout, an unavailable solver)."""
     return [_finish({**spec.record_fields(), "kind": "cell", "status": status, "message": message})]
+
+
+def timeout_rows(spec: CellSpec, finished: list[Row], message: str) -> list[Row]:
+    """The rows of a cell stopped by ``--timeout``: its ``timeout`` cell row, then the ``expression`` rows
+    it had finished (read from its journal, `harness._journal`), counted in the cell row's
+    ``n_expressions`` and ``n_covered``. Such a sequence was cut short: it is not checked and has no
+    transfers."""
+    (cell_row,) = failure_rows(spec, "timeout", message)
+    if finished:
+        cell_row.update(
+            n_vertices=finished[0].get("n_vertices"),
+            n_shapes=finished[0].get("n_shapes"),
+            n_expressions=len(finished),
+            n_covered=finished[-1].get("covered"),
+        )
+    return [cell_row, *finished]

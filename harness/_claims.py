@@ -294,8 +294,10 @@ def _coverage(records: pd.DataFrame) -> Claim:
     title = f"{COVERAGE_EXPRESSIONS} expressions cover most shapes"
     paper = "Sec. 5.2: about 67% (female), 86% (male), 95% (toon) of the shapes with 20 expressions"
     optimal = _optimal_solver(records)
+    ok = records[(records["kind"] == "cell") & (records["status"] == "ok")]["cell"]
     rows = records[
         (records["kind"] == "expression")
+        & records["cell"].isin(ok)
         & records["solver"].isin([GREEDY, optimal])
         & records["rig"].isin(list(PAPER_COVERAGE))
     ]

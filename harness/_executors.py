@@ -2,7 +2,9 @@
 
 Both hand every cell to `harness._cell.run_cell` in a process of their own and yield ``(spec, outcome)`` as
 cells finish, in completion order; the caller writes the rows. A cell that exceeds ``timeout`` seconds is
-stopped by killing its process and yields one ``timeout`` row: that is a result of the cell. What is no
+stopped by killing its process and yields its ``timeout`` cell row with the ``expression`` rows it had
+finished (the cell appends each to a journal file as it goes, `harness._journal`, read after the kill; its
+sequence is cut there, unchecked and without transfers): that is a result of the cell. What is no
 result of the cell yields `harness._cell.Lost` with the reason, and ``--resume`` runs the cell again: a
 worker process that dies (killed, out of memory), a worker whose start-up and warm-up exceed their
 allowance, a Dask task that fails (scheduler or worker lost, the package missing on a worker).
@@ -22,10 +24,12 @@ import time
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from harness._cell import Lost, failure_rows, run_cell, warm_up
+from harness._cell import Lost, run_cell, timeout_rows, warm_up
 from harness._grid import CellSpec
+from harness._journal import new_journal, read_journal, remove_journal
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 
 if TYPE_CHECKING:
@@ -54,16 +58,23 @@ def _group(spec: CellSpec) -> Group:
     return spec.rig, spec.rig_seed, spec.warp
 
 
-def _timeout_message(timeout: float) -> str:
-    return f"cell exceeded --timeout {timeout:g}s and was stopped"
+def _timeout_message(timeout: float, finished: int) -> str:
+    """The message of a cell stopped after ``finished`` expressions."""
+    stopped = f"cell exceeded --timeout {timeout:g}s and was stopped"
+    if not finished:
+        return f"{stopped} before its first expression was finished"
+    count = f"{finished} expression{'s' if finished > 1 else ''}"
+    return f"{stopped} after {count} (the sequence was cut there: not checked, no transfers)"
 
 
 @dataclass
 class _Slot:
-    """One of the executor's worker processes and the cell it runs (``spec`` is None while it is idle)."""
+    """One of the executor's worker processes and the cell it runs (``spec`` and ``journal`` are None
+    while it is idle)."""
 
     worker: Worker = field(default_factory=lambda: Worker("harness cell", log=False))
     spec: CellSpec | None = None
+    journal: Path | None = None
     deadline: float | None = None
     started: bool = False
     group: Group | None = None
@@ -105,7 +116,9 @@ class LocalExecutor:
                 outcome = self._outcome(slot)
                 if outcome is not None:
                     spec, slot.spec, slot.deadline = slot.spec, None, None
-                    assert spec is not None
+                    assert spec is not None and slot.journal is not None
+                    remove_journal(slot.journal)
+                    slot.journal = None
                     yield spec, outcome
 
     def _assign(self, queue: list[CellSpec]) -> None:
@@ -114,14 +127,16 @@ class LocalExecutor:
         while queue and idle:
             slot = idle[-1]
             spec = queue.pop(self._choose(slot, queue))
+            journal = new_journal()
             try:
                 slot.worker.send("harness._cell:warm_up", spec.solver)
-                slot.worker.send("harness._cell:run_cell", spec)
+                slot.worker.send("harness._cell:run_cell", spec, str(journal))
             except WorkerDied:  # it ended since it was started: the cell goes back, a fresh process takes it
+                remove_journal(journal)
                 queue.insert(0, spec)
                 continue
             idle.pop()
-            slot.spec, slot.started, slot.group = spec, False, _group(spec)
+            slot.spec, slot.journal, slot.started, slot.group = spec, journal, False, _group(spec)
             slot.deadline = self._deadline(STARTUP_ALLOWANCE)
 
     def _choose(self, slot: _Slot, queue: list[CellSpec]) -> int:
@@ -136,7 +151,7 @@ class LocalExecutor:
 
     def _outcome(self, slot: _Slot) -> Outcome | None:
         """The outcome of a busy slot's cell once its worker replied, ended or passed its deadline."""
-        assert slot.spec is not None
+        assert slot.spec is not None and slot.journal is not None
         try:
             while slot.worker.pending and slot.worker.ready():
                 reply = slot.worker.receive()
@@ -156,7 +171,8 @@ class LocalExecutor:
         if not slot.started:
             allowed = (self.timeout or 0.0) + STARTUP_ALLOWANCE
             return Lost(f"worker start-up and the solver's warm-up took over {allowed:g}s")
-        return failure_rows(slot.spec, "timeout", _timeout_message(self.timeout or 0.0))
+        finished = read_journal(slot.journal)
+        return timeout_rows(slot.spec, finished, _timeout_message(self.timeout or 0.0, len(finished)))
 
     def _deadline(self, allowance: float = 0.0) -> float | None:
         """When a cell sent now (with ``allowance`` for start-up and warm-up) is over its time."""
@@ -172,7 +188,9 @@ class LocalExecutor:
         """Stop every worker (cells in flight are lost; their part files were never written)."""
         for slot in self._slots:
             slot.worker.stop()
-            slot.spec = None
+            if slot.journal is not None:
+                remove_journal(slot.journal)
+            slot.spec, slot.journal = None, None
 
 
 _task_workers = threading.local()
@@ -200,9 +218,11 @@ class DaskExecutor:
     """Cells as tasks on a Dask distributed cluster (``tcp://HOST:PORT``), one task per cell.
 
     Records are identical to the local executor's (the same `run_cell` produces them); with a timeout,
-    each task runs its cell in a local worker process that can be stopped (see `run_isolated`). A task that
-    fails is `Lost`: `run_cell` turns every failure of the cell itself into rows, so an exception here
-    comes from the cluster (a lost scheduler cancels every task at once).
+    each task runs its cell in a local worker process that can be stopped (see `run_isolated`), and a cell
+    stopped there keeps the expressions it finished, as with `LocalExecutor` (its journal is a file on the
+    Dask worker's machine, read there). A task that fails is `Lost`: `run_cell` turns every failure of the
+    cell itself into rows, so an exception here comes from the cluster (a lost scheduler cancels every task
+    at once).
     """
 
     def __init__(self, scheduler: str, timeout: float | None = None) -> None:

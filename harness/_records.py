@@ -55,7 +55,9 @@ run's cross-solver certificate, `harness._certificate`: its optimality claim dis
 solvers' on the same instance, or another solver's packing beats a bound it proved; message = the
 instance, the other solver and both values; like ``invalid``, a quality failure, never a result). A cell
 lost to the infrastructure (its worker process died, the Dask scheduler went away) has no part file at
-all, so ``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows:
+all, so ``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows, but a
+``timeout`` cell keeps the expressions it finished before it was stopped (``n_expressions`` of them, as its
+message says; its sequence was cut there, so they are not checked and it has no transfers):
 
 ================ ============== ==============================================================================
 analysis_time    float64        seconds of rig analysis (binary shapes, importance, symmetry, presolve)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Protocol
 
@@ -32,6 +33,7 @@ def sequence(
     time_limit: float | None = None,
     seed: int = 0,
     analysis: Analysis | None = None,
+    on_expression: Callable[[Expression], None] | None = None,
     **params: Any,
 ) -> list[Expression]:
     """Reference expressions one after another (Carrigan et al. 2020, Algorithm 1).
@@ -61,6 +63,9 @@ def sequence(
     analysis : Analysis, optional
         A ready analysis of ``rig`` (e.g. shared by several solvers); then no ``target_neutral`` or
         ``params`` may be given.
+    on_expression : callable, optional
+        Called with each expression as soon as it is finished, before the next solve starts (a caller that
+        may be stopped mid-sequence keeps the expressions found so far this way).
     **params
         `PackingParams` fields, among them ``max_per_expression`` (cap, sec. 6) and
         ``extra_examples`` (the second pass of sec. 6: after each expression, the solver packs
@@ -124,6 +129,8 @@ def sequence(
                 extra_time=extra_time,
             )
         )
+        if on_expression is not None:
+            on_expression(expressions[-1])
         if not shapes:
             break
         used.extend(shapes)

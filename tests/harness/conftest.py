@@ -20,7 +20,7 @@ import solvers
 from harness._cell import run_cell
 
 PLUGIN_MODULE = '''
-"""Solver plugins for the harness tests: two that sleep, one that raises, one that is unavailable."""
+"""Solver plugins for the harness tests: three that sleep, one that raises, one that is unavailable."""
 
 import os
 import time
@@ -39,6 +39,19 @@ class SleepySolver(GreedySolver):
     def solve(self, problem, *, time_limit=None, seed=0):
         if "bump0_L" in problem.shape_names:
             time.sleep(float(os.environ.get("HARNESS_TEST_SLEEP", "60")))
+        return super().solve(problem, time_limit=time_limit, seed=seed)
+
+
+class StallerSolver(GreedySolver):
+    """Greedy, which answers the first 2 expressions of the test sheet at once, then sleeps
+    HARNESS_TEST_STALL seconds (default 60) before each later one."""
+
+    name = "staller"
+    capabilities = solvers.Capabilities(exact=False, time_limit=False)
+
+    def solve(self, problem, *, time_limit=None, seed=0):
+        if "bump0_L" in problem.shape_names and problem.meta.get("expression", 0) > 2:
+            time.sleep(float(os.environ.get("HARNESS_TEST_STALL", "60")))
         return super().solve(problem, time_limit=time_limit, seed=seed)
 
 
@@ -103,6 +116,7 @@ class MissingSolver(GreedySolver):
 ENTRY_POINTS = """
 [harness.solvers]
 sleepy = harness_test_plugins:SleepySolver
+staller = harness_test_plugins:StallerSolver
 napper = harness_test_plugins:NapperSolver
 raising = harness_test_plugins:RaisingSolver
 missing = harness_test_plugins:MissingSolver
@@ -148,7 +162,8 @@ def plugins_registered(plugin_dir: Path):
 
 @pytest.fixture
 def test_plugins(plugin_dir: Path):
-    """The test solver plugins (``sleepy``, ``napper``, ``raising``, ``missing``), registered for one test."""
+    """The test solver plugins (``sleepy``, ``staller``, ``napper``, ``raising``, ``missing``), registered
+    for one test."""
     with plugins_registered(plugin_dir):
         yield plugin_dir
 

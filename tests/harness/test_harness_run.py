@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
 
 import pytest
 
@@ -130,7 +131,48 @@ def test_a_cell_over_the_timeout_is_stopped_and_the_run_goes_on(
     summary = harness.run_grid(config, tmp_path, make_executor=_local(jobs=1))
     assert summary.statuses == {"timeout": 1, "ok": 1}
     cells = harness.read_records(tmp_path).query("kind == 'cell'").set_index("solver")
-    assert cells.loc["sleepy", "message"] == "cell exceeded --timeout 2s and was stopped"
+    assert cells.loc["sleepy", "message"] == (
+        "cell exceeded --timeout 2s and was stopped before its first expression was finished"
+    )
+    assert list(harness.read_records(tmp_path).query("solver == 'sleepy'")["kind"]) == ["cell"]
+
+
+def test_a_timed_out_cell_keeps_the_expressions_it_finished_and_is_not_run_again(
+    rig_file, tmp_path, test_plugins, monkeypatch
+) -> None:
+    journals = tmp_path / "journals"
+    journals.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(journals))
+    monkeypatch.setenv("HARNESS_TEST_STALL", "60")
+    out = tmp_path / "out"
+    config = _config(rig_file, solvers=("staller", "greedy"), transfers=("dt",), timeout=2.0)
+    summary = harness.run_grid(config, out, make_executor=_local(jobs=1))
+    assert summary.statuses == {"timeout": 1, "ok": 1}
+    records = harness.read_records(out)
+    stopped = records[records["solver"] == "staller"]
+    assert list(stopped["kind"]) == ["cell", "expression", "expression"]
+    cell = stopped.iloc[0]
+    assert cell["status"] == "timeout" and cell["n_expressions"] == 2
+    assert cell["message"] == (
+        "cell exceeded --timeout 2s and was stopped after 2 expressions "
+        "(the sequence was cut there: not checked, no transfers)"
+    )
+    # The staller is greedy until it stalls: its 2 expressions are greedy's first 2, solved and timed.
+    greedy = records[(records["solver"] == "greedy") & (records["kind"] == "expression")].iloc[:2]
+    finished = stopped.iloc[1:]
+    assert list(finished["expression"]) == [1, 2]
+    assert list(finished["objective"]) == pytest.approx(list(greedy["objective"]))
+    assert [list(shapes) for shapes in finished["shapes"]] == [list(shapes) for shapes in greedy["shapes"]]
+    assert (finished["objective"] > 0).all() and (finished["solve_time"] >= 0).all()
+    assert (
+        list(finished["covered"]) == list(greedy["covered"])
+        and cell["n_covered"] == greedy["covered"].iloc[-1]
+    )
+    assert set(finished["termination"]) == set(greedy["termination"])
+    assert list(journals.iterdir()) == []
+    resumed = harness.run_grid(config, out, make_executor=_local(jobs=1), resume=True)
+    assert resumed.already_done == 2 and not resumed.statuses
+    assert harness.read_records(out).equals(records)
 
 
 def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(

@@ -1,0 +1,65 @@
+"""A cell's journal: the ``expression`` rows it finished, written as it goes and read back when it is stopped.
+
+A cell stopped by ``--timeout`` is killed with its worker process, so it cannot return the expressions it
+had solved. `harness._executors.LocalExecutor` gives each cell a journal file of its own (`new_journal`, in
+the machine's temporary directory: never in a run folder, so never taken for a part file or for a temporary
+file of one, and local to the machine even when a Dask worker runs the cell), `harness._cell.run_cell`
+appends each finished expression's row to it as one JSON line (`append_row`), and on a timeout the executor
+reads the rows back (`read_journal`) to record them beside the ``timeout`` cell row. The executor removes
+the journal once the cell's outcome is known, however the cell ended (`remove_journal`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from harness._cell import RecordValue, Row
+
+#: Prefix and suffix of journal file names.
+_PREFIX, _SUFFIX = "harness-cell-", ".journal"
+
+
+def new_journal() -> Path:
+    """An empty journal file of its own, in the temporary directory."""
+    descriptor, name = tempfile.mkstemp(prefix=_PREFIX, suffix=_SUFFIX)
+    os.close(descriptor)
+    return Path(name)
+
+
+def append_row(journal: str | os.PathLike, row: Mapping[str, RecordValue]) -> None:
+    """Append one row as a JSON line, flushed before this returns (the process may be killed next)."""
+    with open(journal, "a", encoding="utf-8") as stream:
+        stream.write(json.dumps(dict(row)) + "\n")
+
+
+def read_journal(journal: str | os.PathLike) -> list[Row]:
+    """The rows of a journal, in the order written; none when it is missing.
+
+    A process killed while appending may leave a last line cut short: reading stops at the first line
+    that is not one whole JSON row.
+    """
+    try:
+        text = Path(journal).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return []
+    rows: list[Row] = []
+    for line in text.splitlines(keepends=True):
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            break
+        if not line.endswith("\n") or not isinstance(row, dict):
+            break
+        rows.append(row)
+    return rows
+
+
+def remove_journal(journal: str | os.PathLike) -> None:
+    """Delete a journal (nothing when it is already gone)."""
+    Path(journal).unlink(missing_ok=True)
