@@ -160,8 +160,6 @@ def test_the_paper_preset_has_the_claims_variations_and_none_removes_them():
     assert {"plbs", "dt", "delta"} <= set(paper.transfers) and paper.examples == ("scan",)
     result = CliRunner().invoke(cli, ["run", "--help"])
     assert "--examples scan|ideal|both" in result.output and "--variations [claims|none]" in result.output
-        and "--variations [claims|none]" in result.output
-    )
 
 
 def test_variations_none_on_the_paper_preset(tmp_path):
