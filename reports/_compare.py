@@ -197,7 +197,9 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
         metrics.append(Metric(case, "expressions", "quality", float(cell["n_expressions"])))
         if pd.notna(cell.get("min_expressions")):
             metrics.append(Metric(case, "minimum expressions", "quality", float(cell["min_expressions"])))
-    expressions = first_repetition[first_repetition["kind"] == "expression"].sort_values("expression")
+    expressions = first_repetition[
+        (first_repetition["kind"] == "expression") & first_repetition["cell"].isin(ok["cell"])
+    ].sort_values("expression")  # a cell stopped by its timeout keeps expressions; its status is compared
     for case, rows in zip(*_grouped(expressions), strict=True):
         metrics.append(
             Metric(case, "objective per expression", "quality", tuple(rows["objective"].astype(float)))

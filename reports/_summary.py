@@ -111,10 +111,21 @@ def _longest(times: pd.Series) -> float:
 
 
 def _failed_first_solves(records: pd.DataFrame) -> pd.DataFrame:
-    """Expression 1 of each cell that failed, with the cell's status as its outcome and no time."""
+    """The solve each failed cell did not finish, with the cell's status as its outcome and no time:
+    expression 1, or for a cell stopped by its timeout the expression after the ones it recorded."""
     cells = records[(records["kind"] == "cell") & records["status"].isin(FAILED_CELLS)]
+    finished = records[(records["kind"] == "expression") & records["cell"].isin(cells["cell"])]
+    shapes = finished.sort_values("expression").groupby("cell")["shapes"].agg(list)
+    earlier = cells["cell"].map(shapes)
     return cells[[*GROUP_COLUMNS, "cell", "solver"]].assign(
-        expression=1, prefix=repr(()), outcome=cells["status"], solve_time=np.nan, time=np.nan
+        expression=[1 + len(done) if isinstance(done, list) else 1 for done in earlier],
+        prefix=[
+            repr(tuple(tuple(sorted(chosen)) for chosen in done)) if isinstance(done, list) else repr(())
+            for done in earlier
+        ],
+        outcome=cells["status"],
+        solve_time=np.nan,
+        time=np.nan,
     )
 
 
