@@ -140,9 +140,13 @@ def cell_group(rig: str, *, importance: bool = True, repetition: int = 0) -> dic
         "symmetry": True,
         "importance": importance,
         "cap": None,
+        "distortion": "paper",
+        "examples": "scan",
         "jmax": None,
         "time_limit": None,
         "repetition": repetition,
+        "mode": "sequence",
+        "permutation": 0,
     }
 
 
