@@ -1,5 +1,9 @@
 """One grid cell, run inside a worker: build the rigs, pack, verify, transfer, and return record rows.
 
+A ``replay`` cell (`harness._replay`) solves the instances of a reference sequence instead of packing its
+own, and has no transfers; a cell of permutation p > 0 gives its solver every problem with the items
+shuffled (`harness._permute`).
+
 Everything numerical is delegated: `rigs` builds and warps the rig, `packing.sequence` runs Algorithm 1 with
 the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
 rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
@@ -36,8 +40,10 @@ import packing
 import rigs
 import solvers
 from harness import _plugins as plugins
+from harness import _replay
 from harness._grid import NO_WARP, CellSpec, rig_digest
 from harness._journal import append_row
+from harness._permute import permuted_solver
 from harness._rigspec import is_rig_file, resolve_rig
 from harness._settings import split_label
 from packing import Expression, Termination
@@ -200,16 +206,22 @@ def run_cell(spec: CellSpec, journal: str | None = None) -> list[Row] | Lost:
         return [_finish(cell_row, status=status, message=message, cell_time=time.perf_counter() - started)]
 
     try:
-        solver = plugins.solver(spec.solver)
+        solver = permuted_solver(plugins.solver(spec.solver), spec.permutation)
         finished = _ExpressionRows(base, template.n_shapes, journal)
-        analysis, expressions, facts = _pack(spec, solver, template, target, finished)
+        if spec.mode == "replay":
+            params = packing_params(spec)
+            found, expressions, facts = _replay.pack(spec, solver, template, target, params)
+            verify = functools.partial(_replay.check, found, solver, template, expressions, params)
+        else:
+            analysis, expressions, facts = _pack(spec, solver, template, target, finished)
+            verify = functools.partial(_check, spec, solver, template, analysis, expressions)
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
     failed = _failed_expression(expressions)
     if failed is not None:
         return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")
     try:
-        _check(spec, solver, template, analysis, expressions)
+        verify()
     except Exception as error:  # noqa: BLE001 - CheckError and anything the checker raises
         return stop("invalid", _describe(error))
 

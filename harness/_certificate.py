@@ -6,6 +6,8 @@ solve the same problems with different solvers, one repetition each). Expression
 every solver of a group; expression e > 1 is the same instance for two solvers when they chose the same
 primary shapes (as sets) for each of the expressions 1..e-1, because Algorithm 1 derives each problem from the
 shapes used so far. Extra examples (sec. 6) are never removed from the next problem, so they do not matter.
+In a ``replay`` cell (`harness._replay`) expression e is the reference sequence's instance e whatever the
+solver chose before, so every replay cell of a group shares all its instances.
 
 Two rules, checked on every instance among the ``ok`` cells:
 
@@ -72,10 +74,12 @@ def instance_keys(expressions: pd.DataFrame) -> pd.Series:
     for _, rows in expressions.groupby("cell", sort=False):
         rows = rows.sort_values("expression")
         earlier: list[frozenset[str]] = []
+        replay = "mode" in rows and (rows["mode"] == "replay").any()
         for index, row in rows.iterrows():
             group = tuple(None if pd.isna(row[column]) else row[column] for column in GROUP_COLUMNS)
             keys[index] = (group, int(row["expression"]), tuple(earlier))
-            earlier.append(frozenset(row["shapes"] or ()))
+            if not replay:
+                earlier.append(frozenset(row["shapes"] or ()))
     return pd.Series(keys, dtype=object).reindex(expressions.index)
 
 

@@ -249,6 +249,20 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "target's blendshapes, as in the paper) or both (a grid axis). [default: scan]",
 )
 @click.option(
+    "--replay",
+    is_flag=True,
+    default=None,
+    help="Beside every cell, a replay cell: its solver on each subproblem of one reference sequence "
+    "(Algorithm 1 with cpsat, shared by the cells of a group), one expression row per instance, no "
+    "transfers, so that solvers are timed on the same problems.",
+)
+@click.option(
+    "--permutations",
+    type=click.IntRange(min=1),
+    help="Item orders of every cell (a grid axis, as --repetitions): permutation 0 as built, p > 0 the "
+    "items shuffled with seed p before the solver sees them (SCIP's PERMUTE). [default: 1]",
+)
+@click.option(
     "--variations",
     "variations_name",
     type=click.Choice(["claims", "none"]),

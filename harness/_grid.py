@@ -206,6 +206,14 @@ def read_regions(path: str | os.PathLike[str]) -> Regions:
     return regions_tuple(document)
 
 
+#: Cell modes: ``sequence`` (Algorithm 1 with the cell's solver, then transfers) or ``replay`` (the cell's
+#: solver on every subproblem of one reference sequence, `harness._replay`).
+MODES: tuple[str, ...] = ("sequence", "replay")
+
+#: Cell fields added after cell ids were first recorded, with their defaults: left out of the id there.
+_LATE_FIELDS: dict[str, Any] = {"mode": "sequence", "permutation": 0}
+_MISSING = object()
+
 #: The two specs `_to_dict` and `_from_dict` convert.
 _Spec = TypeVar("_Spec", "CellSpec", "RunConfig")
 
@@ -255,11 +263,17 @@ class CellSpec:
     apart: Pairs = ()
     regions: Regions = ()
     examples: str = "scan"
+    mode: str = "sequence"
+    permutation: int = 0
 
     @functools.cached_property
     def id(self) -> str:
-        """16 hex digits of the SHA-256 of the canonical JSON of the spec."""
-        canonical = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        """16 hex digits of the SHA-256 of the canonical JSON of the spec (without the `_LATE_FIELDS` at
+        their defaults, so that a cell keeps the id it had before they existed)."""
+        data = {
+            key: value for key, value in self.to_dict().items() if _LATE_FIELDS.get(key, _MISSING) != value
+        }
+        canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(canonical.encode()).hexdigest()[:16]
 
     def to_dict(self) -> dict[str, Any]:
@@ -288,6 +302,10 @@ class CellSpec:
         parts.append(f"mu={self.mu:g}")
         parts.append(f"alpha={self.alpha:g}")
         parts.append(f"rep={self.repetition}")
+        if self.permutation:
+            parts.append(f"perm={self.permutation}")
+        if self.mode != "sequence":
+            parts.append(self.mode)
         return " ".join(parts)
 
 
@@ -299,6 +317,11 @@ class RunConfig:
     (`EXAMPLES`: the training expressions of the transfers), is a grid axis; the grid is their Cartesian
     product with ``repetitions``. ``together`` and ``apart`` (artist constraints by shape name) and
     ``regions`` (vertex regions replacing the rigs' own, name -> indices) apply to every cell.
+
+    ``replay`` adds, beside every cell, a ``replay`` cell (`harness._replay`): the cell's solver on the
+    subproblems of one reference sequence, without transfers. ``permutations`` is a grid axis like
+    ``repetitions``: cell ``permutation`` p > 0 gives the solver each problem with its items shuffled
+    (seeded by p, `harness._permute`), 0 in the given order.
 
     ``variations`` add cells off the grid: each is a set of ``(field, value)`` changes (`VARIATION_FIELDS`)
     applied to the first value of every axis, run on every rig, warp and repetition with those of
@@ -333,8 +356,16 @@ class RunConfig:
     variations: tuple[Variation, ...] = ()
     variation_solvers: tuple[str, ...] = CLAIM_SOLVERS
     variation_transfers: tuple[str, ...] = CLAIM_TRANSFERS
+    replay: bool = False
+    permutations: int = 1
 
     def __post_init__(self) -> None:
+        if (
+            isinstance(self.permutations, bool)
+            or not isinstance(self.permutations, int)
+            or self.permutations < 1
+        ):
+            raise ValueError(f"--permutations must be a positive integer, got {self.permutations!r}")
         if not isinstance(self.examples, tuple) or not self.examples or set(self.examples) - set(EXAMPLES):
             raise ValueError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
         if not isinstance(self.seed, tuple) or not self.seed:
@@ -368,14 +399,17 @@ class RunConfig:
             )
         )
         cells = {
-            self._cell(rig, seed, warp, setting, repetition, solver, digests, examples): None
-            for rig, seed, warp, setting, examples, repetition, solver in itertools.product(
+            replace(
+                self._cell(rig, seed, warp, setting, repetition, solver, digests, examples), permutation=p
+            ): None
+            for rig, seed, warp, setting, examples, repetition, p, solver in itertools.product(
                 self.rigs,
                 self.seed,
                 self.warps,
                 settings,
                 self.examples,
                 range(self.repetitions),
+                range(self.permutations),
                 self.solvers,
             )
         }
@@ -390,6 +424,8 @@ class RunConfig:
                 cell = self._cell(rig, seed, warp, setting, repetition, solver, digests, examples)
                 if cell not in cells:  # a grid point already runs it, with every transfer
                     cells[replace(cell, transfers=transfers)] = None
+        if self.replay:
+            cells.update({replace(cell, mode="replay", transfers=()): None for cell in list(cells)})
         return list(cells)
 
     def _cell(

@@ -44,6 +44,8 @@ GROUP_COLUMNS: tuple[str, ...] = (
     "jmax",
     "time_limit",
     "repetition",
+    "mode",
+    "permutation",
 )
 
 OVERLAP_COLUMNS: tuple[str, ...] = (

@@ -129,6 +129,12 @@ solver_settings  string         the solver label's settings (``workers=2`` of ``
 transfer_beta    float64, null  (transfer rows) the balance beta the method fitted with (Li et al. sec. 3A):
                                 its fixed value, or the one chosen from the data (``ebfr[beta=gcv]``)
 examples         string         training expressions of the transfers: ``scan`` or ``ideal``
+mode             string         ``sequence`` (Algorithm 1 with the cell's solver, then transfers) or
+                                ``replay`` (``--replay``: the subproblems of one reference sequence, one
+                                ``expression`` row each, ``expression`` the instance's index; no transfers;
+                                `harness._replay`)
+permutation      int64          item order the solver saw (``--permutations``): 0 as built, p > 0 shuffled,
+                                seeded by p (`harness._permute`)
 ================ ============== ==============================================================================
 
 The columns in `TIMING_COLUMNS` (every ``*_time`` column, ``transfer_reused``, ``worker`` and ``finished``)
@@ -255,6 +261,8 @@ _GROWN_COLUMNS: dict[str, pa.DataType] = {
     "solver_settings": pa.string(),
     "transfer_beta": pa.float64(),
     "examples": pa.string(),
+    "mode": pa.string(),
+    "permutation": pa.int64(),
 }
 
 

@@ -157,6 +157,40 @@ class PackingProblem:
             derived["conflict_bits"] = _selected_bits(self.conflict_bits, keep_index, self.n_items)
         return _with_structure(restricted, **derived)
 
+    def permuted(self, order: Iterable[int]) -> PackingProblem:
+        """The same problem with its items in another order: item ``i`` of the result is item ``order[i]``.
+
+        Weights, tie-break, incidence rows and ``meta["item_index"]`` follow the items; conflict sets and
+        apart pairs are relabelled (no presolve is redone, so the conflict sets are the same sets). A
+        solution ``items`` of the result is ``order[items]`` here, with the same objective.
+
+        Raises
+        ------
+        ValueError
+            When ``order`` is not a permutation of ``0..n_items-1``.
+        """
+        order = np.fromiter(order, dtype=np.int64)
+        if order.shape != (self.n_items,) or not np.array_equal(np.sort(order), np.arange(self.n_items)):
+            raise ValueError(f"permuted: need a permutation of 0..{self.n_items - 1}, got {order.tolist()}")
+        position = np.empty_like(order)
+        position[order] = np.arange(order.size)
+        weights = self.weights[order]
+        weights.flags.writeable = False
+        meta = dict(self.meta)
+        if "item_index" in meta:
+            meta["item_index"] = np.asarray(meta["item_index"])[order]
+        reordered = replace(
+            self,
+            items=tuple(self.items[i] for i in order.tolist()),
+            weights=weights,
+            incidence=self.incidence[order],
+            cliques=tuple(np.sort(position[members]).astype(members.dtype) for members in self.cliques),
+            meta=meta,
+            tie_break=None if self.tie_break is None else self.tie_break[order],
+            apart=tuple(sorted(tuple(sorted((int(position[a]), int(position[b])))) for a, b in self.apart)),
+        )
+        return _with_structure(reordered, _vertex_cover=self._vertex_cover)
+
     @cached_property
     def conflict_bits(self) -> np.ndarray:
         """(I, W) read-only uint64 array: the closed neighbourhoods of the item conflict graph as bit rows.

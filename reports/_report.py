@@ -87,7 +87,7 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
         except (OSError, ValueError) as error:
             blocks.append(f"No contact sheet for rig {labels[rig_name]}: it could not be rebuilt ({error}).")
             continue
-        keys = [c for c in GROUP_COLUMNS if c not in ("rig", "rig_seed", "repetition")]
+        keys = [c for c in GROUP_COLUMNS if c not in ("rig", "rig_seed", "repetition", "permutation")]
         for _, group in of_rig.groupby(keys, sort=True, dropna=False):
             sequences = {
                 solver: [list(shapes) for shapes in cell.sort_values("expression")["shapes"]]

@@ -27,10 +27,12 @@ GROUP_COLUMNS: tuple[str, ...] = harness.GROUP_COLUMNS
 
 #: Packing parameters of a cell (a "setting"); a report labels lines and rows by those that vary.
 SETTING_COLUMNS: tuple[str, ...] = tuple(
-    column for column in GROUP_COLUMNS if column not in ("rig", "rig_seed", "warp", "repetition")
+    column
+    for column in GROUP_COLUMNS
+    if column not in ("rig", "rig_seed", "warp", "repetition", "permutation")
 )
 
-#: Columns that identify a cell apart from its repetition.
+#: Columns that identify a cell apart from its repetition and permutation.
 CASE_COLUMNS: tuple[str, ...] = ("rig", "rig_seed", "warp", *SETTING_COLUMNS, "solver")
 
 

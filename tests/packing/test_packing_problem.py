@@ -131,3 +131,33 @@ def test_tie_break_makes_the_optimum_unique(kit):
     best, runner_up = values[-1], values[-2]
     assert round(best[0]) == round(runner_up[0])  # a genuine tie in the number of shapes ...
     assert best[0] - runner_up[0] > 1e-9  # ... broken by more than the solvers' tolerance
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_permuted_problem_has_the_same_optimum_mapped_back(seed):
+    import solvers
+    from solvers.testing import brute_force_optimum, check_packing, conformance_problems
+
+    cpsat = solvers.get("cpsat")
+    for name, problem in conformance_problems(seed):
+        order = np.random.default_rng(seed).permutation(problem.n_items)
+        permuted = problem.permuted(order)
+        rebuilt = packing.problem_from_incidence(
+            problem.incidence[order], problem.weights[order], items=permuted.items, cap=problem.cap,
+            apart=permuted.apart, shape_names=problem.shape_names,
+        )  # fmt: skip
+        assert {tuple(c) for c in permuted.cliques} == {tuple(c) for c in rebuilt.cliques}, name
+        assert permuted.n_vertex_rows == problem.n_vertex_rows
+        assert brute_force_optimum(permuted)[0] == pytest.approx(brute_force_optimum(problem)[0], rel=1e-12)
+        solution = cpsat.solve(permuted, seed=0)
+        back = sorted(int(order[i]) for i in solution.items)
+        check_packing(problem, back)
+        assert problem.objective(back) == pytest.approx(brute_force_optimum(problem)[0], rel=1e-9), name
+
+
+def test_permuted_rejects_a_non_permutation():
+    from solvers.testing import conformance_problems
+
+    problem = conformance_problems(0)[0][1]
+    with pytest.raises(ValueError, match="permutation"):
+        problem.permuted([0] * problem.n_items)

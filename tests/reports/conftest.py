@@ -145,6 +145,8 @@ def cell_group(rig: str, *, importance: bool = True, repetition: int = 0) -> dic
         "jmax": None,
         "time_limit": None,
         "repetition": repetition,
+        "mode": "sequence",
+        "permutation": 0,
     }
 
 
