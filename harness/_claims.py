@@ -334,7 +334,7 @@ def _symmetry_barely_matters(records: pd.DataFrame) -> Claim:
     change = ((both["off"] - both["on"]) / both["on"]).abs()
     measured = (
         f"largest change {change.max():.1%}, median {change.median():.1%} "
-        f"over {len(change)} (rig, warp, J) points"
+        f"over {len(change)} (seed, rig, warp, J) points"
     )
     return Claim(title, paper, measured, HELD if float(change.max()) <= SYMMETRY_CHANGE else NOT_HELD)
 
