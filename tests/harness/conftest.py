@@ -18,6 +18,7 @@ import pytest
 import rigs
 import solvers
 from harness._cell import run_cell
+from tests.plugin_distribution import write_distribution
 
 PLUGIN_MODULE = '''
 """Solver plugins for the harness tests: three that sleep, one that raises, one that is unavailable."""
@@ -133,11 +134,7 @@ def plugin_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A directory holding an installed-looking distribution with the test solver plugins."""
     root = tmp_path_factory.mktemp("plugins")
     (root / "harness_test_plugins.py").write_text(textwrap.dedent(PLUGIN_MODULE))
-    info = root / "harness_test_plugins-0.0.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: harness-test-plugins\nVersion: 0.0\n")
-    (info / "entry_points.txt").write_text(ENTRY_POINTS)
-    return root
+    return write_distribution(root, "harness_test_plugins", ENTRY_POINTS)
 
 
 @contextlib.contextmanager

@@ -3,18 +3,17 @@ solver plugin lying about its proofs ``inconsistent`` while the honest cells sta
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-import solvers
 from harness import read_records
 from harness._certificate import INCONSISTENT, instance_keys, violations
 from harness._overlap import GROUP_COLUMNS
 from harness.cli import cli
+from tests.plugin_distribution import registered_module
 
 _ENTRY_POINTS = """[harness.solvers]
 liar-optimal = liar_solvers:OptimalLiar
@@ -86,17 +85,9 @@ def test_a_packing_above_a_proved_bound_marks_the_bound():
 @pytest.fixture
 def liar_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     """Register the liars for this process and the harness's workers (a dist-info on ``sys.path``)."""
-    site = tmp_path / "site"
-    info = site / "liar_solvers-0.0.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: liar-solvers\nVersion: 0.0\n")
-    (info / "entry_points.txt").write_text(_ENTRY_POINTS)
-    shutil.copy(Path(__file__).with_name("liar_solvers.py"), site)
-    monkeypatch.syspath_prepend(str(site))
-    monkeypatch.setenv("PYTHONPATH", str(site))
-    solvers.refresh()
-    yield
-    solvers.refresh()
+    yield from registered_module(
+        Path(__file__).with_name("liar_solvers.py"), _ENTRY_POINTS, tmp_path / "site", monkeypatch
+    )
 
 
 def _run(out: Path, names: str) -> pd.DataFrame:

@@ -15,6 +15,7 @@ import pytest
 import harness
 import solvers
 from harness._grid import RunConfig
+from tests.plugin_distribution import write_distribution
 
 CHEATS = '''
 """Solver plugins that claim more than they deliver."""
@@ -87,11 +88,8 @@ NAMES = {
 def cheats(tmp_path) -> Iterator[None]:
     """The cheating solver plugins, registered in this process (cells run inline)."""
     (tmp_path / "harness_cheat_plugins.py").write_text(textwrap.dedent(CHEATS))
-    info = tmp_path / "harness_cheat_plugins-0.0.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: harness-cheat-plugins\nVersion: 0.0\n")
     lines = [f"{name} = harness_cheat_plugins:{cls}" for name, cls in NAMES.items()]
-    (info / "entry_points.txt").write_text("[harness.solvers]\n" + "\n".join(lines) + "\n")
+    write_distribution(tmp_path, "harness_cheat_plugins", "[harness.solvers]\n" + "\n".join(lines) + "\n")
     sys.path.insert(0, str(tmp_path))
     importlib.invalidate_caches()
     solvers.refresh()

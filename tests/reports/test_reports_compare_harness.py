@@ -6,15 +6,14 @@ on ``sys.path``, exactly as an installed third-party plugin would be, without in
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
-import solvers
 from harness.cli import cli
 from reports import compare
+from tests.plugin_distribution import registered_module
 
 SEQUENCE = "sequence / median exact solver"
 
@@ -27,18 +26,10 @@ probe-highs = probe_solvers:DoublingHighs
 
 @pytest.fixture
 def probe_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
-    """Register ``probe-slow`` and ``probe-worse`` for this process and the harness's spawned workers."""
-    site = tmp_path / "site"
-    info = site / "probe_solvers-0.0.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: probe-solvers\nVersion: 0.0\n")
-    (info / "entry_points.txt").write_text(_ENTRY_POINTS)
-    shutil.copy(Path(__file__).with_name("probe_solvers.py"), site)
-    monkeypatch.syspath_prepend(str(site))
-    monkeypatch.setenv("PYTHONPATH", str(site))
-    solvers.refresh()
-    yield
-    solvers.refresh()
+    """Register the probes for this process and the harness's spawned workers."""
+    yield from registered_module(
+        Path(__file__).with_name("probe_solvers.py"), _ENTRY_POINTS, tmp_path / "site", monkeypatch
+    )
 
 
 def _run(
