@@ -52,28 +52,21 @@ EXIT_INCOMPLETE = 1
 DEFAULT_JOBS = min(2, os.cpu_count() or 1)
 
 
-def _distortion(text: str) -> tuple[str, ...]:
-    """A --distortion value: a name of `DISTORTIONS`, or both."""
-    if text == "both":
-        return DISTORTIONS
-    if text not in DISTORTIONS:
-        raise ValueError(text)
-    return (text,)
+def _one_or_both(names: tuple[str, ...]) -> Callable[[str], tuple[str, ...]]:
+    """The parser of an axis given as one of ``names`` or ``both`` (every one of them)."""
+
+    def parse(text: str) -> tuple[str, ...]:
+        if text == "both":
+            return names
+        if text not in names:
+            raise ValueError(text)
+        return (text,)
+
+    return parse
 
 
-DISTORTION_NAMES = CommaList(_distortion, "distortions (paper, excess or both)")
-
-
-def _examples(text: str) -> tuple[str, ...]:
-    """An --examples value: a name of `EXAMPLES`, or both."""
-    if text == "both":
-        return EXAMPLES
-    if text not in EXAMPLES:
-        raise ValueError(text)
-    return (text,)
-
-
-EXAMPLE_NAMES = CommaList(_examples, "training expressions (scan, ideal or both)")
+DISTORTION_NAMES = CommaList(_one_or_both(DISTORTIONS), "distortions (paper, excess or both)")
+EXAMPLE_NAMES = CommaList(_one_or_both(EXAMPLES), "training expressions (scan, ideal or both)")
 
 
 def _preset_value(preset: str, key: str) -> Any:
