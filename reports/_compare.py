@@ -64,6 +64,7 @@ class Metric:
     seconds: float | None = None  #: the absolute time behind a time metric
     case_id: str = ""
     samples: pd.DataFrame | None = None  #: a run's `timing_samples` of the case, behind a time metric
+    column: str = "seconds"  #: the column of ``samples`` the metric's value sums (``ratio`` or ``seconds``)
 
 
 @dataclass(frozen=True)
@@ -223,7 +224,8 @@ def _time_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
     for case, rows in case_samples(timing_samples(records)).items():
         sequences = rows.groupby("cell")[["ratio", "seconds"]].sum()
         median = float(sequences[value].median())
-        metrics.append(Metric(case, name, "time", median, float(sequences["seconds"].median()), samples=rows))
+        seconds = float(sequences["seconds"].median())
+        metrics.append(Metric(case, name, "time", median, seconds, samples=rows, column=value))
     return metrics
 
 
@@ -422,8 +424,7 @@ def _time_change(
             change, verdict="changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
         )
     if old.samples is not None and new.samples is not None:
-        value = "ratio" if new.name.startswith("sequence /") else "seconds"
-        test = judge_times(old.samples, new.samples, value=value, alpha=alpha, threshold=threshold)
+        test = judge_times(old.samples, new.samples, value=new.column, alpha=alpha, threshold=threshold)
         if test.p is not None or spread is None:
             return dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
     if spread is not None:
