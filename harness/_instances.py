@@ -49,7 +49,10 @@ from harness._instances_source import Sequence
 from harness._outdir import ChangedFileWarning, claim
 
 if TYPE_CHECKING:
-    from packing import PackingProblem, Solution, Termination
+    import numpy as np
+
+    from packing import Analysis, Expression, PackingProblem, Solution, Termination
+    from rigs import Rig
     from solvers import LoadedSolver
 
 SOLU_FILE = "instances.solu"
@@ -130,7 +133,15 @@ def export(
     folder = claim(out, kind="instances", force=force, protect=protect)
     described, instances, files = [], [], []
     for sequence in sequences:
-        solved = _replay(sequence, solver)
+        solved = recorded_sequence(
+            sequence.rig,
+            sequence.target_neutral,
+            solver,
+            params=dict(sequence.params),
+            jmax=sequence.jmax,
+            time_limit=sequence.time_limit,
+            seed=sequence.seed,
+        ).solved
         described.append({**sequence.describe(), "expressions": len(solved)})
         for problem, solution in solved:
             entry, text = _instance(sequence, problem, solution)
@@ -161,32 +172,62 @@ def export(
     return ExportResult(document, paths, changed)
 
 
-def _replay(sequence: Sequence, solver: LoadedSolver) -> list[tuple[PackingProblem, Solution]]:
-    """Algorithm 1 on the sequence's rig with ``solver``, checked by `packing.check`; the subproblems and
-    answers of its expressions."""
+@dataclass(frozen=True)
+class RecordedSequence:
+    """A reference sequence (Algorithm 1 with one solver, checked) and the primary subproblems it solved,
+    each with the solver's answer, in order."""
+
+    analysis: Analysis
+    analysis_time: float
+    expressions: list[Expression]
+    solved: list[tuple[PackingProblem, Solution]]
+
+
+def recorded_sequence(
+    rig: Rig,
+    target_neutral: np.ndarray | None,
+    solver: LoadedSolver,
+    *,
+    params: dict[str, Any],
+    jmax: int | None,
+    time_limit: float | None,
+    seed: int,
+) -> RecordedSequence:
+    """Algorithm 1 on ``rig`` with ``solver``, checked by `packing.check` with maximality, every primary
+    subproblem recorded (what ``harness instances export`` writes and ``harness run --replay`` solves).
+
+    Raises
+    ------
+    RuntimeError
+        When the solver reports an error in some expression (naming it).
+    packing.CheckError
+        When the sequence fails the independent check.
+    """
+    import time
+
     import packing
 
     recorder = Recorder(solver)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", packing.MissingTargetWarning)  # no target: by design
-        analysis = packing.analyse(sequence.rig, sequence.target_neutral, **sequence.params)
+        clock = time.perf_counter()
+        analysis = packing.analyse(rig, target_neutral, **params)
+        analysis_time = time.perf_counter() - clock
     expressions = packing.sequence(
-        sequence.rig,
-        recorder,
-        analysis=analysis,
-        jmax=sequence.jmax,
-        time_limit=sequence.time_limit,
-        seed=sequence.seed,
+        rig, recorder, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
     )
+    failed = next((e for e in expressions if e.termination is packing.Termination.ERROR), None)
+    if failed is not None:
+        raise RuntimeError(f"reference solver {solver.name} failed in expression {failed.index}")
     packing.check(
-        sequence.rig,
+        rig,
         expressions,
         pairs=analysis.pairs,
         overlap=solver.capabilities.max_overlap,
         maximal=True,
-        **sequence.params,
+        **params,
     )
-    return recorder.solved
+    return RecordedSequence(analysis, analysis_time, expressions, recorder.solved)
 
 
 def _instance(sequence: Sequence, problem: PackingProblem, solution: Solution) -> tuple[dict[str, Any], str]:

@@ -4,8 +4,9 @@ Sequences of different solvers part ways after the first expression, so their ti
 problems. A ``replay`` cell instead solves, with its own solver, each subproblem of one reference sequence:
 Algorithm 1 with `REFERENCE_SOLVER` (exact), the cell's rig, warp and packing settings, ``jmax`` and time
 limit, solver seed `REFERENCE_SEED`, checked by `packing.check` with maximality (as ``harness instances
-export`` freezes one, `harness._instances.Recorder`). The reference is computed once per worker process and
-group (`reference`) and shared by the replay cells of every solver, repetition and permutation.
+export`` freezes one, `harness._instances.recorded_sequence`). The reference is computed once per
+worker process and group (`reference`) and shared by the replay cells of every
+solver, repetition and permutation.
 
 A replay cell records one ``expression`` row per instance (``expression`` is the instance's index in the
 reference): the objective, termination, bound, times and shapes of *its* solver's answer, the instance's
@@ -18,8 +19,6 @@ maximal among the instance's items.
 from __future__ import annotations
 
 import threading
-import time
-import warnings
 from collections import OrderedDict
 from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
@@ -30,7 +29,7 @@ import numpy as np
 import packing
 from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec
-from harness._instances import Recorder
+from harness._instances import recorded_sequence
 from packing import Expression, Termination
 
 if TYPE_CHECKING:
@@ -87,34 +86,22 @@ def reference(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, A
 
 def _build(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, Any]) -> Reference:
     """Algorithm 1 with `REFERENCE_SOLVER`, checked with maximality, and its recorded subproblems."""
-    solver = plugins.solver(REFERENCE_SOLVER)
-    recorder = Recorder(solver)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # no warp, no target: by design
-        clock = time.perf_counter()
-        analysis = packing.analyse(template, None if spec.warp == NO_WARP else target.neutral, **params)
-        analysis_time = time.perf_counter() - clock
-    expressions = packing.sequence(
-        template, recorder, analysis=analysis, jmax=spec.jmax, time_limit=spec.time_limit, seed=REFERENCE_SEED
-    )
-    failed = next((e for e in expressions if e.termination is Termination.ERROR), None)
-    if failed is not None:
-        raise RuntimeError(f"reference solver {REFERENCE_SOLVER} failed in expression {failed.index}")
-    packing.check(
+    recorded = recorded_sequence(
         template,
-        expressions,
-        pairs=analysis.pairs,
-        overlap=solver.capabilities.max_overlap,
-        maximal=True,
-        **params,
+        None if spec.warp == NO_WARP else target.neutral,
+        plugins.solver(REFERENCE_SOLVER),
+        params=dict(params),
+        jmax=spec.jmax,
+        time_limit=spec.time_limit,
+        seed=REFERENCE_SEED,
     )
     used: list[frozenset[str]] = []
-    for expression in expressions:
+    for expression in recorded.expressions:
         used.append(frozenset(expression.shapes).union(*used[-1:]))
     return Reference(
-        analysis=analysis,
-        analysis_time=analysis_time,
-        instances=tuple(problem for problem, _ in recorder.solved),
+        analysis=recorded.analysis,
+        analysis_time=recorded.analysis_time,
+        instances=tuple(problem for problem, _ in recorded.solved),
         used_before=(frozenset(), *used[:-1]),
     )
 

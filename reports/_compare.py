@@ -3,8 +3,9 @@
 Quality figures (objective, coverage, expression count, transfer RMS, benchmark ``extra_info``) must not
 change beyond a relative tolerance; times are judged by a statistical test (`reports._timing`): each
 repetition's sequence time as a ratio to the median exact solver measured in the same run, slower or faster
-only when Welch's t-test says so and the change is beyond a threshold. A case with too few repetitions to
-test is judged against its history across commits (`reports._history`), when given.
+only when Welch's t-test, adjusted over the comparison's cases, says so and the change is beyond a
+threshold. A case with too few repetitions to test is judged against its history across commits
+(`reports._history`), when given.
 """
 
 from __future__ import annotations
@@ -37,11 +38,13 @@ from reports._tables import CASE_COLUMNS, SETTING_COLUMNS, rig_labels, setting_l
 from reports._timing import (
     MIN_REFERENCE_SOLVERS,
     REFERENCE,
+    TimingTest,
     case_samples,
     has_reference,
     judge_times,
     termination_counts,
     timing_samples,
+    timing_test,
 )
 
 Kind = Literal["time", "quality"]
@@ -395,38 +398,62 @@ def _quality_change(old: Metric, new: Metric, tolerance: float) -> Change:
     return Change(old.case, old.name, "quality", old.value, new.value, verdict)
 
 
+def _time_ratio(old: Metric, new: Metric) -> float:
+    assert isinstance(old.value, float) and isinstance(new.value, float)
+    return new.value / old.value if old.value > 0 else math.inf if new.value > 0 else 1.0
+
+
+def _below_floor(old: Metric, new: Metric, min_time: float) -> bool:
+    """Whether a time is under ``min_time`` seconds in both runs (timer noise)."""
+    seconds = max(old.seconds or 0.0, new.seconds or 0.0)
+    return (old.seconds is not None or new.seconds is not None) and seconds < min_time
+
+
+def _time_tests(
+    pairs: list[tuple[Metric, Metric]], *, min_time: float, alpha: float, threshold: float
+) -> dict[int, TimingTest]:
+    """The tests of one comparison's times with samples on both sides, judged as one family
+    (`reports._timing.judge_times`), by position in ``pairs``."""
+    tested = [
+        index
+        for index, (old, new) in enumerate(pairs)
+        if old.kind == "time"
+        and old.samples is not None
+        and new.samples is not None
+        and not _below_floor(old, new, min_time)
+        and not math.isnan(_time_ratio(old, new))
+    ]
+    tests = [timing_test(pairs[i][0].samples, pairs[i][1].samples, value=pairs[i][1].column) for i in tested]
+    return dict(zip(tested, judge_times(tests, alpha=alpha, threshold=threshold), strict=True))
+
+
 def _time_change(
     old: Metric,
     new: Metric,
     *,
     threshold: float,
     min_time: float,
-    alpha: float,
+    test: TimingTest | None = None,
     spread: Spread | None = None,
 ) -> Change:
     """Judge a time.
 
     Under ``min_time`` seconds in both runs it is timer noise. With samples on both sides (a run's cases)
-    the test of `reports._timing.judge_times` judges it; a case with too few samples to test is judged by
-    the history's ``spread`` when there is one (slower above ``spread.high``, faster below ``spread.low``)
-    and otherwise left untested. A benchmark's single median is judged by new / old against
-    ``threshold``.
+    its ``test`` (`_time_tests`) judges it; a case with too few samples to test is judged by the history's
+    ``spread`` when there is one (slower above ``spread.high``, faster below ``spread.low``) and otherwise
+    left untested. A benchmark's single median is judged by new / old against ``threshold``.
     """
-    assert isinstance(old.value, float) and isinstance(new.value, float)
-    ratio = new.value / old.value if old.value > 0 else math.inf if new.value > 0 else 1.0
+    ratio = _time_ratio(old, new)
     termination = "" if new.samples is None else termination_counts(new.samples)
     change = Change(old.case, old.name, "time", old.value, new.value, "same", ratio, termination=termination)
-    seconds = max(old.seconds or 0.0, new.seconds or 0.0)
-    if (old.seconds is not None or new.seconds is not None) and seconds < min_time:
+    if _below_floor(old, new, min_time):
         return dataclasses.replace(change, where=f"(< {min_time:g} s)")
     if math.isnan(ratio):
         return dataclasses.replace(
             change, verdict="changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
         )
-    if old.samples is not None and new.samples is not None:
-        test = judge_times(old.samples, new.samples, value=new.column, alpha=alpha, threshold=threshold)
-        if test.p is not None or spread is None:
-            return dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
+    if test is not None and (test.p is not None or spread is None):
+        return dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
     if spread is not None:
         verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
         return dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
@@ -463,7 +490,8 @@ def compare(
         Seconds below which a run's time (in both runs) is timer noise and never counts as slower or
         faster. Benchmark medians (many rounds each) are always judged.
     alpha : float in (0, 1)
-        Significance level of the two-sided test of a case's repetitions.
+        Level of the two-sided tests of the cases' repetitions, Benjamini-Hochberg adjusted over all of them
+        (`reports._timing.judge_times`).
     history : path, optional
         A history file (`reports.append_history`) of earlier runs' ratios. A case with too few repetitions
         to test whose figure has at least ``min_runs`` commits there (``new``'s own rows left out) is
@@ -506,21 +534,16 @@ def compare(
     )
     old_metrics, new_metrics, basis = read_metrics(Path(old), Path(new))
     by_key = {(m.case, m.name): m for m in new_metrics}
-    changes = []
-    for metric in old_metrics:
-        other = by_key.pop((metric.case, metric.name), None)
-        if other is None:
-            changes.append(Change(metric.case, metric.name, metric.kind, metric.value, None, "missing"))
-        elif metric.kind == "time":
+    pairs = [(metric, by_key.pop((metric.case, metric.name), None)) for metric in old_metrics]
+    found = [(metric, other) for metric, other in pairs if other is not None]
+    tests = _time_tests(found, min_time=min_time, alpha=alpha, threshold=threshold)
+    changes = [Change(m.case, m.name, m.kind, m.value, None, "missing") for m, o in pairs if o is None]
+    for index, (metric, other) in enumerate(found):
+        if metric.kind == "time":
+            spread = judged.get((other.case_id, other.name))
+            test = tests.get(index)
             changes.append(
-                _time_change(
-                    metric,
-                    other,
-                    threshold=threshold,
-                    min_time=min_time,
-                    alpha=alpha,
-                    spread=judged.get((other.case_id, other.name)),
-                )
+                _time_change(metric, other, threshold=threshold, min_time=min_time, test=test, spread=spread)
             )
         else:
             changes.append(_quality_change(metric, other, tolerance))
@@ -568,8 +591,9 @@ def comparison_table(
     table = Table(
         title=f"{comparison.old} -> {comparison.new}",
         caption=f"times: {comparison.time_basis} (time limits and errors charged at the limit); slower or "
-        f"faster means Welch's t-test over the repetitions p < {comparison.alpha:g} and a median change "
-        f"beyond {comparison.threshold:.0%}{floor}; quality tolerance {comparison.tolerance:g} relative"
+        f"faster means Welch's t-test over the repetitions, Benjamini-Hochberg adjusted over the "
+        f"comparison's tests, q < {comparison.alpha:g} and a median change beyond "
+        f"{comparison.threshold:.0%}{floor}; quality tolerance {comparison.tolerance:g} relative"
         f"{history}",
     )
     columns = ["case", "metric", "old", "new", "new/old", "verdict", "termination"]

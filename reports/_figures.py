@@ -20,6 +20,7 @@ from reports._summary import (
     performance_ratios,
 )
 from reports._tables import (
+    FINISHED,
     REFERENCE_TRANSFERS,
     RMS_PARTS,
     expression_rows,
@@ -406,7 +407,7 @@ def distribution_figure(solves: pd.DataFrame) -> Figure:
             widths=0.6,
         )
         for position, (_, rows) in enumerate(groups, start=1):
-            finished = rows["outcome"].isin(("optimal", "completed")).to_numpy()
+            finished = rows["outcome"].isin(FINISHED).to_numpy()
             times = rows["charged"].clip(lower=RESOLUTION).to_numpy()
             x = position + spread.uniform(-0.2, 0.2, len(rows))
             ax.plot(x[finished], times[finished], "o", color="C0", alpha=0.4, markersize=2.5)

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import gmean
 
-from reports._tables import GROUP_COLUMNS
+from reports._tables import FINISHED, GROUP_COLUMNS, exact_solvers
 
 #: Shift of the shifted geometric means, in seconds (see `shifted_geometric_mean`).
 SHIFT = 1e-3
@@ -158,7 +158,7 @@ def solve_outcomes(records: pd.DataFrame, time_limit: float | None = None) -> pd
     solves = pd.concat([solved, _failed_first_solves(records)], ignore_index=True)
     fallback = time_limit if time_limit is not None else _longest(solves["time"])
     solves["limit"] = solves["time_limit"].astype(float).fillna(fallback)
-    finished = solves["outcome"].isin(("optimal", "completed"))
+    finished = solves["outcome"].isin(FINISHED)
     solves["charged_solve"] = solves["solve_time"].where(finished, solves["limit"])
     solves["charged"] = solves["time"].where(finished, solves["limit"])
     solves["instance"] = solves.groupby(list(INSTANCE_COLUMNS), dropna=False, sort=True).ngroup()
@@ -172,10 +172,9 @@ def comparisons(solves: pd.DataFrame) -> list[Comparison]:
     The first comparison is left out when the run has fewer than two exact solvers.
     """
     solvers = tuple(sorted(solves["solver"].unique()))
-    heuristics = set(solves.loc[solves["outcome"] == "completed", "solver"])
-    exact = tuple(solver for solver in solvers if solver not in heuristics)
-    found = [Comparison("every solver", solvers, frozenset({"optimal", "completed"}))]
-    if len(exact) >= 2 and heuristics:
+    exact = tuple(sorted(exact_solvers(solves["solver"], solves["outcome"])))
+    found = [Comparison("every solver", solvers, frozenset(FINISHED))]
+    if len(exact) >= 2 and len(exact) < len(solvers):
         found.insert(0, Comparison("exact solvers", exact, frozenset({"optimal"})))
     return found
 

@@ -94,6 +94,25 @@ def setting_label(row: pd.Series | dict, columns: list[str]) -> str:
     return ", ".join(parts)
 
 
+#: How a solve ends when it did its work: proved optimal, or a heuristic run to its end. Any other ending
+#: (a time limit, an error, a claim of infeasibility) is charged at the solve's limit wherever times are
+#: summarised, never counted as fast.
+FINISHED: tuple[str, ...] = ("optimal", "completed")
+
+
+def exact_solvers(solvers: pd.Series, endings: pd.Series) -> set[str]:
+    """Solvers that never ended as a heuristic does (``completed``): each claims optimality or fails.
+
+    Parameters
+    ----------
+    solvers, endings : Series
+        One solve each: its solver and how it ended (a `packing.Termination` value, or a failed cell's
+        status).
+    """
+    heuristics = set(solvers[endings.astype(str) == "completed"])
+    return {solver for solver in solvers.unique() if solver not in heuristics}
+
+
 def ok_cells(records: pd.DataFrame) -> pd.DataFrame:
     """The ``cell`` rows of finished cells whose status is ``ok``."""
     return records[(records["kind"] == "cell") & (records["status"] == "ok")]

@@ -104,8 +104,8 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     default=0.01,
     show_default=True,
     help="Significance level of the test of a case's times (Welch's t-test over the repetitions of both "
-    "runs, on log ratios to the median exact solver); a time needs p < ALPHA and a change beyond "
-    "--threshold to be slower or faster.",
+    "runs, on log ratios to the median exact solver, Benjamini-Hochberg adjusted over all cases of the "
+    "comparison); a time needs q < ALPHA and a change beyond --threshold to be slower or faster.",
 )
 @click.option(
     "--fail-on-time/--warn-on-time",

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import json
 
+import pandas as pd
 import pytest
 
 import harness
-from harness import _replay
+from harness import _records, _replay
 from harness._grid import RunConfig
 from tests.harness.cli_helpers import invoke
 
@@ -95,3 +96,25 @@ def test_permutations_change_the_order_not_the_optima(tmp_path) -> None:
     objectives = expressions.pivot(index="expression", columns="permutation", values="objective")
     for p in (1, 2):
         assert objectives[p].to_numpy() == pytest.approx(objectives[0].to_numpy(), rel=1e-9)
+
+
+def test_a_replay_and_permutation_run_resumes_to_the_uninterrupted_records(
+    tmp_path, inline, comparable
+) -> None:
+    """Cells lost from a run with replay cells and permuted cells (their part files gone, as after a stop)
+    are run again by ``--resume``; the records equal those of the uninterrupted run."""
+    config = _config(solvers=("cpsat", "greedy"), replay=True, permutations=2)
+    out = tmp_path / "out"
+    harness.run_grid(config, out, make_executor=inline)
+    reference = harness.read_records(out)
+    cells = reference[reference["kind"] == "cell"]
+    assert set(cells["mode"]) == {"sequence", "replay"} and set(cells["permutation"]) == {0, 1}
+    parts = _records.part_files(out)
+    lost = [parts[0], parts[len(parts) // 2], parts[-1]]
+    for path in lost:
+        path.unlink()
+
+    summary = harness.run_grid(config, out, make_executor=inline, resume=True)
+    assert summary.already_done == len(parts) - len(lost)
+    assert sum(summary.statuses.values()) == len(lost)
+    pd.testing.assert_frame_equal(comparable(harness.read_records(out)), comparable(reference))

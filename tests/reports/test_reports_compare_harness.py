@@ -38,7 +38,7 @@ def _run(
     mode: str,
     monkeypatch: pytest.MonkeyPatch,
     solvers: str = "",
-    repetitions: int = 3,
+    repetitions: int = 5,
 ) -> Path:
     monkeypatch.setenv("PROBE_SOLVERS", mode)
     arguments = [
@@ -86,25 +86,26 @@ def _timings(comparison) -> dict[str, object]:
 def test_runs_of_the_same_code_give_no_timing_verdict_and_a_doubled_solve_is_flagged_10_of_10(
     benchmark, probe_plugins, tmp_path, monkeypatch
 ):
-    """The A/A and the injected slow-down test: 11 plain runs, 10 whose probe solves twice.
+    """The A/A and the injected slow-down test: 11 plain runs, 10 whose probe solves twice, 12 repetitions
+    each (at the noise of a shared 2-core machine, 8 find a 2x slow-down in only about 70 % of
+    comparisons once the tests of a comparison are judged as one family).
 
-    An acceptance test of the verdicts on the machine at hand (21 runs, 3-4 minutes), so it runs in a
+    An acceptance test of the verdicts on the machine at hand (21 runs, about 5 minutes), so it runs in a
     benchmark run (``--benchmark-enable``), as the speed targets do: on a machine shared with other work
-    the repetitions scatter and a true 2x slow-down may stay below significance (measured with a second
-    job running: 1 of 10 flagged, never a false verdict). `test_reports_compare` checks the same rules on
-    fabricated samples in every run.
+    the repetitions scatter and a true 2x slow-down may stay below significance. `test_reports_compare`
+    checks the same rules on fabricated samples in every run.
     """
     if benchmark.disabled:
         pytest.skip("the A/A and doubled-work runs are timings: they run only with --benchmark-enable")
     solvers = "highs,cpsat,scip,probe-highs"
-    plain = [_run(tmp_path / f"plain{i}", "arkit52", "plain", monkeypatch, solvers, 8) for i in range(11)]
+    plain = [_run(tmp_path / f"plain{i}", "arkit52", "plain", monkeypatch, solvers, 12) for i in range(11)]
     doubled = [
-        _run(tmp_path / f"doubled{i}", "arkit52", "doubled", monkeypatch, solvers, 8) for i in range(10)
+        _run(tmp_path / f"doubled{i}", "arkit52", "doubled", monkeypatch, solvers, 12) for i in range(10)
     ]
     same = [_timings(compare(a, b)) for a, b in zip(plain, plain[1:], strict=False)]
     slowed = [_timings(compare(a, b))["probe-highs"] for a, b in zip(plain, doubled, strict=False)]
     assert all(change.verdict == "same" for changes in same for change in changes.values()), same
     assert all(change.metric == SEQUENCE and "p=" in change.where for change in slowed), slowed
-    assert all("8+8 repetitions" in change.where for change in slowed), slowed
+    assert all("12+12 repetitions" in change.where for change in slowed), slowed
     assert [change.verdict for change in slowed] == ["slower"] * 10, [(c.ratio, c.where) for c in slowed]
     assert all(1.3 < change.ratio < 3.5 for change in slowed), slowed  # the reference is noisy too
