@@ -12,13 +12,15 @@ import hashlib
 import itertools
 import json
 import os
-import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from harness._settings import expand, settings_text, split_label
+
+if TYPE_CHECKING:
+    from rigs import RigInputs
 
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
 #: whole sequence is always evaluated too.
@@ -67,13 +69,6 @@ CLAIM_TRANSFERS: tuple[str, ...] = ("ebfr", "dt", "delta")
 
 Pairs = tuple[tuple[str, str], ...]
 Regions = tuple[tuple[str, tuple[int, ...]], ...]
-_BLOCK = 1 << 20
-
-
-class _Digest(Protocol):
-    """What `rig_digest` feeds bytes to (a `hashlib.sha256` object)."""
-
-    def update(self, data: bytes, /) -> None: ...
 
 
 def digest_key(argument: str, seed: int) -> str:
@@ -81,85 +76,33 @@ def digest_key(argument: str, seed: int) -> str:
     return f"{argument}@{seed}"
 
 
-def rig_digest(argument: str, seed: int) -> str:
+def rig_digest(argument: str, seed: int, inputs: RigInputs | None = None) -> str:
     """Content digest of a ``--rigs`` argument: what the cell ids hash instead of the path.
 
-    A rig file hashes its bytes (a ``.gltf`` file also the buffers and images it names by relative URI
-    inside its folder); a rig folder hashes the relative names and bytes of its regular files, recursively
-    (links into the folder by their target's bytes, other links by their text); a generator preset hashes
-    its name, the seed and the preset's parameters (`rigs.PRESETS`).
+    A rig file or folder hashes everything its read opened (`rigs.RigInputs`: the bytes of every file
+    read, the neutral's neighbours, a glTF's buffers, a manifest's targets, and the entries of every
+    folder searched; ``inputs`` when the caller has read it already); a generator preset or a fetched rig
+    hashes its name, the seed and the preset's parameters (`rigs.PRESETS`).
 
     Returns
     -------
     str
         ``sha256:`` and 64 hex digits.
+
+    Raises
+    ------
+    rigs.RigError
+        When the rig file cannot be read.
     """
-    digest = hashlib.sha256()
-    path = Path(argument)
-    if os.path.lexists(path):
-        if path.is_dir():
-            _hash_folder(digest, path)
-        else:
-            _hash_file(digest, path, path.parent)
-    else:
-        import rigs
+    import rigs
 
-        preset = rigs.PRESETS.get(argument)
-        digest.update(json.dumps(["preset", argument, seed, repr(preset)]).encode())
-    return f"sha256:{digest.hexdigest()}"
-
-
-def _hash_file(digest: _Digest, path: Path, root: Path) -> None:
-    """Add one file's bytes; only regular files are read (never a FIFO or a device)."""
-    try:
-        mode = path.stat().st_mode
-    except OSError as error:
-        digest.update(f"unreadable {error.strerror}".encode())
-        return
-    if not stat.S_ISREG(mode):
-        digest.update(f"not a regular file ({stat.filemode(mode)})".encode())
-        return
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(_BLOCK), b""):
-            digest.update(block)
-    if path.suffix.lower() == ".gltf":
-        for name in _gltf_uris(path):
-            target = (path.parent / name).resolve()
-            if target.is_relative_to(root.resolve()) and target.is_file():
-                digest.update(f"\0{name}\0".encode())
-                _hash_file(digest, target, root)
-
-
-def _gltf_uris(path: Path) -> list[str]:
-    """Relative URIs of a glTF file's buffers and images (empty for a file that is not JSON)."""
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
-        return []
-    if not isinstance(document, dict):
-        return []
-    uris = []
-    for key in ("buffers", "images"):
-        entries = document.get(key)
-        for entry in entries if isinstance(entries, list) else []:
-            uri = entry.get("uri") if isinstance(entry, dict) else None
-            if isinstance(uri, str) and ":" not in uri and not uri.startswith("/"):
-                uris.append(uri)
-    return uris
-
-
-def _hash_folder(digest: _Digest, folder: Path) -> None:
-    root = folder.resolve()
-    for directory, subfolders, files in os.walk(folder):
-        subfolders.sort()
-        for name in sorted(files):
-            path = Path(directory) / name
-            relative = path.relative_to(folder).as_posix()
-            digest.update(f"\0{relative}\0".encode())
-            if path.is_symlink() and not path.resolve().is_relative_to(root):
-                digest.update(f"link {os.readlink(path)}".encode())
-            else:
-                _hash_file(digest, path, folder)
+    if inputs is None and os.path.lexists(argument):
+        inputs = rigs.load_with_inputs(argument)[1]
+    if inputs is not None:
+        return inputs.digest
+    preset = rigs.PRESETS.get(argument)
+    text = json.dumps(["preset", argument, seed, repr(preset)])
+    return f"sha256:{hashlib.sha256(text.encode()).hexdigest()}"
 
 
 def _frozen(value: Any) -> Any:

@@ -15,7 +15,8 @@ if TYPE_CHECKING:
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
     from rigs._generate import PRESETS, PresetSpec, generate
-    from rigs._io import load, save
+    from rigs._inputs import RigInputs
+    from rigs._io import load, load_with_inputs, save
     from rigs._mirror import mirror_map
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
     from rigs._obj import ObjSurface, plain_surface, rig_surface
@@ -31,7 +32,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_character": ["Character"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],
         "_generate": ["PRESETS", "PresetSpec", "generate"],
-        "_io": ["load", "save"],
+        "_io": ["load", "load_with_inputs", "save"],
+        "_inputs": ["RigInputs"],
         "_mirror": ["mirror_map"],
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
         "_obj": ["ObjSurface", "plain_surface", "rig_surface"],

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from rigs._inputs import RigInputs, recording
 from rigs._npz import load_npz, save_npz
 from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError, vector_lengths
@@ -89,6 +90,24 @@ def _json_keys(path: Path) -> set[str]:
     except (ValueError, RecursionError) as error:
         raise RigError(f"{path}: not a readable JSON manifest ({type(error).__name__}: {error})") from None
     return set(content) if isinstance(content, dict) else set()
+
+
+def load_with_inputs(path: str | Path, **options: Any) -> tuple[Rig, RigInputs]:
+    """`load`, and what the read opened (`rigs.RigInputs`: every file's bytes hash and every folder
+    listing searched, relative to the rig's folder): the rig's content, whose ``digest`` changes with
+    any file the rig is made of.
+
+    Parameters
+    ----------
+    path : path
+        File or folder, as for `load`.
+    **options
+        Keyword arguments of `load`.
+    """
+    path = Path(path)
+    with recording(path if path.is_dir() else path.parent) as inputs:
+        rig = load(path, **options)
+    return rig, inputs
 
 
 def load(

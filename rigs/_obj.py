@@ -8,6 +8,7 @@ the blendshape's name is its file stem. The folder may also hold ``rig.json``
 
 from __future__ import annotations
 
+import contextvars
 import json
 import math
 import os
@@ -837,7 +838,7 @@ def _read_shapes(paths: Iterable[Path], base: ObjMesh, folder: Path) -> Iterator
 
         def read_next() -> None:
             for path in islice(waiting, 1):
-                reading.append((path, pool.submit(read, path)))
+                reading.append((path, pool.submit(contextvars.copy_context().run, read, path)))
 
         for _ in range(2 * _READERS):
             read_next()

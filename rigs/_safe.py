@@ -12,7 +12,8 @@ entries). The loaders read through this module, which refuses, with the reason:
 * arrays that would be much larger than the files they are decoded from (`check_budget`).
 
 Files are opened non-blocking and checked again after opening, so a file swapped for a FIFO between the
-check and the read cannot hang the reader.
+check and the read cannot hang the reader. Every file read and every folder searched is told to
+`rigs._inputs`, which makes the rig's content digest of them.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import zlib
 from collections.abc import Callable
 from pathlib import Path, PurePosixPath, PureWindowsPath
 
+from rigs._inputs import note_file, note_listing
 from rigs._rig import RigError, RigWarning
 
 #: Arrays decoded from a file may take this many times the file's bytes (sparse morph targets and
@@ -185,6 +187,7 @@ def read_bytes(
             raise UnreadableFile(path, f"cannot be read ({error.strerror or error})") from None
     if len(data) > wanted:
         raise RigError(f"{path}: grew while it was read")
+    note_file(path, data)
     return data
 
 
@@ -302,4 +305,5 @@ def rig_entries(folder: Path, wanted: Callable[[str], bool], *, recursive: bool)
                 path = Path(directory) / name
                 regular_file(path, folder)
                 found.append(path)
+    note_listing(folder, found, recursive=recursive)
     return sorted(found)

@@ -1,0 +1,135 @@
+"""What a rig read opened: every file's bytes and every folder listing a reader relied on.
+
+A rig file may name others (a glTF's buffers, a manifest's targets, the OBJ files beside a neutral, a USD
+layer's sublayers and clips), so the content of a rig is the content of everything its read opened, not of
+the file named on the command line. The readers open files only through `rigs._safe`, which tells this
+module about each file it read and each folder listing it searched while `recording` is active; the
+result, `RigInputs`, is the rig's content digest and can say what changed between two reads of it.
+
+Example
+-------
+>>> with recording(folder) as inputs:  # doctest: +SKIP
+...     rig = load(folder / "neutral.obj")
+>>> inputs.digest  # doctest: +SKIP
+'sha256:...'
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Iterator
+from contextvars import ContextVar
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+
+@dataclass
+class RigInputs:
+    """The files one rig read opened, with the SHA-256 of the bytes read, and the folder listings it used.
+
+    Attributes
+    ----------
+    root : Path
+        The rig's folder; paths are kept relative to it (POSIX spelling).
+    files : dict of str to (str, int)
+        Relative path -> (hex SHA-256, bytes read), in the order first read. A file read more than once
+        keeps the entry of its longest read (a header first, then the whole file).
+    listings : dict of str to tuple of str
+        Relative folder path (with ``/**`` for a recursive search) -> the sorted relative names of the
+        entries the reader accepted there (a shape added beside the others changes the rig).
+    """
+
+    root: Path
+    files: dict[str, tuple[str, int]] = field(default_factory=dict)
+    listings: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def relative(self, path: Path | str) -> str:
+        """``path`` relative to `root` (``../`` parts for a file outside it), POSIX spelling."""
+        return Path(os.path.relpath(os.path.abspath(path), os.path.abspath(self.root))).as_posix()
+
+    def add_file(self, path: Path | str, data: bytes | memoryview) -> None:
+        """Note that ``data`` was read from ``path``."""
+        name = self.relative(path)
+        entry = (hashlib.sha256(data).hexdigest(), len(data))
+        previous = self.files.get(name)
+        if previous is None or previous[1] < entry[1]:
+            self.files[name] = entry
+
+    def add_listing(self, folder: Path | str, entries: Iterable[Path | str], *, recursive: bool) -> None:
+        """Note that a reader searched ``folder`` and accepted ``entries``."""
+        key = self.relative(folder) + ("/**" if recursive else "")
+        self.listings[key] = tuple(sorted(self.relative(entry) for entry in entries))
+
+    def document(self) -> dict[str, Any]:
+        """The inputs as JSON-ready data (`from_document` reads it back)."""
+        return {
+            "files": {name: list(entry) for name, entry in self.files.items()},
+            "listings": {name: list(entries) for name, entries in self.listings.items()},
+        }
+
+    @classmethod
+    def from_document(cls, root: Path | str, document: dict[str, Any]) -> RigInputs:
+        """The inputs `document` wrote (``root`` is not stored: the rig's folder at the time of reading)."""
+        files = {str(k): (str(v[0]), int(v[1])) for k, v in dict(document.get("files", {})).items()}
+        listings = {str(k): tuple(map(str, v)) for k, v in dict(document.get("listings", {})).items()}
+        return cls(Path(root), files, listings)
+
+    @property
+    def digest(self) -> str:
+        """``sha256:`` and 64 hex digits over every file's name and hash and every listing, in name order."""
+        canonical = json.dumps(
+            [sorted(self.document()["files"].items()), sorted(self.document()["listings"].items())],
+            separators=(",", ":"),
+        )
+        return f"sha256:{hashlib.sha256(canonical.encode()).hexdigest()}"
+
+    def changes(self, later: RigInputs) -> list[str]:
+        """What differs in ``later``, a read of the same rig: ``face.bin changed``, ``shapes/x.obj is new``,
+        ``jawOpen.obj is gone``, ``the entries of . changed (+ a.obj, - b.obj)``; empty when equal."""
+        found = []
+        for name in sorted(set(self.files) | set(later.files)):
+            before, after = self.files.get(name), later.files.get(name)
+            if before is None:
+                found.append(f"{name} is new")
+            elif after is None:
+                found.append(f"{name} is no longer read")
+            elif before != after:
+                found.append(f"{name} changed")
+        for name in sorted(set(self.listings) | set(later.listings)):
+            was, now = set(self.listings.get(name, ())), set(later.listings.get(name, ()))
+            if was != now:
+                moved = [f"+ {e}" for e in sorted(now - was)] + [f"- {e}" for e in sorted(was - now)]
+                found.append(f"the entries of {name} changed ({', '.join(moved)})")
+        return found
+
+
+_active: ContextVar[RigInputs | None] = ContextVar("rig_inputs", default=None)
+
+
+@contextlib.contextmanager
+def recording(root: Path | str) -> Iterator[RigInputs]:
+    """Collect what the rig reads inside the block open (nested blocks collect into their own)."""
+    inputs = RigInputs(Path(root))
+    token = _active.set(inputs)
+    try:
+        yield inputs
+    finally:
+        _active.reset(token)
+
+
+def note_file(path: Path | str, data: bytes | memoryview) -> None:
+    """Called by `rigs._safe` for every file it read (nothing happens outside `recording`)."""
+    inputs = _active.get()
+    if inputs is not None:
+        inputs.add_file(path, data)
+
+
+def note_listing(folder: Path | str, entries: Iterable[Path | str], *, recursive: bool) -> None:
+    """Called by `rigs._safe` for every folder search it made (nothing happens outside `recording`)."""
+    inputs = _active.get()
+    if inputs is not None:
+        inputs.add_listing(folder, entries, recursive=recursive)
