@@ -24,7 +24,6 @@ report lands in ``meta``: ``meta["noise"]`` (floor and zeroed counts per shape),
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from dataclasses import replace
@@ -38,7 +37,7 @@ from rigs._inputs import RigInputs, recording
 from rigs._npz import load_npz, save_npz
 from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError, vector_lengths
-from rigs._safe import read_text, regular_file
+from rigs._safe import read_json, regular_file
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
 from rigs._usd import USD_SUFFIXES, load_usd, save_usd
 
@@ -84,11 +83,7 @@ def detect_format(path: str | Path) -> str:
 
 
 def _json_keys(path: Path) -> set[str]:
-    text = read_text(path, limit=MANIFEST_LIMIT, why="a manifest")
-    try:
-        content = json.loads(text)
-    except (ValueError, RecursionError) as error:
-        raise RigError(f"{path}: not a readable JSON manifest ({type(error).__name__}: {error})") from None
+    content = read_json(path, limit=MANIFEST_LIMIT, what="manifest")
     return set(content) if isinstance(content, dict) else set()
 
 

@@ -7,7 +7,6 @@ the selections (the vertices of each group's faces), as any DCC exports a face-s
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from os import PathLike
 from pathlib import Path
@@ -17,6 +16,7 @@ import numpy as np
 
 from rigs._obj import read_obj
 from rigs._rig import RigError
+from rigs._safe import read_json, regular_file
 
 #: A regions file larger than this is refused before it is read (a selection of every vertex of a
 #: million-vertex mesh as JSON is far smaller).
@@ -45,16 +45,11 @@ def read_regions(path: str | PathLike[str], n_vertices: int) -> dict[str, np.nda
         an index outside ``0..n_vertices-1``, an OBJ with another vertex count or without groups.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RigError(f"{path}: regions file not found (or not a regular file)")
-    if path.stat().st_size > MAX_REGIONS_BYTES:
+    if regular_file(path) > MAX_REGIONS_BYTES:
         raise RigError(f"{path}: regions file is larger than {MAX_REGIONS_BYTES >> 20} MiB")
     if path.suffix.lower() == ".obj":
         return _obj_regions(path, n_vertices)
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise RigError(f"{path}: cannot read regions JSON: {error}") from None
+    document = read_json(path, limit=MAX_REGIONS_BYTES, what="regions file")
     if not isinstance(document, Mapping):
         raise RigError(f"{path}: regions JSON must be an object of name -> vertex list")
     return regions_from_mapping(document, n_vertices, str(path))

@@ -19,6 +19,7 @@ check and the read cannot hang the reader. Every file read and every folder sear
 from __future__ import annotations
 
 import errno
+import json
 import os
 import stat
 import warnings
@@ -26,6 +27,7 @@ import zipfile
 import zlib
 from collections.abc import Callable
 from pathlib import Path, PurePosixPath, PureWindowsPath
+from typing import Any
 
 from rigs._inputs import note_file, note_listing
 from rigs._rig import RigError, RigWarning
@@ -194,6 +196,32 @@ def read_bytes(
 def read_text(path: Path, *, root: Path | None = None, limit: int | None = None, why: str = "") -> str:
     """:func:`read_bytes` decoded as UTF-8 (undecodable bytes replaced)."""
     return read_bytes(path, root=root, limit=limit, why=why).decode("utf-8", errors="replace")
+
+
+def read_json(path: Path, *, root: Path | None = None, limit: int, what: str) -> Any:
+    """The JSON document in the regular file ``path`` of at most ``limit`` bytes (:func:`read_bytes`).
+
+    Parameters
+    ----------
+    what : str
+        What the file is, for messages: ``"manifest"``, ``"regions file"``.
+
+    Raises
+    ------
+    RigError
+        See :func:`read_bytes`; also ``PATH: not a readable JSON WHAT (...)`` for text that is not UTF-8 or
+        not JSON, or a document nested deeper than Python's parser follows (a list of lists 100,000 deep).
+    """
+    data = read_bytes(path, root=root, limit=limit, why=f"a {what}")
+    try:
+        return json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as error:
+        detail = f"not UTF-8: {error.reason} at byte {error.start}"
+    except json.JSONDecodeError as error:
+        detail = f"{error.msg}, line {error.lineno} column {error.colno}"
+    except RecursionError:
+        detail = "nested too deeply"
+    raise RigError(f"{path}: not a readable JSON {what} ({detail})")
 
 
 def gunzip(data: bytes, limit: int, label: str, why: str) -> bytes:

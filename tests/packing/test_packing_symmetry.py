@@ -168,11 +168,11 @@ def test_unknown_region_names_are_named(tmp_path, face):
 
 def test_bad_region_files_are_named(tmp_path, face):
     rig, _ = face
-    with pytest.raises(ValueError, match="missing.json: regions file not found"):
+    with pytest.raises(ValueError, match="missing.json: no such file"):
         packing.find_symmetry_pairs(rig, regions=tmp_path / "missing.json")
     broken = tmp_path / "broken.json"
     broken.write_text("{")
-    with pytest.raises(ValueError, match="broken.json: cannot read regions JSON"):
+    with pytest.raises(ValueError, match="broken.json: not a readable JSON regions file"):
         packing.find_symmetry_pairs(rig, regions=broken)
     outside = tmp_path / "outside.json"
     outside.write_text(json.dumps({"upper_lip": [0, 99999], "lower_lip": [1]}))
