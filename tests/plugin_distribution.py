@@ -2,12 +2,16 @@
 
 A folder on ``sys.path`` holding ``NAME-0.0.dist-info`` (``METADATA`` and ``entry_points.txt``) is what
 ``importlib.metadata`` finds for an installed package, so the harness discovers its plugins exactly as it
-would a third party's, without installing anything.
+would a third party's, without installing anything. Where the installation itself is under test,
+`fresh_environment` makes a new virtual environment to ``pip install`` a plugin into, offline.
 """
 
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
+import sysconfig
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -39,3 +43,30 @@ def registered_module(
     solvers.refresh()
     yield
     solvers.refresh()
+
+
+def fresh_environment(folder: Path) -> Path:
+    """A new virtual environment without packages of its own, which sees this environment's packages
+    through a site directory; returns its interpreter."""
+    subprocess.run([sys._base_executable, "-m", "venv", "--without-pip", str(folder)], check=True)
+    python = folder / "bin" / "python"
+    purelib = subprocess.run(
+        [python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    ours = sysconfig.get_paths()["purelib"]
+    (Path(purelib) / "outer_environment.pth").write_text(f"import site; site.addsitedir({ours!r})\n")
+    return python
+
+
+def run_in(python: Path, *arguments: str, cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``python`` (e.g. a `fresh_environment`'s) with ``arguments`` in ``cwd``, output captured."""
+    return subprocess.run(
+        [str(python), *arguments], cwd=cwd, capture_output=True, text=True, timeout=300, check=False
+    )
+
+
+#: ``pip install`` into an environment without fetching anything (the build backend is the environment's).
+OFFLINE_INSTALL = ("-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--no-index")

@@ -1,42 +1,24 @@
-"""The example third-party plugin installs as its own distribution and is discovered by entry point."""
+"""The example third-party plugin installs as its own distribution (offline, into a fresh environment) and
+is discovered by entry point."""
 
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
 from solvers.testing import parametrize_with_checks
+from tests.plugin_distribution import OFFLINE_INSTALL, fresh_environment, run_in
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "solver_plugin"
 
 
-@pytest.mark.network  # pip fetches the example's build backend (setuptools) into an isolated build env
 def test_installed_example_plugin_is_listed_and_conforms(tmp_path):
     source = tmp_path / "src"
     shutil.copytree(EXAMPLE, source)
-    target = tmp_path / "site"
-    installed = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--no-deps",
-            "--target",
-            str(target),
-            str(source),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    if installed.returncode != 0:
-        if "No matching distribution" in installed.stderr or "connection" in installed.stderr.lower():
-            pytest.skip(f"the package index is out of reach: {installed.stderr.strip().splitlines()[-1]}")
-        pytest.fail(installed.stderr)
+    python = fresh_environment(tmp_path / "env")
+    installed = run_in(python, *OFFLINE_INSTALL, str(source), cwd=tmp_path)
+    assert installed.returncode == 0, installed.stderr[-3000:]
     code = (
         "import solvers\n"
         "from solvers.testing import check_solver\n"
@@ -44,10 +26,7 @@ def test_installed_example_plugin_is_listed_and_conforms(tmp_path):
         "    assert name in solvers.names(available_only=True), solvers.names()\n"
         "    print(check_solver(solvers.get(name)))\n"
     )
-    env = {"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"}
-    result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
-    )
+    result = run_in(python, "-c", code, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
     assert "validity" in result.stdout
 
