@@ -24,7 +24,9 @@ report lands in ``meta``: ``meta["noise"]`` (floor and zeroed counts per shape),
 
 from __future__ import annotations
 
+import hashlib
 import os
+import warnings
 from collections.abc import Callable
 from dataclasses import replace
 from inspect import Parameter, signature
@@ -36,7 +38,7 @@ import numpy as np
 from rigs._inputs import RigInputs, recording
 from rigs._npz import load_npz, save_npz
 from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
-from rigs._rig import Rig, RigError, vector_lengths
+from rigs._rig import Rig, RigError, RigWarning, vector_lengths
 from rigs._safe import read_json, regular_file
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
 from rigs._usd import USD_SUFFIXES, load_usd, save_usd
@@ -177,7 +179,7 @@ def load(
         raise RigError(f"{path}: noise_floor must be >= 0, got {noise_floor}")
     if units is not None:
         rig = replace(rig, meta={**rig.meta, "units": units})
-    return with_report(rig, noise_floor)
+    return with_report(rig, noise_floor, origin=str(path))
 
 
 def _reader(path: Path, kind: str) -> Callable[..., Rig]:
@@ -202,7 +204,7 @@ def _load_obj_manifest(path: Path, **options: Any) -> Rig:
     return load_obj_folder(path.parent, **options)
 
 
-def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
+def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: str = "") -> Rig:
     """``rig`` with sub-floor displacements zeroed and the load report in ``meta``.
 
     Parameters
@@ -212,17 +214,29 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
         Relative to the neutral's bounding-box diagonal; 0 zeroes nothing. When ``meta["decimal_step"]``
         says the file rounded its coordinates (OBJ written with fixed decimals), the floor is at least
         `ROUNDING_STEPS` such steps, since absolute positions differenced into deltas carry that error.
+    origin : str
+        The file or folder read, for messages.
 
     Returns
     -------
     Rig whose ``meta`` gains ``noise`` (``relative_floor``, absolute ``floor``, ``rounding_step``,
-    ``zeroed`` per shape), ``empty_shapes`` (names with no displacement left) and
-    ``degenerate_triangles`` (count).
+    ``zeroed`` per shape), ``empty_shapes`` (names with no displacement left), ``degenerate_triangles``
+    (count), ``identical_shapes`` (groups of names whose displacements are equal at every vertex) and
+    ``case_twins`` (groups of names equal up to case).
+
+    Warns
+    -----
+    RigWarning
+        For a neutral that is no surface (no triangles, or every triangle of zero area: collapsed or
+        colinear), which packs by its vertices but cannot be pictured or transferred; and naming shapes
+        that are identical, or whose names are equal up to case (one is likely a duplicate export; both
+        are kept).
 
     Notes
     -----
-    O(K N); one pass over the deltas.
+    O(K N); two passes over the deltas.
     """
+
     step = float(rig.meta.get("decimal_step", 0.0) or 0.0)
     floor = max(noise_floor * rig.diagonal(), ROUNDING_STEPS * step) if noise_floor > 0 else 0.0
     deltas = rig.deltas
@@ -244,7 +258,57 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR) -> Rig:
     }
     meta["empty_shapes"] = [rig.names[k] for k in np.flatnonzero(empty)]
     meta["degenerate_triangles"] = int(len(rig.degenerate_triangles()))
+    meta["identical_shapes"] = _identical_shapes(deltas, rig.names, empty)
+    meta["case_twins"] = _case_twins(rig.names)
+    label = origin or str(rig.meta.get("source", "rig"))
+    problem = _surface_problem(rig)
+    if problem:
+        warnings.warn(
+            f"{label}: {problem}; it packs by its vertices, but cannot be pictured or transferred",
+            RigWarning,
+            stacklevel=3,
+        )
+    for group in meta["identical_shapes"]:
+        warnings.warn(
+            f"{label}: shapes {', '.join(group)} are identical (the same displacement at every vertex)",
+            RigWarning,
+            stacklevel=3,
+        )
+    for group in meta["case_twins"]:
+        warnings.warn(
+            f"{label}: shape names {', '.join(group)} differ only in case (a duplicate export?)",
+            RigWarning,
+            stacklevel=3,
+        )
     return replace(rig, deltas=deltas, meta=meta)
+
+
+def _surface_problem(rig: Rig) -> str:
+    """Why the neutral is no surface (see `with_report`), or empty."""
+    if rig.n_triangles == 0:
+        return f"the neutral has no faces ({rig.n_vertices} points)"
+    if len(rig.degenerate_triangles()) == rig.n_triangles:
+        return (
+            f"every one of the neutral's {rig.n_triangles} triangles has zero area (its vertices collapsed "
+            "or in a line)"
+        )
+    return ""
+
+
+def _identical_shapes(deltas: np.ndarray, names: tuple[str, ...], empty: np.ndarray) -> list[list[str]]:
+    """Groups of two or more non-empty shapes whose displacements are bitwise equal, in rig order."""
+    groups: dict[bytes, list[str]] = {}
+    for k in np.flatnonzero(~empty):
+        groups.setdefault(hashlib.blake2b(np.ascontiguousarray(deltas[k]).data).digest(), []).append(names[k])
+    return [group for group in groups.values() if len(group) > 1]
+
+
+def _case_twins(names: tuple[str, ...]) -> list[list[str]]:
+    """Groups of two or more names equal up to case, in rig order."""
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        groups.setdefault(name.casefold(), []).append(name)
+    return [group for group in groups.values() if len(group) > 1]
 
 
 def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:

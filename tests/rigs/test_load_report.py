@@ -1,0 +1,58 @@
+"""What a load notes about a rig it keeps: identical shapes, names equal up to case, a neutral that is no
+surface. Each is named in one `RigWarning` and in ``meta``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rigs
+from rigs import RigWarning
+
+
+def _rig(names=("lift", "rest", "copy"), triangles=((0, 1, 2), (1, 3, 2)), neutral=None) -> rigs.Rig:
+    neutral = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]) if neutral is None else neutral
+    deltas = np.zeros((len(names), len(neutral), 3))
+    deltas[0, 0, 2] = 0.5
+    deltas[1, 3, 2] = 0.25
+    deltas[2:, 0, 2] = 0.5  # every later shape is a copy of the first
+    return rigs.Rig(neutral, deltas, np.array(triangles, dtype=np.int64).reshape(-1, 3), names)
+
+
+def _load(rig: rigs.Rig, tmp_path) -> tuple[rigs.Rig, list[str]]:
+    path = rigs.save(rig, tmp_path / "face.npz")
+    with pytest.warns(RigWarning) as caught:
+        loaded = rigs.load(path, noise_floor=1e-6)
+    return loaded, [str(warning.message) for warning in caught]
+
+
+def test_identical_shapes_are_named(tmp_path) -> None:
+    loaded, said = _load(_rig(names=("lift", "rest", "copy", "again")), tmp_path)
+    assert loaded.meta["identical_shapes"] == [["lift", "copy", "again"]]
+    assert any("face.npz: shapes lift, copy, again are identical" in line for line in said)
+
+
+def test_names_equal_up_to_case_are_named(tmp_path) -> None:
+    loaded, said = _load(_rig(names=("jawOpen", "rest", "JawOpen")), tmp_path)
+    assert loaded.meta["case_twins"] == [["jawOpen", "JawOpen"]]
+    assert any("shape names jawOpen, JawOpen differ only in case" in line for line in said)
+
+
+@pytest.mark.parametrize(
+    ("triangles", "neutral", "said"),
+    [
+        ((), None, "the neutral has no faces (4 points)"),
+        (((0, 1, 2),), np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]]), "zero area"),
+        (((0, 0, 0),), None, "zero area"),
+    ],
+    ids=["no-faces", "colinear", "collapsed"],
+)
+def test_a_neutral_that_is_no_surface_is_noted(triangles, neutral, said, tmp_path) -> None:
+    _, lines = _load(_rig(names=("lift", "rest"), triangles=triangles, neutral=neutral), tmp_path)
+    assert any(said in line and "cannot be pictured or transferred" in line for line in lines), lines
+
+
+def test_a_plain_rig_loads_without_notes(tmp_path, recwarn) -> None:
+    loaded = rigs.load(rigs.save(_rig(names=("lift", "rest")), tmp_path / "face.npz"), noise_floor=1e-6)
+    assert loaded.meta["identical_shapes"] == [] and loaded.meta["case_twins"] == []
+    assert not [w for w in recwarn if issubclass(w.category, RigWarning)]
