@@ -1,7 +1,9 @@
-"""Solver plugins that lie about proofs, for the certificate tests (`test_certificate.py`).
+"""Solver plugins that lie, for the certificate tests (`test_certificate.py`) and the checks of a cell
+(`test_cell_outcomes.py`).
 
-Their packings are valid and maximal (Algorithm 2 visiting the items in reverse order), so the harness's own
-checks pass; only their claims are false.
+The packings of the proof liars are valid and maximal (Algorithm 2 visiting the items in reverse order), so
+the harness's own checks pass; only their claims are false. `InfeasibleLiar` answers every problem with
+nothing, declared infeasible, which no packing problem is.
 """
 
 from __future__ import annotations
@@ -39,3 +41,12 @@ class BoundLiar(OptimalLiar):
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
         items = _worst_first(problem)
         return Result(items, Termination.TIME_LIMIT, bound=problem.objective(items))
+
+
+class InfeasibleLiar(OptimalLiar):
+    """Declares every problem infeasible and chooses nothing (choosing nothing is always feasible)."""
+
+    name: ClassVar[str] = "liar-infeasible"
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
+        return Result((), Termination.INFEASIBLE)
