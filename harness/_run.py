@@ -14,12 +14,19 @@
   the harness process),
 - ``started``, ``finished`` (ISO 8601, UTC; ``finished`` is null until the run ends), ``resumed`` (list of
   the times ``--resume`` continued it), ``error`` (the message of a ``failed`` run), ``lost`` (cell id ->
-  ``{"cell": label, "reason": ...}`` for the cells the infrastructure lost in the last session).
+  ``{"cell": label, "reason": ...}`` for the cells the infrastructure lost in the last session),
+  ``crashes`` (cell id -> ``{"cell": label, "count": n, "exit": how}``: how often, over every session, the
+  worker process died or failed running a cell that has no part file yet).
 
 Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own
 part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
 infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
-``--resume`` runs exactly the cells without a complete part file. ``--resume`` first reads every part back
+``--resume`` runs exactly the cells without a complete part file. A worker process that crashes on a cell
+(a segfault, an abort, a kill) loses it the first time; the second time (the ``--resume`` that runs it
+again) the cell is recorded ``crashed`` (`CRASH_LIMIT`) with how the process ended (``killed by SIGSEGV``),
+so that a solver that crashes on every input cannot keep a run from completing. ``--resume`` runs no cell
+that has a part file; with ``retry_failed`` (``--retry-failed``) it also runs again the cells recorded
+`RETRIED_STATUSES`, whose result then replaces the recorded one. ``--resume`` first reads every part back
 and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose content changed,
 and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs never write
 one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force`` removes
@@ -78,6 +85,12 @@ if TYPE_CHECKING:
     from registry import PluginInfo
 
 RUN_FORMAT = 2
+
+#: Crashes of a cell's worker process after which the cell is recorded ``crashed`` instead of lost again.
+CRASH_LIMIT = 2
+#: Cell statuses ``--resume --retry-failed`` runs again: the cell's work did not end (stopped by
+#: ``--timeout``, its worker crashed, or it raised).
+RETRIED_STATUSES = ("timeout", "crashed", "error")
 
 
 class RunDirectoryError(ValueError):
@@ -360,6 +373,7 @@ def run_grid(
     reporter: Reporter | None = None,
     command: list[str] | None = None,
     execution: dict[str, Any] | None = None,
+    retry_failed: bool = False,
 ) -> RunSummary:
     """Run (or resume) a grid into ``out``.
 
@@ -380,6 +394,8 @@ def run_grid(
         The command line, for ``run.json``.
     execution : dict, optional
         How the cells run (executor, jobs or scheduler), for ``run.json``.
+    retry_failed : bool
+        With ``resume``: also run again the cells recorded `RETRIED_STATUSES` (``--retry-failed``).
 
     Returns
     -------
@@ -398,6 +414,8 @@ def run_grid(
     """
     out = Path(out)
     reporter = reporter or SilentReporter()
+    if retry_failed and not resume:
+        raise RunDirectoryError("--retry-failed runs failed cells of a run again: give it with --resume OUT")
     previous = previous_run(out, resume=resume, force=force)
     if previous is not None:
         stored = validate_config(RunConfig.from_dict(previous["config"]))
@@ -419,7 +437,9 @@ def run_grid(
     except OSError as error:
         raise write_error(out, error) from None
     with locked(out):
-        return _run_locked(config, out, digests, previous, make_executor, force, reporter, command, execution)
+        return _run_locked(
+            config, out, digests, previous, make_executor, force, reporter, command, execution, retry_failed
+        )
 
 
 def _run_locked(
@@ -432,6 +452,7 @@ def _run_locked(
     reporter: Reporter,
     command: list[str] | None,
     execution: dict[str, Any] | None,
+    retry_failed: bool,
 ) -> RunSummary:
     """`run_grid` once the folder is locked."""
     solver_infos = {name: plugins.solver_info(name) for name in config.solvers}
@@ -443,6 +464,8 @@ def _run_locked(
         previous = read_run(out)  # as the last writer left it, now that no other run can write it
         folder = open_for_resume(out)
         done, set_aside_parts = repair_parts(out, folder, {spec.id for spec in cells})
+        if retry_failed:
+            done -= _failed_cells(out)
     else:
         folder = open_new(out, force)
         done, set_aside_parts = set(), {}
@@ -465,6 +488,7 @@ def _run_locked(
         info["rig_digests"] = digests
         info["execution"] = {**(execution or {}), "pid": os.getpid(), "host": socket.gethostname()}
         info["lost"] = {}
+        info["crashes"] = {cell: entry for cell, entry in info.get("crashes", {}).items() if cell not in done}
         write_run(out, info, folder)
 
         clock = time.perf_counter()
@@ -477,9 +501,12 @@ def _run_locked(
                 _record(out, folder, spec, failure_rows(spec, "skipped", reason), summary, reporter)
         if executor is not None:
             for spec, outcome in executor.map(runnable):
+                if isinstance(outcome, Lost) and outcome.crash:
+                    outcome = _crash(info, spec, outcome)
                 if isinstance(outcome, Lost):
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
+                    info["crashes"].pop(spec.id, None)
                     _record(out, folder, spec, outcome, summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         write_overlap(out, folder)
@@ -569,6 +596,28 @@ def _lose(
     info["lost"][spec.id] = {"cell": spec.label(), "reason": reason}
     write_run(out, info, folder)
     reporter.cell_lost(spec, reason)
+
+
+def _crash(info: dict[str, Any], spec: CellSpec, lost: Lost) -> Lost | list[Row]:
+    """Count a crash of a cell's worker process in ``run.json``'s ``crashes``: the cell is lost until its
+    `CRASH_LIMIT`-th crash, which records it ``crashed``, naming how the process ended."""
+    entry = info["crashes"].setdefault(spec.id, {"cell": spec.label(), "count": 0})
+    entry["count"] += 1
+    entry["exit"] = lost.crash
+    if entry["count"] < CRASH_LIMIT:
+        return Lost(f"{lost.reason} (crash {entry['count']} of {CRASH_LIMIT}; the last is recorded crashed)")
+    message = f"its worker process crashed on it {entry['count']} times (last: {lost.crash})"
+    return failure_rows(spec, "crashed", message)
+
+
+def _failed_cells(out: Path) -> set[str]:
+    """The cells of a run recorded with one of `RETRIED_STATUSES`."""
+    try:
+        records = read_records(out)
+    except FileNotFoundError:
+        return set()
+    cells = records[(records["kind"] == "cell") & records["status"].isin(RETRIED_STATUSES)]
+    return set(cells["cell"])
 
 
 def _close_quietly(executor: Executor | None) -> None:
