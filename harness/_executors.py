@@ -327,14 +327,14 @@ class DaskExecutor:
             )
             by_key[future.key] = spec
             self._futures.append(future)
-        for future in as_completed(list(self._futures)):
+        for future in as_completed(self._futures):
             spec = by_key[future.key]
             try:
                 outcome = future.result()
             except Exception as error:  # noqa: BLE001 - no result of the cell: --resume runs it again
                 outcome = _dask_failure(error)
             yield spec, outcome
-        self._futures.clear()  # the scattered rigs go with the last task that holds them
+        self._futures.clear()
 
     def _scattered(self, spec: CellSpec) -> Future | Lost | None:
         """The cluster's copy of a cell's template rig, read here (None for a generated rig, which the

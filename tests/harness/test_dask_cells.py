@@ -18,6 +18,8 @@ import pytest
 from click.testing import CliRunner
 
 import harness
+from harness import _executors
+from harness._cell import Lost
 from harness._grid import RunConfig
 from harness.cli import cli
 
@@ -102,3 +104,17 @@ def test_a_cell_the_dask_worker_cannot_set_up_is_lost_and_the_run_exits_1(
     assert "CellSetupError" in lost["reason"] and "cannot set the cell up" in lost["reason"], lost
     cells = harness.read_records(out).query("kind == 'cell'")
     assert list(cells["solver"]) == ["greedy"] and list(cells["status"]) == ["ok"]
+
+
+def test_a_task_that_killed_its_dask_workers_is_a_crash_of_the_cell() -> None:
+    distributed = pytest.importorskip("distributed")
+
+    class LastWorker:
+        address = "tcp://127.0.0.1:1"
+
+    lost = _executors._dask_failure(distributed.KilledWorker("harness-cell-x", LastWorker(), 3))
+    assert lost.crash and lost.reason.startswith("Dask task failed (KilledWorker")
+    cancelled = _executors._dask_failure(
+        distributed.client.FutureCancelledError("k", "scheduler-connection-lost")
+    )
+    assert cancelled == Lost("Dask task cancelled (scheduler-connection-lost)")
