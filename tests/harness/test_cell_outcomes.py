@@ -10,6 +10,7 @@ import pytest
 
 import harness
 from harness._grid import RunConfig
+from reports._summary import outcome_table, solve_outcomes
 from tests.plugin_distribution import registered_module
 
 _ENTRY_POINTS = """[harness.solvers]
@@ -88,6 +89,8 @@ def test_a_worker_crashing_on_a_cell_twice_records_it_crashed_with_the_signal(
     assert crashed["message"] == "its worker process crashed on it 2 times (last: killed by SIGSEGV)"
     run = harness.read_run(out)
     assert run["state"] == "complete" and run["crashes"] == {} and run["lost"] == {}
+    outcomes = outcome_table(solve_outcomes(harness.read_records(out), time_limit=1.0)).set_index("solver")
+    assert outcomes.loc["crashing", "crashed"] == 1 and outcomes.loc["greedy", "crashed"] == 0
 
     third = harness.run_grid(None, out, make_executor=_no_executor, resume=True)
     assert third.complete and third.already_done == 2
