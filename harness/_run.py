@@ -18,19 +18,17 @@
   ``crashes`` (cell id -> ``{"cell": label, "count": n, "exit": how}``: how often, over every session, the
   worker process died or failed running a cell that has no part file yet).
 
-Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own
-part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
+Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own part
+file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
 infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
 ``--resume`` runs exactly the cells without a complete part file. A worker process that crashes on a cell
-(a segfault, an abort, a kill) loses it the first time; the second time (the ``--resume`` that runs it
-again) the cell is recorded ``crashed`` (`CRASH_LIMIT`) with how the process ended (``killed by SIGSEGV``),
-so that a solver that crashes on every input cannot keep a run from completing. ``--resume`` runs no cell
+loses it the first time and records it ``crashed`` the second (`harness._failures`). ``--resume`` runs no cell
 that has a part file; with ``retry_failed`` (``--retry-failed``) it also runs again the cells recorded
-`RETRIED_STATUSES`, whose result then replaces the recorded one. ``--resume`` first reads every part back
-and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose content changed,
-and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs never write
-one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force`` removes
-only those, never a file the harness did not write.
+`harness._failures.RETRIED_STATUSES`, whose result then replaces the recorded one. ``--resume`` first reads
+every part back and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose
+content changed, and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs
+never write one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force``
+removes only those, never a file the harness did not write.
 """
 
 from __future__ import annotations
@@ -58,6 +56,7 @@ from harness import _plugins as plugins
 from harness._cell import Lost, Row, failure_rows
 from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
+from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._outdir import OutputFolder
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
@@ -85,12 +84,6 @@ if TYPE_CHECKING:
     from registry import PluginInfo
 
 RUN_FORMAT = 2
-
-#: Crashes of a cell's worker process after which the cell is recorded ``crashed`` instead of lost again.
-CRASH_LIMIT = 2
-#: Cell statuses ``--resume --retry-failed`` runs again: the cell's work did not end (stopped by
-#: ``--timeout``, its worker crashed, or it raised).
-RETRIED_STATUSES = ("timeout", "crashed", "error")
 
 
 class RunDirectoryError(ValueError):
@@ -395,7 +388,8 @@ def run_grid(
     execution : dict, optional
         How the cells run (executor, jobs or scheduler), for ``run.json``.
     retry_failed : bool
-        With ``resume``: also run again the cells recorded `RETRIED_STATUSES` (``--retry-failed``).
+        With ``resume``: also run again the cells recorded `harness._failures.RETRIED_STATUSES`
+        (``--retry-failed``).
 
     Returns
     -------
@@ -465,7 +459,7 @@ def _run_locked(
         folder = open_for_resume(out)
         done, set_aside_parts = repair_parts(out, folder, {spec.id for spec in cells})
         if retry_failed:
-            done -= _failed_cells(out)
+            done -= failed_cells(out)
     else:
         folder = open_new(out, force)
         done, set_aside_parts = set(), {}
@@ -502,7 +496,7 @@ def _run_locked(
         if executor is not None:
             for spec, outcome in executor.map(runnable):
                 if isinstance(outcome, Lost) and outcome.crash:
-                    outcome = _crash(info, spec, outcome)
+                    outcome = count_crash(info["crashes"], spec, outcome)
                 if isinstance(outcome, Lost):
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
@@ -596,28 +590,6 @@ def _lose(
     info["lost"][spec.id] = {"cell": spec.label(), "reason": reason}
     write_run(out, info, folder)
     reporter.cell_lost(spec, reason)
-
-
-def _crash(info: dict[str, Any], spec: CellSpec, lost: Lost) -> Lost | list[Row]:
-    """Count a crash of a cell's worker process in ``run.json``'s ``crashes``: the cell is lost until its
-    `CRASH_LIMIT`-th crash, which records it ``crashed``, naming how the process ended."""
-    entry = info["crashes"].setdefault(spec.id, {"cell": spec.label(), "count": 0})
-    entry["count"] += 1
-    entry["exit"] = lost.crash
-    if entry["count"] < CRASH_LIMIT:
-        return Lost(f"{lost.reason} (crash {entry['count']} of {CRASH_LIMIT}; the last is recorded crashed)")
-    message = f"its worker process crashed on it {entry['count']} times (last: {lost.crash})"
-    return failure_rows(spec, "crashed", message)
-
-
-def _failed_cells(out: Path) -> set[str]:
-    """The cells of a run recorded with one of `RETRIED_STATUSES`."""
-    try:
-        records = read_records(out)
-    except FileNotFoundError:
-        return set()
-    cells = records[(records["kind"] == "cell") & records["status"].isin(RETRIED_STATUSES)]
-    return set(cells["cell"])
 
 
 def _close_quietly(executor: Executor | None) -> None:
