@@ -174,9 +174,9 @@ def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
 
 
 def set_up(spec: CellSpec, template: Rig | None = None) -> None:
-    """Build (or take) a cell's template rig and load its solver and transfer plugins, on a machine other
-    than the harness's, before the cell runs there. What the cell itself does with them (its warp, its
-    solves) is the cell's: its failures are the cell's rows.
+    """Build (or take) a cell's template rig and load its solver and transfer plugins, available, on a
+    machine other than the harness's, before the cell runs there. What the cell itself does with them (its
+    warp, its solves) is the cell's: its failures are the cell's rows.
 
     Raises
     ------
@@ -185,6 +185,12 @@ def set_up(spec: CellSpec, template: Rig | None = None) -> None:
     """
     try:
         _template(spec, template)
+        for label, info in [
+            (spec.solver, plugins.solver_info(spec.solver)),
+            *((name, plugins.transfer_info(name)) for name in spec.transfers),
+        ]:
+            if not info.available:
+                raise RuntimeError(f"{label} is unavailable here: {info.reason or 'no reason given'}")
         plugins.solver(spec.solver)
         for name in spec.transfers:
             plugins.transfer_method(name)

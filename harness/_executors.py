@@ -342,10 +342,9 @@ class DaskExecutor:
         if generated(spec):
             return None
         try:
-            template = verified_template(spec)
+            return self._client.scatter(verified_template(spec), hash=False)
         except Exception as error:  # noqa: BLE001 - every cell of the rig is lost, the reason says why
-            return Lost(f"rig {spec.rig} cannot be read to send it to the cluster: {error}")
-        return self._client.scatter(template, hash=False)
+            return Lost(f"rig {spec.rig} cannot be sent to the cluster: {error}")
 
     def close(self) -> None:
         """Cancel unfinished tasks and disconnect from the scheduler (quietly, if it is gone: the lost

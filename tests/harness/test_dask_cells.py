@@ -19,8 +19,8 @@ from click.testing import CliRunner
 
 import harness
 from harness import _executors
-from harness._cell import Lost
-from harness._grid import RunConfig
+from harness._cell import CellSetupError, Lost, set_up
+from harness._grid import RunConfig, digest_key, rig_digest
 from harness.cli import cli
 
 #: Bound on the wait for the scheduler to start (seconds).
@@ -118,3 +118,24 @@ def test_a_task_that_killed_its_dask_workers_is_a_crash_of_the_cell() -> None:
         distributed.client.FutureCancelledError("k", "scheduler-connection-lost")
     )
     assert cancelled == Lost("Dask task cancelled (scheduler-connection-lost)")
+
+
+def test_a_solver_unavailable_on_the_worker_machine_fails_the_set_up(test_plugins, rig_file) -> None:
+    [spec] = RunConfig(rigs=(str(rig_file),), warps=("none",), solvers=("missing",), transfers=()).cells()
+    with pytest.raises(CellSetupError, match="cannot set the cell up: .*missing is unavailable here"):
+        set_up(spec)
+
+
+def test_a_rig_changed_before_it_is_sent_loses_its_cells(scheduler, rig_file, tmp_path) -> None:
+    rig = tmp_path / "sheet.npz"
+    rig.write_bytes(rig_file.read_bytes())
+    config = RunConfig(rigs=(str(rig),), warps=("none",), solvers=("greedy", "cpsat"), transfers=())
+    cells = config.cells({digest_key(str(rig), 0): rig_digest(str(rig), 0)})
+    rig.write_bytes(rig.read_bytes() + b"\0")
+    executor = harness.DaskExecutor(scheduler)
+    try:
+        outcomes = [outcome for _, outcome in executor.map(cells)]
+    finally:
+        executor.close()
+    assert len(outcomes) == 2 and all(isinstance(outcome, Lost) for outcome in outcomes)
+    assert "changed since the run started" in outcomes[0].reason, outcomes[0]
