@@ -118,21 +118,24 @@ def generated(spec: CellSpec) -> bool:
 
 
 def verified_template(spec: CellSpec) -> Rig:
-    """The template rig of a cell, after checking that its content still has the cell's digest.
+    """The template rig of a cell, after checking that its content still has the cell's digest (a rig file
+    is read once: the rig returned is the content checked).
 
     Raises
     ------
     RigChangedError
         When a rig file no longer has the content digest of ``spec.rig_digest``.
     """
-    if spec.rig_digest and is_rig_file(spec.rig):
-        found = rig_digest(spec.rig, spec.rig_seed)
-        if found != spec.rig_digest:
-            raise RigChangedError(
-                f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
-                f"the run's cells were made for {spec.rig_digest[:19]}...)"
-            )
-    return resolve_rig(spec.rig, seed=spec.rig_seed)
+    if not (spec.rig_digest and is_rig_file(spec.rig)):
+        return resolve_rig(spec.rig, seed=spec.rig_seed)
+    rig, inputs = rigs.load_with_inputs(spec.rig)
+    found = rig_digest(spec.rig, spec.rig_seed, inputs)
+    if found != spec.rig_digest:
+        raise RigChangedError(
+            f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
+            f"the run's cells were made for {spec.rig_digest[:19]}...)"
+        )
+    return rig
 
 
 def _cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
