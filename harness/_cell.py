@@ -81,59 +81,130 @@ _WORST_SHAPES = 5
 
 @dataclass(frozen=True)
 class Lost:
-    """The outcome of a cell the infrastructure lost, instead of its record rows.
+    """The outcome of a cell without a result, instead of its record rows.
 
-    Its worker process died, the executor's own start-up limit passed, the Dask scheduler or worker went
-    away, or the rig file changed under the run: no result of the cell. `harness._run` writes no part
-    file for it, so ``--resume`` runs it again.
+    Its worker process died or failed (``crash`` then says how: ``killed by SIGSEGV``, ``exit code 3``, or
+    the exception it raised), the worker process did not start in time, the Dask scheduler or worker went
+    away, a Dask worker could not set the cell up (`CellSetupError`), or the rig file changed under the
+    run. `harness._run` writes no part file for it, so ``--resume`` runs it again; a cell whose worker
+    crashed on it twice is recorded ``crashed`` instead.
     """
 
     reason: str
+    crash: str = ""
 
 
 class RigChangedError(RuntimeError):
     """The rig file's content is no longer the one the run's cell ids were made from."""
 
 
-def _verified(spec: CellSpec) -> Rig:
-    """The template rig of a cell, after checking that its content still has the cell's digest."""
-    if spec.rig_digest and is_rig_file(spec.rig):
-        found = rig_digest(spec.rig, spec.rig_seed)
-        if found != spec.rig_digest:
-            raise RigChangedError(
-                f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
-                f"the run's cells were made for {spec.rig_digest[:19]}...)"
-            )
-    return resolve_rig(spec.rig, seed=spec.rig_seed)
+class CellSetupError(RuntimeError):
+    """A machine other than the harness's cannot set a cell up: its rig cannot be built there, or one of
+    its plugins does not load there (not installed, another version)."""
 
 
-def rig_pair(spec: CellSpec) -> tuple[Rig, Rig]:
-    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
+#: Identifies a cell's template rig: (rig argument, content digest, seed).
+TemplateKey = tuple[str, str, int]
+
+
+def template_key(spec: CellSpec) -> TemplateKey:
+    """The key of a cell's template rig: cells with one key share one template."""
+    return spec.rig, spec.rig_digest, spec.rig_seed
+
+
+def generated(spec: CellSpec) -> bool:
+    """Whether a cell's template rig is generated from a preset's name and seed (it reads no file)."""
+    return not is_rig_file(spec.rig) and spec.rig in rigs.PRESETS
+
+
+def verified_template(spec: CellSpec) -> Rig:
+    """The template rig of a cell, after checking that its content still has the cell's digest (a rig file
+    is read once: the rig returned is the content checked).
 
     Raises
     ------
     RigChangedError
         When a rig file no longer has the content digest of ``spec.rig_digest``.
     """
+    if not (spec.rig_digest and is_rig_file(spec.rig)):
+        return resolve_rig(spec.rig, seed=spec.rig_seed)
+    rig, inputs = rigs.load_with_inputs(spec.rig)
+    found = rig_digest(spec.rig, spec.rig_seed, inputs)
+    if found != spec.rig_digest:
+        raise RigChangedError(
+            f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
+            f"the run's cells were made for {spec.rig_digest[:19]}...)"
+        )
+    return rig
 
-    def cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
-        with _cache_lock:
-            if key in _rig_cache:
-                _rig_cache.move_to_end(key)
-                return _rig_cache[key]
-        value = build()
-        with _cache_lock:
-            _rig_cache[key] = value
-            while len(_rig_cache) > _CACHE_SIZE:
-                _rig_cache.popitem(last=False)
-        return value
 
-    key = (spec.rig, spec.rig_digest, spec.rig_seed)
-    template = cached((*key, NO_WARP), lambda: _verified(spec))
+def _cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
+    """A rig from this process's cache of the last `_CACHE_SIZE` rigs, built on a miss."""
+    with _cache_lock:
+        if key in _rig_cache:
+            _rig_cache.move_to_end(key)
+            return _rig_cache[key]
+    value = build()
+    with _cache_lock:
+        _rig_cache[key] = value
+        while len(_rig_cache) > _CACHE_SIZE:
+            _rig_cache.popitem(last=False)
+    return value
+
+
+def _template(spec: CellSpec, given: Rig | None) -> Rig:
+    """A cell's template rig, cached per process: ``given`` (its content as the harness read it), else read
+    from ``spec.rig`` (`verified_template`)."""
+    key = (*template_key(spec), NO_WARP)
+    return _cached(key, lambda: verified_template(spec) if given is None else given)
+
+
+def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
+    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
+
+    ``template``, when given, is the template's content read by the harness (`verified_template`), used
+    instead of reading ``spec.rig`` here.
+
+    Raises
+    ------
+    RigChangedError
+        When a rig file no longer has the content digest of ``spec.rig_digest``.
+    """
+    source = _template(spec, template)
     if spec.warp == NO_WARP:
-        return template, template
-    target = cached((*key, spec.warp), lambda: rigs.warp(template, spec.warp))
-    return template, target
+        return source, source
+    return source, _cached((*template_key(spec), spec.warp), lambda: rigs.warp(source, spec.warp))
+
+
+def set_up(spec: CellSpec, template: Rig | None = None) -> None:
+    """Build (or take) a cell's template rig and load its solver and transfer plugins, available, on a
+    machine other than the harness's, before the cell runs there. What the cell itself does with them (its
+    warp, its solves) is the cell's: its failures are the cell's rows.
+
+    Raises
+    ------
+    CellSetupError
+        Naming the machine and what failed: the cell cannot run here, which is no result of the cell.
+    """
+    try:
+        _template(spec, template)
+        for label, info in [
+            (spec.solver, plugins.solver_info(spec.solver)),
+            *((name, plugins.transfer_info(name)) for name in spec.transfers),
+        ]:
+            if not info.available:
+                raise RuntimeError(f"{label} is unavailable here: {info.reason or 'no reason given'}")
+        plugins.solver(spec.solver)
+        for name in spec.transfers:
+            plugins.transfer_method(name)
+    except Exception as error:  # noqa: BLE001 - whatever fails, the cell cannot run on this machine
+        raise CellSetupError(f"{_worker_name()} cannot set the cell up: {_describe(error)}") from None
+
+
+def started() -> str:
+    """The name of the worker process (``host:pid``): its reply to a first call says it has started and
+    imported the harness."""
+    return _worker_name()
 
 
 def packing_params(spec: CellSpec) -> dict[str, object]:
@@ -169,7 +240,7 @@ def warm_up(solver_name: str) -> None:
         pass
 
 
-def run_cell(spec: CellSpec, journal: str | None = None) -> list[Row] | Lost:
+def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = None) -> list[Row] | Lost:
     """Run one cell and return its record rows (the ``cell`` row first).
 
     Never raises for a failing rig, solver, check or transfer: the failure becomes the ``status`` and
@@ -182,6 +253,9 @@ def run_cell(spec: CellSpec, journal: str | None = None) -> list[Row] | Lost:
     journal : str, optional
         A file (`harness._journal`) to which each expression's row is appended as soon as the expression
         is finished, so that an executor that stops the cell still has them.
+    template : Rig, optional
+        The template rig's content as the harness read it (`verified_template`), instead of reading
+        ``spec.rig`` here (a Dask worker may have no such file).
     """
     base: Row = spec.record_fields()
     cell_row: Row = {
@@ -192,7 +266,7 @@ def run_cell(spec: CellSpec, journal: str | None = None) -> list[Row] | Lost:
         "worker": _worker_name(),
     }
     try:
-        template, target = rig_pair(spec)
+        template, target = rig_pair(spec, template)
     except RigChangedError as error:
         return Lost(str(error))
     except Exception as error:  # noqa: BLE001 - recorded, the run goes on

@@ -1,19 +1,30 @@
 """Executors: where cells run. Local worker processes (the default) or a Dask distributed cluster.
 
 Both hand every cell to `harness._cell.run_cell` in a process of their own and yield ``(spec, outcome)`` as
-cells finish, in completion order; the caller writes the rows. A cell that exceeds ``timeout`` seconds is
-stopped by killing its process and yields its ``timeout`` cell row with the ``expression`` rows it had
-finished (the cell appends each to a journal file as it goes, `harness._journal`, read after the kill; its
-sequence is cut there, unchecked and without transfers): that is a result of the cell. What is no
-result of the cell yields `harness._cell.Lost` with the reason, and ``--resume`` runs the cell again: a
-worker process that dies (killed, out of memory), a worker whose start-up and warm-up exceed their
-allowance, a Dask task that fails (scheduler or worker lost, the package missing on a worker).
+cells finish, in completion order; the caller writes the rows. Every cell ends as a result, but for what
+the infrastructure loses:
+
+- a cell, or its solver's warm-up, that exceeds ``timeout`` seconds is stopped by killing its process and
+  yields its ``timeout`` cell row with the ``expression`` rows it had finished (the cell appends each to a
+  journal file as it goes, `harness._journal`, read after the kill; its sequence is cut there, unchecked
+  and without transfers);
+- a worker process that dies (a segfault, an abort, a kill) or fails while warming up or running the cell
+  yields `harness._cell.Lost` with ``crash`` set (how the process ended): the run counts the crashes of
+  each cell and records one that crashed twice ``crashed`` (`harness._run`);
+- what is no result of the cell yields `harness._cell.Lost` alone, and ``--resume`` runs the cell again: a
+  worker process that does not start within `STARTUP_ALLOWANCE`, a Dask task that fails (scheduler or
+  worker lost, a cell a Dask worker cannot set up: `harness._cell.CellSetupError`).
 
 Local workers are `solvers.Worker` processes (fresh interpreters that end with the process that started
-them, even when it is killed with ``kill -9``), reused from cell to cell. A cell is two calls sent
-together: `harness._cell.warm_up` (one untimed solve per solver and process), then
-`harness._cell.run_cell`. Start-up and warm-up may take ``timeout`` plus `STARTUP_ALLOWANCE` seconds; the
-cell then gets the full ``timeout``.
+them, even when it is killed with ``kill -9``), reused from cell to cell. A cell is three calls sent
+together: `harness._cell.started` (the reply says the process has started and imported the harness),
+`harness._cell.warm_up` (one untimed solve per solver and process), then `harness._cell.run_cell`.
+Start-up may take `STARTUP_ALLOWANCE` seconds; the warm-up then gets ``timeout``, and the cell the full
+``timeout`` again.
+
+On a Dask cluster the rig files stay where the harness runs: the harness reads each rig once and scatters
+its content to the cluster (`DaskExecutor`), so a worker never opens a path it may not have (a relative
+path, a rig fetched into the harness machine's cache).
 """
 
 from __future__ import annotations
@@ -27,7 +38,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from harness._cell import Lost, run_cell, timeout_rows, warm_up
+from harness._cell import (
+    Lost,
+    TemplateKey,
+    generated,
+    run_cell,
+    set_up,
+    template_key,
+    timeout_rows,
+    verified_template,
+    warm_up,
+)
 from harness._grid import CellSpec
 from harness._journal import new_journal, read_journal, remove_journal
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
@@ -35,14 +56,20 @@ from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 if TYPE_CHECKING:
     from distributed import Future
 
+    from rigs import Rig
+
 Rows = list[dict[str, Any]]
 #: What an executor yields for a cell: its record rows, or `Lost`.
 Outcome = Rows | Lost
 #: Cells of one rig group share a template and a target rig: (rig, seed, warp).
 Group = tuple[str, int, str]
 
-#: Seconds a worker may take, on top of ``timeout``, to start and warm a solver up before a cell starts.
+#: Seconds a worker process may take to start (a fresh interpreter importing the harness) before a cell's
+#: warm-up begins: longer is the machine's trouble, not the cell's, and the cell is lost.
 STARTUP_ALLOWANCE = 120.0
+
+#: What a busy worker is doing for its cell, in order (one reply ends each).
+_PHASES = ("starting", "warming up", "running")
 
 
 class Executor(Protocol):
@@ -67,16 +94,24 @@ def _timeout_message(timeout: float, finished: int) -> str:
     return f"{stopped} after {count} (the sequence was cut there: not checked, no transfers)"
 
 
+def _warm_up_message(timeout: float) -> str:
+    """The message of a cell whose solver's warm-up was stopped."""
+    return (
+        f"the solver's warm-up (one untimed solve of a tiny problem, before the cell) exceeded --timeout "
+        f"{timeout:g}s and was stopped; the cell did not start"
+    )
+
+
 @dataclass
 class _Slot:
     """One of the executor's worker processes and the cell it runs (``spec`` and ``journal`` are None
-    while it is idle)."""
+    while it is idle; ``phase`` indexes `_PHASES`)."""
 
     worker: Worker = field(default_factory=lambda: Worker("harness cell", log=False))
     spec: CellSpec | None = None
     journal: Path | None = None
     deadline: float | None = None
-    started: bool = False
+    phase: int = 0
     group: Group | None = None
 
 
@@ -91,7 +126,13 @@ class LocalExecutor:
     jobs : int
         Number of worker processes, >= 1.
     timeout : float, optional
-        Seconds a cell may run (after its warm-up) before its process is killed.
+        Seconds the solver's warm-up may take, and then the cell, before its process is killed.
+
+    Attributes
+    ----------
+    templates : dict
+        Template rigs by `harness._cell.template_key`, sent to the workers with each cell of that rig
+        instead of its path (a Dask worker's cells: the rig was read where the harness runs).
     """
 
     def __init__(self, jobs: int = 1, timeout: float | None = None) -> None:
@@ -99,6 +140,7 @@ class LocalExecutor:
             raise ValueError(f"--jobs must be at least 1, got {jobs}")
         self.jobs = jobs
         self.timeout = timeout
+        self.templates: dict[TemplateKey, Rig] = {}
         self._slots = [_Slot() for _ in range(jobs)]
 
     def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
@@ -129,15 +171,17 @@ class LocalExecutor:
             spec = queue.pop(self._choose(slot, queue))
             journal = new_journal()
             try:
+                slot.worker.send("harness._cell:started")
                 slot.worker.send("harness._cell:warm_up", spec.solver)
-                slot.worker.send("harness._cell:run_cell", spec, str(journal))
+                template = self.templates.get(template_key(spec))
+                slot.worker.send("harness._cell:run_cell", spec, str(journal), template)
             except WorkerDied:  # it ended since it was started: the cell goes back, a fresh process takes it
                 remove_journal(journal)
                 queue.insert(0, spec)
                 continue
             idle.pop()
-            slot.spec, slot.journal, slot.started, slot.group = spec, journal, False, _group(spec)
-            slot.deadline = self._deadline(STARTUP_ALLOWANCE)
+            slot.spec, slot.journal, slot.phase, slot.group = spec, journal, 0, _group(spec)
+            slot.deadline = None if self.timeout is None else time.monotonic() + STARTUP_ALLOWANCE
 
     def _choose(self, slot: _Slot, queue: list[CellSpec]) -> int:
         """Index of the queued cell for ``slot``: one of the rig group it ran last (its rigs and transfer
@@ -155,28 +199,34 @@ class LocalExecutor:
         try:
             while slot.worker.pending and slot.worker.ready():
                 reply = slot.worker.receive()
-                if slot.started:
+                if _PHASES[slot.phase] == "running":
                     return cast(Outcome, reply)
-                slot.started = True  # the warm-up is done: the cell itself now runs
-                slot.deadline = self._deadline()
+                slot.phase += 1  # started, or warmed up: the next phase gets the full timeout
+                slot.deadline = None if self.timeout is None else time.monotonic() + self.timeout
         except WorkerDied as died:
             self._discard(slot)
-            return Lost(f"worker process {died.pid} died ({died.exit}) while running the cell")
+            return self._crash(slot, f"worker process {died.pid} died ({died.exit})", died.exit)
         except WorkerError as error:
             self._discard(slot)
-            return Lost(f"worker process failed while running the cell: {str(error).splitlines()[-1]}")
+            raised = str(error).splitlines()[-1]
+            return self._crash(slot, f"worker process failed: {raised}", raised)
         if slot.deadline is None or time.monotonic() < slot.deadline:
             return None
         self._discard(slot)
-        if not slot.started:
-            allowed = (self.timeout or 0.0) + STARTUP_ALLOWANCE
-            return Lost(f"worker start-up and the solver's warm-up took over {allowed:g}s")
+        timeout = self.timeout or 0.0
+        if _PHASES[slot.phase] == "starting":
+            return Lost(f"worker start-up took over {STARTUP_ALLOWANCE:g}s")
+        if _PHASES[slot.phase] == "warming up":
+            return timeout_rows(slot.spec, [], _warm_up_message(timeout))
         finished = read_journal(slot.journal)
-        return timeout_rows(slot.spec, finished, _timeout_message(self.timeout or 0.0, len(finished)))
+        return timeout_rows(slot.spec, finished, _timeout_message(timeout, len(finished)))
 
-    def _deadline(self, allowance: float = 0.0) -> float | None:
-        """When a cell sent now (with ``allowance`` for start-up and warm-up) is over its time."""
-        return None if self.timeout is None else time.monotonic() + self.timeout + allowance
+    @staticmethod
+    def _crash(slot: _Slot, what: str, how: str) -> Lost:
+        """A slot's worker ended or failed: a crash of the cell (``how``) once the process had started."""
+        phase = _PHASES[slot.phase]
+        reason = f"{what} while {'running the cell' if phase == 'running' else phase}"
+        return Lost(reason) if phase == "starting" else Lost(reason, crash=how)
 
     @staticmethod
     def _discard(slot: _Slot) -> None:
@@ -196,21 +246,31 @@ class LocalExecutor:
 _task_workers = threading.local()
 
 
-def run_isolated(spec_data: dict[str, Any], timeout: float | None) -> Outcome:
+def run_isolated(spec_data: dict[str, Any], timeout: float | None, template: Rig | None = None) -> Outcome:
     """Run one cell (given as a dict) to completion; the task function Dask workers execute.
 
-    Without a timeout the cell runs in the calling thread. With one, it runs in a local worker process
-    that can be killed; that process is kept per calling thread and reused by later tasks, so warm-up
-    and imports are paid once per Dask worker thread, not once per cell.
+    ``template`` is the cell's template rig as the harness read it (None for a generated rig, built here).
+    The cell is first set up here (`harness._cell.set_up`: its rigs and plugins), so that a cell this
+    machine cannot run fails the task (it is lost, never an ``error`` row). Without a timeout the cell
+    runs in the calling thread. With one, it runs in a local worker process that can be killed; that
+    process is kept per calling thread and reused by later tasks, so warm-up and imports are paid once
+    per Dask worker thread, not once per cell.
+
+    Raises
+    ------
+    harness._cell.CellSetupError
+        When the cell cannot be set up on this machine.
     """
     spec = CellSpec.from_dict(spec_data)
+    set_up(spec, template)
     if timeout is None:
         warm_up(spec.solver)
-        return run_cell(spec)
+        return run_cell(spec, None, template)
     executor = getattr(_task_workers, "executor", None)
     if executor is None:
         executor = _task_workers.executor = LocalExecutor(jobs=1, timeout=timeout)
     executor.timeout = timeout
+    executor.templates = {} if template is None else {template_key(spec): template}
     return [outcome for _, outcome in executor.map([spec])][0]
 
 
@@ -220,9 +280,11 @@ class DaskExecutor:
     Records are identical to the local executor's (the same `run_cell` produces them); with a timeout,
     each task runs its cell in a local worker process that can be stopped (see `run_isolated`), and a cell
     stopped there keeps the expressions it finished, as with `LocalExecutor` (its journal is a file on the
-    Dask worker's machine, read there). A task that fails is `Lost`: `run_cell` turns every failure of the
-    cell itself into rows, so an exception here comes from the cluster (a lost scheduler cancels every task
-    at once).
+    Dask worker's machine, read there). A rig read from files is read here once, checked against the
+    cells' digest and scattered to the cluster: the tasks receive its content, never its path. A task that
+    fails is `Lost`: `run_cell` turns every failure of the cell itself into rows, so an exception here
+    comes from the cluster (a lost scheduler cancels every task at once) or from a worker that cannot set
+    the cell up; a task that killed its Dask workers (``KilledWorker``) is a crash of the cell.
     """
 
     def __init__(self, scheduler: str, timeout: float | None = None) -> None:
@@ -246,9 +308,22 @@ class DaskExecutor:
 
         run = uuid.uuid4().hex[:8]
         by_key = {}
+        templates: dict[TemplateKey, Future | Lost | None] = {}
         for spec in cells:
+            key = template_key(spec)
+            if key not in templates:
+                templates[key] = self._scattered(spec)
+            template = templates[key]
+            if isinstance(template, Lost):
+                yield spec, template
+                continue
             future = self._client.submit(
-                run_isolated, spec.to_dict(), self.timeout, key=f"harness-cell-{spec.id}-{run}", pure=False
+                run_isolated,
+                spec.to_dict(),
+                self.timeout,
+                template,
+                key=f"harness-cell-{spec.id}-{run}",
+                pure=False,
             )
             by_key[future.key] = spec
             self._futures.append(future)
@@ -257,9 +332,19 @@ class DaskExecutor:
             try:
                 outcome = future.result()
             except Exception as error:  # noqa: BLE001 - no result of the cell: --resume runs it again
-                outcome = Lost(_dask_failure(error))
+                outcome = _dask_failure(error)
             yield spec, outcome
         self._futures.clear()
+
+    def _scattered(self, spec: CellSpec) -> Future | Lost | None:
+        """The cluster's copy of a cell's template rig, read here (None for a generated rig, which the
+        workers build themselves), or `Lost` when it cannot be read or changed since the run started."""
+        if generated(spec):
+            return None
+        try:
+            return self._client.scatter(verified_template(spec), hash=False)
+        except Exception as error:  # noqa: BLE001 - every cell of the rig is lost, the reason says why
+            return Lost(f"rig {spec.rig} cannot be sent to the cluster: {error}")
 
     def close(self) -> None:
         """Cancel unfinished tasks and disconnect from the scheduler (quietly, if it is gone: the lost
@@ -277,11 +362,16 @@ class DaskExecutor:
                 client_log.setLevel(level)
 
 
-def _dask_failure(error: Exception) -> str:
-    """One line on a failed Dask task: the cancellation reason (e.g. ``scheduler-connection-lost``), or
-    the exception's type and first line."""
+def _dask_failure(error: Exception) -> Lost:
+    """A failed Dask task, in one line: the cancellation reason (e.g. ``scheduler-connection-lost``), or
+    the exception's type and first line; a task that killed the Dask workers running it is a crash."""
+    from distributed import KilledWorker
+
     reason = getattr(error, "reason", None)
     if isinstance(reason, str) and reason:
-        return f"Dask task cancelled ({reason})"
+        return Lost(f"Dask task cancelled ({reason})")
     lines = [line.strip() for line in str(error).splitlines() if line.strip()]
-    return f"Dask task failed ({type(error).__name__}{': ' + lines[0] if lines else ''})"
+    described = f"{type(error).__name__}{': ' + lines[0] if lines else ''}"
+    if isinstance(error, KilledWorker):
+        return Lost(f"Dask task failed ({described})", crash="its Dask workers died running it")
+    return Lost(f"Dask task failed ({described})")

@@ -46,18 +46,21 @@ message        string         error, skip, timeout or check message; empty other
 ============== ============== ================================================================================
 
 ``kind == "cell"``, exactly one per finished cell (``--resume`` skips cells that have one). ``status`` is
-``ok``, ``skipped`` (solver unavailable, message = the reason), ``error`` (rig, solver or packing raised, or
-a solver reported an error; message), ``timeout`` (killed after ``--timeout``) or ``invalid`` (`packing.check`
-rejected the sequence, checked by the harness with its own symmetry pairs and the solver's declared
-``capabilities.max_overlap``: overlapping shapes, a bound below the objective, an expression of a solver
-that ran to its end with room left for an unused shape; message = the violation) or ``inconsistent`` (the
-run's cross-solver certificate, `harness._certificate`: its optimality claim disagrees with other exact
-solvers' on the same instance, or another solver's packing beats a bound it proved; message = the
-instance, the other solver and both values; like ``invalid``, a quality failure, never a result). A cell
-lost to the infrastructure (its worker process died, the Dask scheduler went away) has no part file at
-all, so ``--resume`` runs it again. Cells that are not ``ok`` have no expression or transfer rows, but a
-``timeout`` cell keeps the expressions it finished before it was stopped (``n_expressions`` of them, as its
-message says; its sequence was cut there, so they are not checked and it has no transfers):
+``ok``, ``skipped`` (solver unavailable, message = the reason), ``error`` (rig, solver or packing raised, or a
+solver reported an error; message), ``timeout`` (killed after ``--timeout``: the cell, or its solver's warm-up
+before it), ``crashed`` (its worker process died or failed running it twice, in two sessions; message = how it
+ended last, e.g. ``killed by SIGSEGV``) or ``invalid`` (`packing.check` rejected the sequence, checked by the
+harness with its own symmetry pairs and the solver's declared ``capabilities.max_overlap``: overlapping
+shapes, a bound below the objective, an infeasible verdict (every packing problem has a solution), an
+expression of a solver that ran to its end with room left for an unused shape; message = the violation) or
+``inconsistent`` (the run's cross-solver certificate, `harness._certificate`: its optimality claim disagrees
+with other exact solvers' on the same instance, or another solver's packing beats a bound it proved; message =
+the instance, the other solver and both values; like ``invalid``, a quality failure, never a result). A cell
+lost to the infrastructure (its worker process died once, the Dask scheduler went away, a Dask worker could
+not set it up) has no part file at all, so ``--resume`` runs it again. Cells that are not ``ok`` have no
+expression or transfer rows, but a ``timeout`` cell keeps the expressions it finished before it was stopped
+(``n_expressions`` of them, as its message says; its sequence was cut there, so they are not checked and it
+has no transfers):
 
 ================ ============== ==============================================================================
 analysis_time    float64        seconds of rig analysis (binary shapes, importance, symmetry, presolve)

@@ -14,16 +14,21 @@
   the harness process),
 - ``started``, ``finished`` (ISO 8601, UTC; ``finished`` is null until the run ends), ``resumed`` (list of
   the times ``--resume`` continued it), ``error`` (the message of a ``failed`` run), ``lost`` (cell id ->
-  ``{"cell": label, "reason": ...}`` for the cells the infrastructure lost in the last session).
+  ``{"cell": label, "reason": ...}`` for the cells the infrastructure lost in the last session),
+  ``crashes`` (cell id -> ``{"cell": label, "count": n, "exit": how}``: how often, over every session, the
+  worker process died or failed running a cell that has no part file yet).
 
-Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own
-part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
+Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own part
+file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
 infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
-``--resume`` runs exactly the cells without a complete part file. ``--resume`` first reads every part back
-and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose content changed,
-and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs never write
-one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force`` removes
-only those, never a file the harness did not write.
+``--resume`` runs exactly the cells without a complete part file. A worker process that crashes on a cell
+loses it the first time and records it ``crashed`` the second (`harness._failures`). ``--resume`` runs no cell
+that has a part file; with ``retry_failed`` (``--retry-failed``) it also runs again the cells recorded
+`harness._failures.RETRIED_STATUSES`, whose result then replaces the recorded one. ``--resume`` first reads
+every part back and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose
+content changed, and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs
+never write one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force``
+removes only those, never a file the harness did not write.
 """
 
 from __future__ import annotations
@@ -51,6 +56,7 @@ from harness import _plugins as plugins
 from harness._cell import Lost, Row, failure_rows
 from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
+from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._outdir import OutputFolder
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
@@ -360,6 +366,7 @@ def run_grid(
     reporter: Reporter | None = None,
     command: list[str] | None = None,
     execution: dict[str, Any] | None = None,
+    retry_failed: bool = False,
 ) -> RunSummary:
     """Run (or resume) a grid into ``out``.
 
@@ -380,6 +387,9 @@ def run_grid(
         The command line, for ``run.json``.
     execution : dict, optional
         How the cells run (executor, jobs or scheduler), for ``run.json``.
+    retry_failed : bool
+        With ``resume``: also run again the cells recorded `harness._failures.RETRIED_STATUSES`
+        (``--retry-failed``).
 
     Returns
     -------
@@ -398,6 +408,8 @@ def run_grid(
     """
     out = Path(out)
     reporter = reporter or SilentReporter()
+    if retry_failed and not resume:
+        raise RunDirectoryError("--retry-failed runs failed cells of a run again: give it with --resume OUT")
     previous = previous_run(out, resume=resume, force=force)
     if previous is not None:
         stored = validate_config(RunConfig.from_dict(previous["config"]))
@@ -419,7 +431,9 @@ def run_grid(
     except OSError as error:
         raise write_error(out, error) from None
     with locked(out):
-        return _run_locked(config, out, digests, previous, make_executor, force, reporter, command, execution)
+        return _run_locked(
+            config, out, digests, previous, make_executor, force, reporter, command, execution, retry_failed
+        )
 
 
 def _run_locked(
@@ -432,6 +446,7 @@ def _run_locked(
     reporter: Reporter,
     command: list[str] | None,
     execution: dict[str, Any] | None,
+    retry_failed: bool,
 ) -> RunSummary:
     """`run_grid` once the folder is locked."""
     solver_infos = {name: plugins.solver_info(name) for name in config.solvers}
@@ -443,6 +458,8 @@ def _run_locked(
         previous = read_run(out)  # as the last writer left it, now that no other run can write it
         folder = open_for_resume(out)
         done, set_aside_parts = repair_parts(out, folder, {spec.id for spec in cells})
+        if retry_failed:
+            done -= failed_cells(out)
     else:
         folder = open_new(out, force)
         done, set_aside_parts = set(), {}
@@ -465,6 +482,7 @@ def _run_locked(
         info["rig_digests"] = digests
         info["execution"] = {**(execution or {}), "pid": os.getpid(), "host": socket.gethostname()}
         info["lost"] = {}
+        info["crashes"] = {cell: entry for cell, entry in info.get("crashes", {}).items() if cell not in done}
         write_run(out, info, folder)
 
         clock = time.perf_counter()
@@ -477,9 +495,12 @@ def _run_locked(
                 _record(out, folder, spec, failure_rows(spec, "skipped", reason), summary, reporter)
         if executor is not None:
             for spec, outcome in executor.map(runnable):
+                if isinstance(outcome, Lost) and outcome.crash:
+                    outcome = count_crash(info["crashes"], spec, outcome)
                 if isinstance(outcome, Lost):
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
+                    info["crashes"].pop(spec.id, None)
                     _record(out, folder, spec, outcome, summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         write_overlap(out, folder)

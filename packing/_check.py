@@ -30,7 +30,8 @@ class CheckError(ValueError):
         ``extra`` (an extra example not used before, or also primary), ``pair`` (a symmetry pair
         split), ``together`` (an artist's together pair split), ``apart`` (an artist's apart pair in one
         expression), ``cap`` (too many shapes), ``overlap`` (two shapes share an active vertex), ``bound``
-        (a solver's bound below its objective), ``maximal`` (an unused item still fits).
+        (a solver's bound below its objective), ``infeasible`` (a solver's verdict that the expression's
+        problem has no solution), ``maximal`` (an unused item still fits).
     expression : int
         1-based index of the offending expression.
     """
@@ -73,7 +74,10 @@ def check(
        between its own shapes is allowed. With ``overlap > 0`` (Algorithm 2 with allowed overlap),
        the items must instead admit an order of addition in which each overlaps the items before it
        by at most ``floor(overlap * |b_item|)`` active vertices;
-    10. a solver's bound is not below its objective (``bound``), for expressions that carry both;
+    10. a solver's bound is not below its objective (``bound``), for expressions that carry both, and
+        no solver answered that the expression's problem is infeasible (``infeasible``): eq. 3 always
+        has a solution (choosing nothing, and any one available item alone satisfies eq. 3b-3d), so
+        that verdict is false, and an empty answer would end the sequence with shapes left unused;
     11. with ``maximal``, an expression whose solver ran to its end (termination ``optimal`` or
         ``completed``) leaves no unused packable item that would still fit beside its primary shapes
         (``maximal``): every item has positive weight, so an optimum is maximal, and Algorithm 2 only
@@ -130,6 +134,7 @@ def check(
         primary, extra = _shapes_of(expression)
         rules.check_expression(number, primary, extra, primary_before)
         _check_bound(number, expression)
+        _check_feasible(number, expression)
         if maximal and getattr(expression, "termination", None) in _RAN_TO_END:
             rules.check_maximal(number, primary, primary_before, rejected.get(number, set()))
         primary_before.update(primary)
@@ -150,6 +155,17 @@ def _check_bound(number: int, expression: Any) -> None:
     if not float(bound) >= float(objective) - 1e-9 * max(1.0, abs(float(objective))):
         raise CheckError(f"the solver's bound {bound!r} is below its objective {objective!r}", kind="bound",
                          expression=number)  # fmt: skip
+
+
+def _check_feasible(number: int, expression: Any) -> None:
+    """Rule 10, second half: no expression's problem is declared infeasible."""
+    if getattr(expression, "termination", None) == Termination.INFEASIBLE:
+        raise CheckError(
+            "the solver answered infeasible, but a packing problem always has a solution (choosing "
+            "nothing; any one available item alone)",
+            kind="infeasible",
+            expression=number,
+        )
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ A solve's *time* is the backend's share of the expression, model build + solve (
 ``solve_time``): ``solve_time`` alone is 0 when packing's exact reductions leave the backend nothing to
 search, and the paper's naive formulation spends most of its time building. A solve that did not end
 ``optimal`` or ``completed`` (time limit, infeasible, error), and expression 1 of a cell that failed (error,
-timeout, invalid, inconsistent; it has no expression rows), is *charged* at the time limit, never as fast.
+timeout, crashed, invalid, inconsistent; no expression rows), is *charged* at the time limit, never as fast.
 
 Everything here only selects, groups and aggregates recorded values; nothing is recomputed.
 """
@@ -47,12 +47,13 @@ OUTCOMES: tuple[str, ...] = (
     "infeasible",
     "error",
     "timeout",
+    "crashed",
     "invalid",
     "inconsistent",
 )
 
 #: Cell statuses whose expression 1 counts as a failed solve (a skipped solver ran nothing).
-FAILED_CELLS: tuple[str, ...] = ("error", "timeout", "invalid", "inconsistent")
+FAILED_CELLS: tuple[str, ...] = ("error", "timeout", "crashed", "invalid", "inconsistent")
 
 #: Columns that identify an instance (see the module docstring).
 INSTANCE_COLUMNS: tuple[str, ...] = (*GROUP_COLUMNS, "expression", "prefix")
@@ -321,7 +322,7 @@ def sequence_table(records: pd.DataFrame, timeout: float | None = None, shift: f
     records : DataFrame
         `harness.read_records` of a run.
     timeout : float, optional
-        Seconds charged to a failed cell (error, timeout, invalid, inconsistent): the run's cell timeout.
+        Seconds charged to a failed cell (`FAILED_CELLS`): the run's cell timeout.
         Without it, the longest sequence of the run is charged (inf when no cell finished).
     shift : float
         Shift of the geometric mean, seconds.
