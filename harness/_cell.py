@@ -42,7 +42,7 @@ import solvers
 from harness import _plugins as plugins
 from harness import _replay
 from harness._grid import NO_WARP, CellSpec, rig_digest
-from harness._journal import append_row
+from harness._journal import SEQUENCE_END, append_row
 from harness._permute import permuted_solver
 from harness._rigspec import is_rig_file, resolve_rig
 from harness._settings import split_label
@@ -294,6 +294,8 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
     failed = _failed_expression(expressions)
     if failed is not None:
         return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")
+    if journal is not None:
+        append_row(journal, {"kind": SEQUENCE_END})
     try:
         verify()
     except Exception as error:  # noqa: BLE001 - CheckError and anything the checker raises

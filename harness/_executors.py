@@ -50,7 +50,7 @@ from harness._cell import (
     warm_up,
 )
 from harness._grid import CellSpec
-from harness._journal import new_journal, read_journal, remove_journal
+from harness._journal import SEQUENCE_END, new_journal, read_journal, remove_journal
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 
 if TYPE_CHECKING:
@@ -85,12 +85,14 @@ def _group(spec: CellSpec) -> Group:
     return spec.rig, spec.rig_seed, spec.warp
 
 
-def _timeout_message(timeout: float, finished: int) -> str:
-    """The message of a cell stopped after ``finished`` expressions."""
+def _timeout_message(timeout: float, finished: int, whole: bool) -> str:
+    """The message of a cell stopped after ``finished`` expressions (``whole``: its sequence had ended)."""
     stopped = f"cell exceeded --timeout {timeout:g}s and was stopped"
     if not finished:
         return f"{stopped} before its first expression was finished"
     count = f"{finished} expression{'s' if finished > 1 else ''}"
+    if whole:
+        return f"{stopped} after its whole sequence of {count}, while checking or transferring (no transfers)"
     return f"{stopped} after {count} (the sequence was cut there: not checked, no transfers)"
 
 
@@ -218,8 +220,10 @@ class LocalExecutor:
             return Lost(f"worker start-up took over {STARTUP_ALLOWANCE:g}s")
         if _PHASES[slot.phase] == "warming up":
             return timeout_rows(slot.spec, [], _warm_up_message(timeout))
-        finished = read_journal(slot.journal)
-        return timeout_rows(slot.spec, finished, _timeout_message(timeout, len(finished)))
+        journal = read_journal(slot.journal)
+        finished = [row for row in journal if row.get("kind") == "expression"]
+        whole = any(row.get("kind") == SEQUENCE_END for row in journal)
+        return timeout_rows(slot.spec, finished, _timeout_message(timeout, len(finished), whole))
 
     @staticmethod
     def _crash(slot: _Slot, what: str, how: str) -> Lost:

@@ -4,9 +4,11 @@ A cell stopped by ``--timeout`` is killed with its worker process, so it cannot 
 had solved. `harness._executors.LocalExecutor` gives each cell a journal file of its own (`new_journal`, in
 the machine's temporary directory: never in a run folder, so never taken for a part file or for a temporary
 file of one, and local to the machine even when a Dask worker runs the cell), `harness._cell.run_cell`
-appends each finished expression's row to it as one JSON line (`append_row`), and on a timeout the executor
-reads the rows back (`read_journal`) to record them beside the ``timeout`` cell row. The executor removes
-the journal once the cell's outcome is known, however the cell ended (`remove_journal`).
+appends each finished expression's row to it as one JSON line (`append_row`), then a `SEQUENCE_END` line
+once the sequence is whole, and on a timeout the executor reads the rows back (`read_journal`) to record
+them beside the ``timeout`` cell row, saying whether the sequence was cut or the time ran out after it.
+The executor removes the journal once the cell's outcome is known, however the cell ended
+(`remove_journal`).
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from harness._cell import RecordValue, Row
+
+#: ``kind`` of the line a cell appends once its whole sequence is solved (checks and transfers follow).
+SEQUENCE_END = "sequence_end"
 
 #: Prefix and suffix of journal file names.
 _PREFIX, _SUFFIX = "harness-cell-", ".journal"

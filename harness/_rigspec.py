@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from rigs import Rig
+    from rigs import Rig, RigInputs
     from rigs._warp import Warp
 
 #: Rigs ``harness rigs fetch NAME`` downloads and converts into the user cache, by name.
@@ -58,11 +58,16 @@ def resolve_rig(text: str, *, seed: int = 0) -> Rig:
     )
 
 
-def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: str) -> None:
+def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: str) -> dict[str, RigInputs]:
     """Every rig file among ``arguments`` reads, and every warp finds the centres it needs on it.
 
     Run before any cell, so that a rig without the landmarks or regions a warp needs (e.g. ``big-eyes`` on
     a rig without eyelid regions) is one error up front, not one failed cell per solver.
+
+    Returns
+    -------
+    dict
+        Per rig file or folder argument, what its read opened (`rigs.load_with_inputs`): its content.
 
     Raises
     ------
@@ -75,10 +80,11 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
     import rigs
 
     warps = [name for name in warps if name != no_warp]
+    found = {}
     for argument in arguments:
         if not is_rig_file(argument):
             continue
-        rig = rigs.load(argument)
+        rig, found[argument] = rigs.load_with_inputs(argument)
         for name in warps:
             try:
                 rigs.WARPS[name].resolve(rig)
@@ -87,6 +93,7 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
                 raise ValueError(
                     f"--warps {name}: {error}; warps that apply to this rig: {', '.join([*usable, no_warp])}"
                 ) from None
+    return found
 
 
 def _applies(warp: Warp, rig: Rig) -> bool:

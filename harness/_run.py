@@ -6,9 +6,12 @@
   ``interrupted`` or ``failed``), ``command`` (argv),
 - ``config``: the exact `RunConfig` (``--solvers all`` already expanded to names),
 - ``n_cells``: size of the grid, ``rig_digests``: the content digest of every rig
-  (`harness._grid.rig_digest`; the cell ids hash them),
+  (`harness._grid.rig_digest`; the cell ids hash them), ``rig_inputs``: per rig file or folder, what its
+  read opened (`rigs.RigInputs`: each file's SHA-256 and each folder listing), so that a resume names the
+  file that changed,
 - ``versions``: Python and distributions (`harness._environment.DISTRIBUTIONS`), plus ``solvers`` and
-  ``transfers``: per plugin ``available``, ``reason``, ``version``,
+  ``transfers``: per plugin ``available``, ``reason``, ``version``; ``--resume`` refuses a run whose
+  options, rig content or any of these versions changed (`harness._resume`),
 - ``git`` (``commit``, ``dirty``), ``machine`` (``hostname``, ``platform``, ``processor``, ``cpu_count``),
 - ``execution``: how the cells ran last (``executor`` and ``jobs`` or ``scheduler``; ``pid`` and ``host`` of
   the harness process),
@@ -76,12 +79,13 @@ from harness._records import (
     write_error,
     write_listed,
 )
+from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, is_rig_file
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from registry import PluginInfo
+    from rigs import RigInputs
 
 RUN_FORMAT = 2
 
@@ -186,7 +190,6 @@ def validate_config(config: RunConfig) -> RunConfig:
     )
     plugins.check_rigs(config.rigs)
     plugins.check_warps(config.warps)
-    check_rig_files(config.rigs, config.warps, no_warp=NO_WARP)
     if config.repetitions < 1:
         raise ValueError(f"--repetitions must be at least 1, got {config.repetitions}")
     if config.jmax is not None and config.jmax < 1:
@@ -253,57 +256,29 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
     return None
 
 
-def _show(value: object) -> str:
-    if isinstance(value, dict):
-        return f"{len(value)} regions ({', '.join(sorted(value))})" if value else "none"
-    if isinstance(value, list):
-        if value and isinstance(value[0], list):
-            return " ".join(",".join(map(str, item)) for item in value)
-        return ",".join(_show(item) for item in value) or "none"
-    if isinstance(value, bool):
-        return "on" if value else "off"
-    return "none" if value is None or value == "" else str(value)
-
-
-def same_options(stored: RunConfig, given: RunConfig, out: Path) -> None:
-    """Refuse to resume with options other than those in ``run.json``.
+def refuse_changes(out: Path, changes: list[str]) -> None:
+    """Refuse to resume a run whose options, rigs or versions changed (`harness._resume`).
 
     Raises
     ------
     RunDirectoryError
-        Listing each differing option with the given and the stored value.
+        Listing every change.
     """
-    old, new = stored.to_dict(), given.to_dict()
-    changed = [
-        f"--{key.replace('_', '-')} {_show(new[key])} (the run has {_show(old[key])})"
-        for key in old
-        if old[key] != new[key]
-    ]
-    if changed:
+    if changes:
         raise RunDirectoryError(
-            f"--resume {out}: options differ from its {RUN_FILE}: {'; '.join(changed)}; drop them to finish "
-            "the run as it was started, or start a new run with another --out"
+            f"--resume {out}: differs from its {RUN_FILE}: {'; '.join(changes)}; restore them to finish the "
+            "run as it was started, or start a new run with --force or another --out"
         )
 
 
-def same_rigs(previous: dict[str, Any], digests: dict[str, str], out: Path) -> None:
-    """Refuse to resume when a rig's content is no longer the one the run started with.
-
-    Raises
-    ------
-    RunDirectoryError
-        Naming the rig and both digests.
-    """
-    stored = previous.get("rig_digests") or {}
-    for key, digest in digests.items():
-        if key in stored and stored[key] != digest:
-            rig, _, seed = key.rpartition("@")
-            named = rig if is_rig_file(rig) else f"{rig} (seed {seed})"
-            raise RunDirectoryError(
-                f"--resume {out}: rig {named} changed since the run started (content {digest[:19]}..., "
-                f"the run has {stored[key][:19]}...); restore it to finish the run, or start a new run "
-                "with --force or another --out"
-            )
+def current_versions(config: RunConfig) -> dict[str, Any]:
+    """``run.json``'s ``versions``: Python and the key distributions, and every solver and transfer of
+    ``config`` as ``harness list`` shows it."""
+    return {
+        **environment.versions(),
+        "solvers": {name: plugins.listing(plugins.solver_info(name)) for name in config.solvers},
+        "transfers": {name: plugins.listing(plugins.transfer_info(name)) for name in config.transfers},
+    }
 
 
 def _check_apart_from_rigs(out: Path, arguments: tuple[str, ...]) -> None:
@@ -374,7 +349,7 @@ def run_grid(
     ----------
     config : RunConfig or None
         The grid. When ``resume`` is true, None means the configuration stored in ``run.json``; a given
-        configuration must equal it (`same_options`).
+        configuration must equal it (`harness._resume`).
     out : path
         Run directory.
     make_executor : callable
@@ -411,18 +386,26 @@ def run_grid(
     if retry_failed and not resume:
         raise RunDirectoryError("--retry-failed runs failed cells of a run again: give it with --resume OUT")
     previous = previous_run(out, resume=resume, force=force)
+    changes: list[str] = []
     if previous is not None:
         stored = validate_config(RunConfig.from_dict(previous["config"]))
         if config is not None:
-            same_options(stored, validate_config(config), out)
+            changes += options_changed(stored, validate_config(config))
         config = stored
     elif config is None:
         raise ValueError("run_grid needs a configuration unless it resumes a run")
     else:
         config = validate_config(config)
-    digests = {digest_key(rig, seed): rig_digest(rig, seed) for rig in config.rigs for seed in config.seed}
+    inputs = check_rig_files(config.rigs, config.warps, no_warp=NO_WARP)
+    digests = {
+        digest_key(rig, seed): rig_digest(rig, seed, inputs.get(rig))
+        for rig in config.rigs
+        for seed in config.seed
+    }
     if previous is not None:
-        same_rigs(previous, digests, out)
+        changes += rigs_changed(previous, digests, inputs)
+        changes += versions_changed(previous, current_versions(config))
+        refuse_changes(out, changes)
     _check_apart_from_rigs(out, config.rigs)
     if out.exists() and not out.is_dir():
         raise RunDirectoryError(f"--out {out} exists and is not a folder; choose another --out")
@@ -432,7 +415,17 @@ def run_grid(
         raise write_error(out, error) from None
     with locked(out):
         return _run_locked(
-            config, out, digests, previous, make_executor, force, reporter, command, execution, retry_failed
+            config,
+            out,
+            digests,
+            inputs,
+            previous,
+            make_executor,
+            force,
+            reporter,
+            command,
+            execution,
+            retry_failed,
         )
 
 
@@ -440,6 +433,7 @@ def _run_locked(
     config: RunConfig,
     out: Path,
     digests: dict[str, str],
+    inputs: dict[str, RigInputs],
     previous: dict[str, Any] | None,
     make_executor: Callable[[float | None], Executor],
     force: bool,
@@ -473,13 +467,14 @@ def _run_locked(
     try:
         if previous is None:
             remove_previous(folder)
-        info = previous or _new_run_info(out, config, solver_infos, command)
+        info = previous or _new_run_info(out, config, command)
         if previous is not None:
             info["state"], info["finished"] = "running", None
             info["resumed"] = [*info.get("resumed", []), now()]
             info.pop("error", None)
         info["n_cells"] = len(cells)
         info["rig_digests"] = digests
+        info["rig_inputs"] = {rig: found.document() for rig, found in inputs.items()}
         info["execution"] = {**(execution or {}), "pid": os.getpid(), "host": socket.gethostname()}
         info["lost"] = {}
         info["crashes"] = {cell: entry for cell, entry in info.get("crashes", {}).items() if cell not in done}
@@ -518,9 +513,7 @@ def _run_locked(
     return summary
 
 
-def _new_run_info(
-    out: Path, config: RunConfig, solver_infos: dict[str, PluginInfo], command: list[str] | None
-) -> dict[str, Any]:
+def _new_run_info(out: Path, config: RunConfig, command: list[str] | None) -> dict[str, Any]:
     """The ``run.json`` of a new run (see the module docstring for the keys)."""
     return {
         "format": RUN_FORMAT,
@@ -529,11 +522,7 @@ def _new_run_info(
         "config": config.to_dict(),
         "n_cells": 0,
         "rig_digests": {},
-        "versions": {
-            **environment.versions(),
-            "solvers": {name: plugins.listing(item) for name, item in solver_infos.items()},
-            "transfers": {name: plugins.listing(plugins.transfer_info(name)) for name in config.transfers},
-        },
+        "versions": current_versions(config),
         "git": environment.git_state(output=out),
         "machine": environment.machine(),
         "started": now(),

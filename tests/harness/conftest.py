@@ -19,16 +19,31 @@ import rigs
 import solvers
 from harness._cell import run_cell
 from tests.plugin_distribution import write_distribution
+from transfer._registry import TRANSFERS
 
 PLUGIN_MODULE = '''
-"""Solver plugins for the harness tests: three that sleep, one that raises, one that is unavailable."""
+"""Plugins for the harness tests: three solvers that sleep, one that raises, one that is unavailable, and
+a transfer method that sleeps."""
 
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import solvers
 from solvers.greedy import GreedySolver
+from transfer.delta import DeltaTransfer
+
+
+@dataclass(frozen=True)
+class SluggishTransfer(DeltaTransfer):
+    """The template's deltas, after sleeping HARNESS_TEST_TRANSFER_SLEEP seconds (default 60)."""
+
+    name = "sluggish"
+
+    def transfer(self, inputs):
+        time.sleep(float(os.environ.get("HARNESS_TEST_TRANSFER_SLEEP", "60")))
+        return super().transfer(inputs)
 
 
 class SleepySolver(GreedySolver):
@@ -122,6 +137,9 @@ napper = harness_test_plugins:NapperSolver
 raising = harness_test_plugins:RaisingSolver
 missing = harness_test_plugins:MissingSolver
 
+[harness.transfers]
+sluggish = harness_test_plugins:SluggishTransfer
+
 [harness.commands]
 hello = harness_test_plugins:hello
 greet = harness_test_plugins:greet
@@ -143,6 +161,7 @@ def plugins_registered(plugin_dir: Path):
     sys.path.insert(0, str(plugin_dir))
     importlib.invalidate_caches()
     solvers.refresh()
+    TRANSFERS.refresh()
     old = os.environ.get("PYTHONPATH")
     os.environ["PYTHONPATH"] = os.pathsep.join([str(plugin_dir), *([old] if old else [])])
     try:
@@ -155,6 +174,7 @@ def plugins_registered(plugin_dir: Path):
             os.environ["PYTHONPATH"] = old
         importlib.invalidate_caches()
         solvers.refresh()
+        TRANSFERS.refresh()
 
 
 @pytest.fixture

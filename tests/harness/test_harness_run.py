@@ -175,6 +175,22 @@ def test_a_timed_out_cell_keeps_the_expressions_it_finished_and_is_not_run_again
     assert harness.read_records(out).equals(records)
 
 
+def test_a_cell_timed_out_after_its_sequence_says_so(rig_file, tmp_path, test_plugins, monkeypatch) -> None:
+    monkeypatch.setenv("HARNESS_TEST_TRANSFER_SLEEP", "60")
+    out = tmp_path / "out"
+    config = _config(rig_file, solvers=("greedy",), transfers=("sluggish",), timeout=3.0)
+    assert harness.run_grid(config, out, make_executor=_local(jobs=1)).statuses == {"timeout": 1}
+    records = harness.read_records(out)
+    cell = records[records["kind"] == "cell"].iloc[0]
+    count = int((records["kind"] == "expression").sum())
+    assert count == cell["n_expressions"] > 0
+    assert cell["message"] == (
+        f"cell exceeded --timeout 3s and was stopped after its whole sequence of {count} expressions, "
+        "while checking or transferring (no transfers)"
+    )
+    assert "transfer" not in set(records["kind"])
+
+
 def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
     rig_file, tmp_path, monkeypatch, inline
 ) -> None:

@@ -3,6 +3,7 @@ broken part files, and files the harness did not write."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -18,6 +19,8 @@ from harness._cell import Lost, run_cell
 from harness._grid import RunConfig, digest_key, rig_digest
 from harness._run import locked
 from harness.cli import cli
+from tests.rigs.test_rig_inputs import FORMS as RIG_FORMS
+from tests.rigs.test_rig_inputs import touch
 
 
 def _config(rig: Path, **changes) -> RunConfig:
@@ -52,7 +55,7 @@ def finished(rig_file, tmp_path, inline) -> Path:
 
 def test_resume_refuses_options_other_than_those_of_the_run(finished, rig_file, inline) -> None:
     line = _one_line_error(invoke("run", "--resume", finished, "--solvers", "greedy", "--mu", "0.3"))
-    assert "options differ from its run.json: --solvers greedy (the run has greedy,cpsat);" in line
+    assert "differs from its run.json: --solvers greedy (the run has greedy,cpsat);" in line
     assert "--mu" not in line
     line = _one_line_error(invoke("run", "--resume", finished, "--time-limit", "5s", "--no-symmetry"))
     assert "--symmetry off (the run has on); --time-limit 5.0 (the run has 10.0)" in line
@@ -80,7 +83,7 @@ def test_a_rig_replaced_before_resume_is_refused_and_never_mixed(rig_file, tmp_p
     replacement = rigs.generate("tiny")
     rigs.save(replacement, rig)
     line = _one_line_error(invoke("run", "--resume", out))
-    assert f"rig {rig} changed since the run started" in line and "restore it" in line
+    assert f"rig {rig} changed since the run started (rig.npz changed)" in line and "restore them" in line
 
     forced = harness.run_grid(_config(rig), out, make_executor=inline, force=True)
     after = harness.read_records(out)
@@ -169,3 +172,30 @@ def test_the_run_folder_may_not_lie_inside_a_rig_folder(rig_file, tmp_path, inli
     with pytest.raises(harness.RunDirectoryError, match="lies inside the rig"):
         harness.run_grid(_config(folder), folder / "results", make_executor=inline)
     assert not (folder / "results").exists()
+
+
+@pytest.mark.parametrize("form", sorted(RIG_FORMS))
+def test_a_resume_after_any_file_of_a_rig_changed_is_refused_naming_it(form, tmp_path, inline) -> None:
+    """Each of the six forms a rig file takes: every file its read opened is the rig's content."""
+    argument, files = RIG_FORMS[form](tmp_path / "rig")
+    out = tmp_path / "out"
+    config = _config(argument, solvers=("greedy",), transfers=("delta",))
+    harness.run_grid(config, out, make_executor=inline)
+    for path in files:
+        saved = path.read_bytes()
+        touch(path)
+        line = _one_line_error(invoke("run", "--resume", out))
+        named = path.relative_to(tmp_path / "rig").as_posix()
+        assert f"changed since the run started ({named} changed)" in line, line
+        path.write_bytes(saved)
+    assert harness.run_grid(config, out, make_executor=inline, resume=True).already_done == 1
+
+
+def test_a_resume_with_another_library_or_solver_version_is_refused_naming_it(finished) -> None:
+    run = json.loads((finished / "run.json").read_text())
+    run["versions"]["highspy"] = "0.9"
+    run["versions"]["solvers"]["cpsat"]["version"] = "0.1"
+    (finished / "run.json").write_text(json.dumps(run))
+    line = _one_line_error(invoke("run", "--resume", finished))
+    assert "(the run has 0.9)" in line and line.split("highspy ")[1].startswith("1.")
+    assert "solver cpsat " in line and "(the run has 0.1)" in line

@@ -26,7 +26,7 @@ def _tiny() -> rigs.Rig:
     return rigs.Rig(neutral, deltas, np.array([[0, 1, 2], [1, 3, 2]]), ["lift", "rest"])
 
 
-def _touch(path: Path) -> None:
+def touch(path: Path) -> None:
     """Change a file's bytes so that it still reads: a text file gains a blank line, a binary buffer's
     first byte flips (a glTF reads only the bytes its buffer declares)."""
     data = path.read_bytes()
@@ -98,7 +98,7 @@ def test_every_file_a_read_opens_is_in_the_digest(form: str, tmp_path: Path) -> 
     for path in files:
         saved = tmp_path / "saved"
         shutil.copy(path, saved)
-        _touch(path)
+        touch(path)
         _, later = rigs.load_with_inputs(argument)
         assert later.digest != inputs.digest, path
         assert inputs.changes(later) == [f"{inputs.relative(path)} changed"]
