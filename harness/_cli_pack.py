@@ -117,8 +117,8 @@ def pack(
     seed: int,
     refine: bool,
     reject: str | None,
-    together: tuple[tuple[str, str], ...],
-    apart: tuple[tuple[str, str], ...],
+    together: tuple[str, ...],
+    apart: tuple[str, ...],
     constraints: Path | None,
     regions: Path | None,
 ) -> None:
