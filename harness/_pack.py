@@ -15,25 +15,30 @@
                       "status": str, "files": {"mesh": str, "on_target": str, "front": str,
                                                "three_quarter": str}}, ...],
      "excluded": [{"shape": name, "reason": str}, ...],
+     "constraints": {"default": bool, "rules": [{"rule": str, "kind": str, "shapes": [name, name],
+                                                  "why": str}, ...], "notes": [str, ...]},
      "warnings": [str, ...]}
 
 ``params`` are the packing parameters used (`packing.PackingParams` names: ``max_per_expression`` is the
-cap of sec. 6, ``together``/``apart`` the artist constraints, ``regions`` the regions file given, if any);
-``sequence`` the settings of the sequence: ``mode`` ``sequence`` is Algorithm 1 (``jmax`` expressions at
-most, ``time_limit`` per solve and ``timeout`` for the whole packing in seconds), ``minimum`` the fewest
-expressions that cover every shape (`harness._session_minimum`, with ``minimum`` saying what was proved);
-``overlap`` is the share of an item's active vertices the solver may overlap (its declared
-``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced. Together they are what
-the independent checker needs::
+cap of sec. 6, ``together``/``apart`` every pair enforced, the artist's then the anatomical rules',
+``regions`` the regions file given, if any); ``constraints`` says whether the anatomical rules were on, the
+pairs they added (kind ``together``, ``apart``, or ``only_with`` for a shape left out unless scanned with the
+other) with the reason of each, and the rules that yielded to the artist's pairs
+(`harness._pack_constraints`); ``sequence`` the settings of the sequence: ``mode`` ``sequence`` is
+Algorithm 1 (``jmax`` expressions at most, ``time_limit`` per solve and ``timeout`` for the whole packing in
+seconds), ``minimum`` the fewest expressions that cover every shape (`harness._session_minimum`, with
+``minimum`` saying what was proved); ``overlap`` is the share of an item's active vertices the solver may
+overlap (its declared ``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced.
+Together they are what the independent checker needs::
 
     packing.check(rig, doc["expressions"], pairs=doc["pairs"], overlap=doc["sequence"]["overlap"],
                   **doc["params"])
 
 The expressions are in sequence order (priority: scan the first first); ``objective`` is the importance
-sum (eq. 3a). ``excluded`` names every shape in no expression and why (empty, rejected, or the sequence
-stopped before it). ``warnings`` are the pairs of shapes in one expression whose displacements largely
-cancel (`packing.find_cancellations`), a ``timeout`` that cut the sequence short, and a minimum that was
-not proved.
+sum (eq. 3a). ``excluded`` names every shape in no expression and why (left out by ``--exclude`` or by a
+rule, empty, rejected, or the sequence stopped before it). ``warnings`` are the pairs of shapes in one
+expression whose displacements largely cancel (`packing.find_cancellations`), a ``timeout`` that cut the
+sequence short, and a minimum that was not proved.
 
 Beside it (`harness._session`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
 neutral plus the sum of that expression's shapes, primary and extra examples) keeping the source OBJ's
@@ -61,6 +66,7 @@ from typing import TYPE_CHECKING, Any
 from harness import _plugins as plugins
 from harness._durations import format_duration
 from harness._outdir import ChangedFileWarning, OutputFolder, claim
+from harness._pack_constraints import session_constraints
 from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
@@ -151,6 +157,8 @@ def pack(
     minimum: bool = False,
     pictures: bool = True,
     glb: bool = False,
+    exclude: Sequence[str] = (),
+    default_constraints: bool = True,
 ) -> PackResult:
     """Pack one rig and write the session folder ``out`` (see the module docstring).
 
@@ -195,13 +203,19 @@ def pack(
         Render the pictures of every expression.
     glb : bool
         Also write ``expressions.glb``.
+    exclude : sequence of str
+        Shapes left out of the whole session.
+    default_constraints : bool
+        Apply the anatomical rules shipped with `packing` to the shapes whose names match
+        (`harness._pack_constraints`).
 
     Raises
     ------
     harness._outdir.OutputFolderError
         For an output folder that may not be used (before any packing is done).
     ValueError
-        For ``minimum`` with refinement, extra examples or a timeout.
+        For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
+        or for an expression the session does not have.
     """
     import packing
 
@@ -211,8 +225,17 @@ def pack(
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
     started = monotonic()
-    rig = resolve_rig(rig_argument, seed=seed)
-    target_mesh = read_target(target, rig)
+    full_rig = resolve_rig(rig_argument, seed=seed)
+    target_mesh = read_target(target, full_rig)
+    for name in sorted({name for names in (rejections or {}).values() for name in names}):
+        full_rig.index(name)  # RigError names the rig, the shape and close matches
+    if rejections and jmax is not None and max(rejections) > jmax:
+        raise ValueError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
+    constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
+    rig, params = constraints.rig, constraints.params
+    rejections = {
+        number: kept for number, names in (rejections or {}).items() if (kept := names & set(rig.names))
+    }
     solver = plugins.solver("cpsat" if minimum else solver_name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
@@ -248,7 +271,10 @@ def pack(
     timed_out = deadline is not None and deadline.expired
     refined = bool(rejections) or decide is not None
     missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
-    notes = [*analysis.notes, _symmetry_note(analysis)]
+    if rejections and not timed_out and max(rejections) > len(expressions):
+        made = f"the sequence stopped after {len(expressions)} expressions"
+        raise ValueError(_no_expression(max(rejections), rejections, made))
+    notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
     if minimum:
         notes.append(result.message())
     if missing:
@@ -294,7 +320,8 @@ def pack(
             }
             for expression in expressions
         ],
-        "excluded": _excluded(analysis, missing, reason, rejected),
+        "excluded": _excluded(analysis, missing, reason, rejected, constraints.excluded, full_rig.names),
+        "constraints": constraints.document,
         "warnings": found,
     }
     session = session_files(
@@ -383,18 +410,31 @@ def _coverage(
     return missing, reason
 
 
+def _no_expression(number: int, rejections: Mapping[int, set[str]], limit: str) -> str:
+    """The error for a rejection in an expression the session cannot have."""
+    return f"--reject {number}:{','.join(sorted(rejections[number]))}: no expression {number} ({limit})"
+
+
 def _excluded(
-    analysis: Analysis, missing: Sequence[str], reason: str, rejected: Mapping[int, set[str]]
+    analysis: Analysis,
+    missing: Sequence[str],
+    reason: str,
+    rejected: Mapping[int, set[str]],
+    left_out: Mapping[str, str],
+    names: Sequence[str],
 ) -> list[dict[str, str]]:
-    """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in rig order."""
-    why = {name: "empty: no displacement above the noise floor (sec. 4.1)" for name in analysis.empty_names}
+    """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in the order of
+    the rig's ``names`` (those of the shapes ``left_out`` of the session included)."""
+    why = dict(left_out)
+    empty = "empty: no displacement above the noise floor (sec. 4.1)"
+    why.update((name, empty) for name in analysis.empty_names)
     for name in missing:
         refused = sorted(number for number, names in rejected.items() if name in names)
         rejections = (
             f"; rejected by the artist for expression {', '.join(map(str, refused))}" if refused else ""
         )
         why[name] = f"in no expression: {reason}{rejections}"
-    return [{"shape": name, "reason": why[name]} for name in analysis.rig.names if name in why]
+    return [{"shape": name, "reason": why[name]} for name in names if name in why]
 
 
 def _symmetry_note(analysis: Analysis) -> str:
