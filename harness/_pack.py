@@ -57,16 +57,17 @@ from __future__ import annotations
 import json
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import _plugins as plugins
 from harness._durations import format_duration
 from harness._outdir import ChangedFileWarning, OutputFolder, claim
 from harness._pack_constraints import session_constraints
+from harness._pack_solver import IsolatedSolver, LoudSolver
 from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
@@ -75,7 +76,7 @@ from harness._session_minimum import minimum_sequence
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
     from rigs import Rig
-    from solvers import Availability, LoadedSolver, Proposal, RefiningSolver
+    from solvers import Availability, Proposal, RefiningSolver
 
 EXPRESSIONS_FILE = "expressions.json"
 
@@ -216,6 +217,10 @@ def pack(
     ValueError
         For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
         or for an expression the session does not have.
+    harness._pack_solver.SolverFailure
+        A ValueError for a solver that failed on an expression (it raised, answered items the problem does
+        not have, claimed infeasibility, exited or crashed: it solves in a worker process), before anything
+        is written.
     """
     import packing
 
@@ -225,40 +230,45 @@ def pack(
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
     started = monotonic()
-    full_rig = resolve_rig(rig_argument, seed=seed)
-    target_mesh = read_target(target, full_rig)
-    for name in sorted({name for names in (rejections or {}).values() for name in names}):
-        full_rig.index(name)  # RigError names the rig, the shape and close matches
-    if rejections and jmax is not None and max(rejections) > jmax:
-        raise ValueError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
-    constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
-    rig, params = constraints.rig, constraints.params
-    rejections = {
-        number: kept for number, names in (rejections or {}).items() if (kept := names & set(rig.names))
-    }
-    solver = plugins.solver("cpsat" if minimum else solver_name)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-        analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
-    regions = params.get("regions")
-    protect = [*input_paths(rig_argument), *inputs]
-    protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
-    folder = claim(out, kind="pack", force=force, protect=protect)
-    deadline = None if timeout is None else Deadline(solver, started + timeout)
-    rejected: dict[int, set[str]] = {}  # filled as the artist decides
-    found: list[str] = []
-    if minimum:
-        result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
-        expressions = result.expressions
-        overlap = 0.0
-        if not result.proven:
-            found.append(result.message())
-    else:
-        solving = _refining(deadline or solver, rig, rejections or {}, decide, rejected)
-        expressions = packing.sequence(
-            rig, solving, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
-        )
-        overlap = solver.capabilities.max_overlap
+    with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
+        full_rig = resolve_rig(rig_argument, seed=seed)
+        target_mesh = read_target(target, full_rig)
+        for name in sorted({name for names in (rejections or {}).values() for name in names}):
+            full_rig.index(name)  # RigError names the rig, the shape and close matches
+        if rejections and jmax is not None and max(rejections) > jmax:
+            raise ValueError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
+        constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
+        rig, params = constraints.rig, constraints.params
+        rejections = {
+            number: kept for number, names in (rejections or {}).items() if (kept := names & set(rig.names))
+        }
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
+            analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
+        regions = params.get("regions")
+        protect = [*input_paths(rig_argument), *inputs]
+        protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
+        folder = claim(out, kind="pack", force=force, protect=protect)
+        deadline = None if timeout is None else Deadline(isolated, started + timeout)
+        rejected: dict[int, set[str]] = {}  # filled as the artist decides
+        found: list[str] = []
+        if minimum:
+            result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
+            expressions = result.expressions
+            overlap = 0.0
+            if not result.proven:
+                found.append(result.message())
+        else:
+            refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
+            expressions = packing.sequence(
+                rig,
+                LoudSolver(refining, solver_name),
+                analysis=analysis,
+                jmax=jmax,
+                time_limit=time_limit,
+                seed=seed,
+            )
+            overlap = isolated.capabilities.max_overlap
     packing.check(
         rig,
         expressions,
@@ -345,7 +355,7 @@ class Deadline:
         The deadline on the ``time.monotonic`` clock.
     """
 
-    def __init__(self, inner: LoadedSolver, end: float) -> None:
+    def __init__(self, inner: IsolatedSolver, end: float) -> None:
         self.inner = inner
         self.name = inner.name
         self.capabilities = inner.capabilities
@@ -448,19 +458,16 @@ def _symmetry_note(analysis: Analysis) -> str:
 
 
 def _refining(
-    solver: LoadedSolver,
+    solver: IsolatedSolver | Deadline,
     rig: Rig,
     rejections: Mapping[int, set[str]],
     decide: Callable[[int, str, bool], bool] | None,
     rejected: dict[int, set[str]],
-) -> LoadedSolver | RefiningSolver:
+) -> IsolatedSolver | Deadline | RefiningSolver:
     """Wrap the solver in `solvers.RefiningSolver` (sec. 4.5.3) when there is anything to decide; every
     rejection lands in ``rejected`` (1-based expression -> shapes) for the checker."""
     if not rejections and decide is None:
         return solver
-    unknown = sorted(name for names in rejections.values() for name in names if name not in rig.names)
-    if unknown:
-        rig.index(unknown[0])  # raises RigError naming the shape and close matches
     import solvers
 
     listed = solvers.rejecting({expression - 1: names for expression, names in rejections.items()})
