@@ -194,7 +194,9 @@ class LoudSolver:
             return solution
         expression = problem.meta.get("expression", "?")
         stage = " (extra examples)" if problem.meta.get("stage") == "extra_examples" else ""
-        reason = re.sub(r"^(?:\w+\.)+(?=\w+: )", "", reason.removeprefix(f"{solution.backend}: "))
+        for prefix in (f"{solution.backend}: ", f"{self.name}: "):  # the plugin's name, said once
+            reason = reason.removeprefix(prefix)
+        reason = re.sub(r"^(?:\w+\.)+(?=\w+: )", "", reason)  # an exception's module path
         raise SolverFailure(f"solver {self.name} failed on expression {expression}{stage}: {reason}")
 
 

@@ -60,3 +60,10 @@ def test_the_solver_works_again_after_its_process_crashed(failing_plugins, tmp_p
     assert_one_line_error(again, "solver fail-abort failed on expression 1: its process died")
     honest = invoke("pack", "tiny", "--solver", "greedy", "--out", tmp_path / "honest", "--no-pictures")
     assert honest.exit_code == 0, honest.output
+
+
+def test_a_failure_under_refinement_is_as_loud(failing_plugins, tmp_path):
+    out = tmp_path / "out"
+    result = invoke("pack", "tiny", "--solver", "fail-raise", "--reject", "1:jawOpen", "--out", out)
+    assert_one_line_error(result, "solver fail-raise failed on expression 1: RuntimeError: the backend lost")
+    assert not out.exists() or not any(out.iterdir())
