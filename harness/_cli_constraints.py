@@ -31,14 +31,14 @@ def constraint_options(command: Command) -> Command:
             "--together",
             multiple=True,
             metavar="A,B",
-            help="Two shapes always in the same expression (one item), e.g. eyeLookOut_L,eyeLookIn_R. "
+            help="Two shapes always in the same expression (one item), e.g. mouthSmile_L,cheekSquint_L. "
             "Repeatable.",
         ),
         click.option(
             "--apart",
             multiple=True,
             metavar="A,B",
-            help="Two shapes never in the same expression, e.g. eyeLookOut_L,eyeLookOut_R. Repeatable.",
+            help="Two shapes never in the same expression, e.g. jawOpen,mouthFunnel. Repeatable.",
         ),
         click.option(
             "--constraints",

@@ -76,7 +76,12 @@ def session_constraints(
         floor = params.get("noise_floor", packing.PackingParams.noise_floor)
         empty = packing.empty_shapes(rig, noise_floor=floor)
         matched = match_rules(
-            rig.names, read_rules(), together=together, apart=apart, skip={*exclude, *empty}
+            rig.names,
+            read_rules(),
+            together=together,
+            apart=apart,
+            skip={*exclude, *empty},
+            single=params.get("max_per_expression") == 1,
         )
         excluded.update(
             (name, f"left out by the default constraints: {why}") for name, why in matched.excluded.items()

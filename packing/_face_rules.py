@@ -156,6 +156,7 @@ def match_rules(
     together: Iterable[Pair] = (),
     apart: Iterable[Pair] = (),
     skip: Iterable[str] = (),
+    single: bool = False,
 ) -> MatchedRules:
     """The rules that apply to a rig with shapes ``names``, under the artist's constraints.
 
@@ -169,6 +170,9 @@ def match_rules(
     skip : iterable of str
         Shapes not in the session (excluded by the user, or empty): rules naming them do nothing, and a
         together rule's other shape is left out too (it cannot be posed without its partner).
+    single : bool
+        Every expression holds one shape (a cap of 1, sec. 6): a together rule's shapes are left out, as
+        neither can be posed without the other.
 
     Returns
     -------
@@ -198,10 +202,13 @@ def match_rules(
     for a, b in kept["only_with"]:
         matched.excluded[a] = f"scanned only with {b} (rule {_rule_of(matched, a, b)})"
     for a, b in kept["together"]:
+        rule = f"rule {_rule_of(matched, a, b)}"
         for shape, partner in ((a, b), (b, a)):
-            if partner in skipped and shape not in skipped:
-                rule = f"rule {_rule_of(matched, a, b)}"
-                matched.excluded[shape] = f"not posed without {partner}, which is not in the session ({rule})"
+            if shape in skipped:
+                continue
+            if single or partner in skipped:
+                why = "an expression holds one shape" if single else f"{partner} is not in the session"
+                matched.excluded[shape] = f"not posed without {partner}, and {why} ({rule})"
     gone = set(matched.excluded) | skipped
     final = {kind: [pair for pair in kept[kind] if not gone & set(pair)] for kind in ("together", "apart")}
     matched.applied[:] = [

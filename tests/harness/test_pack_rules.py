@@ -152,8 +152,17 @@ def test_the_artists_constraints_win_over_a_rule_and_say_so() -> None:
 
 def test_a_gaze_shape_whose_partner_is_out_of_the_session_is_left_out() -> None:
     matched = match_rules(("eyeLookOut_L", "eyeLookIn_R", "eyeLookUp_L"), read_rules(), skip={"eyeLookIn_R"})
-    assert "not posed without eyeLookIn_R" in matched.excluded["eyeLookOut_L"]
+    reason = matched.excluded["eyeLookOut_L"]
+    assert "not posed without eyeLookIn_R, and eyeLookIn_R is not in the session (rule gaze-" in reason
     assert "eyeLookUp_L" not in matched.excluded  # its partner is missing from the rig, not left out
+
+
+def test_with_one_shape_per_expression_the_gaze_shapes_are_left_out(tmp_path) -> None:
+    document, output = _cli_pack(tmp_path, "arkit52", "--cap", "1", "--no-symmetry", "--solver", "greedy")
+    excluded = {entry["shape"]: entry["reason"] for entry in document["excluded"]}
+    assert "an expression holds one shape (rule gaze-conjugate)" in excluded["eyeLookOutLeft"]
+    assert all(len(expression["shapes"]) == 1 for expression in document["expressions"])
+    assert not any("eyeLook" in expression["shapes"][0] for expression in document["expressions"])
 
 
 def test_the_rules_file_ships_with_a_reason_for_every_rule(tmp_path) -> None:
