@@ -50,11 +50,11 @@ def solve_in_worker(label: str, problem: PackingProblem, time_limit: float | Non
     try:
         return _LOADED[label].solve(problem, time_limit=time_limit, seed=seed)
     except SystemExit as exit_:
-        return failed(problem, label, f"it called sys.exit({exit_.code!r})", time.perf_counter() - start)
+        return failed(label, f"it called sys.exit({exit_.code!r})", time.perf_counter() - start)
 
 
-def failed(problem: PackingProblem, backend: str, message: str, elapsed: float = 0.0) -> Solution:
-    """The ``Termination.ERROR`` answer to ``problem``, with the reason in ``message``."""
+def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
+    """The ``Termination.ERROR`` answer of ``backend``, with the reason in ``message``."""
     from packing import Solution, Termination
 
     return Solution(
@@ -145,7 +145,7 @@ class IsolatedSolver:
             reason = f"its process died ({error.exit})"
         except WorkerError as error:
             reason = _last_line(str(error))
-        return failed(problem, self.name, reason, time.perf_counter() - start)
+        return failed(self.name, reason, time.perf_counter() - start)
 
     def close(self) -> None:
         """Leave the worker for the next packing of this process with the same solver (it ends with the
