@@ -37,6 +37,21 @@ def load_in_worker(label: str) -> tuple[str, Capabilities]:
     return _LOADED[label].name, _LOADED[label].capabilities
 
 
+def warm_in_worker(label: str) -> None:
+    """Solve a one-item problem with the solver ``label`` in the worker process, so that the imports of its
+    backend and of the packing problem are paid while the caller analyses the rig; whatever it answers or
+    raises is ignored (the packing's own solves report failures)."""
+    import numpy as np
+
+    from packing import problem_from_incidence
+
+    load_in_worker(label)
+    try:
+        _LOADED[label].solve(problem_from_incidence(np.ones((1, 1), dtype=bool), [1.0]))
+    except BaseException:  # noqa: BLE001, S110 - a solver that fails here fails again on the packing's solves
+        pass
+
+
 def availability_in_worker(label: str) -> Availability:
     """The availability of the solver ``label``, asked in the worker process."""
     load_in_worker(label)
@@ -79,9 +94,9 @@ class IsolatedSolver:
 
     Notes
     -----
-    The worker (one per label and process, `solvers.worker`) starts at once and loads the plugin while the
-    caller goes on (loading and analysing the rig); the plugin's library is imported there only. Its name and
-    capabilities, and the first solve, wait for it.
+    The worker (one per label and process, `solvers.worker`) starts at once, loads the plugin and warms it up
+    on a one-item problem while the caller goes on (loading and analysing the rig); the plugin's library is
+    imported there only. Its name and capabilities, and the first solve, wait for it.
     """
 
     def __init__(self, label: str) -> None:
@@ -90,7 +105,9 @@ class IsolatedSolver:
         self._label = label
         self._worker = solvers.worker(f"pack-{label}")
         self._worker.send("harness._pack_solver:load_in_worker", label)
+        self._worker.send("harness._pack_solver:warm_in_worker", label)
         self._loaded: tuple[str, Capabilities] | None = None
+        self._warming = True
 
     @property
     def name(self) -> str:
@@ -104,8 +121,20 @@ class IsolatedSolver:
 
     def availability(self) -> Availability:
         """The plugin's availability."""
-        self._plugin()
+        self._ready()
         return self._worker.call("harness._pack_solver:availability_in_worker", self._label)  # type: ignore[return-value]
+
+    def _ready(self) -> None:
+        """Wait for the worker to have loaded and warmed up the plugin (see `_plugin` for its errors)."""
+        from solvers import WorkerError
+
+        self._plugin()
+        if self._warming:
+            self._warming = False
+            try:
+                self._worker.receive()
+            except WorkerError:  # it died warming up: the next call starts a fresh process and says how
+                pass
 
     def _plugin(self) -> tuple[str, Capabilities]:
         """Name and capabilities of the plugin, once the worker has loaded it.
@@ -135,7 +164,7 @@ class IsolatedSolver:
         """The plugin's answer from the worker, or ``Termination.ERROR`` saying how the worker failed."""
         from solvers import WorkerDied, WorkerError
 
-        self._plugin()
+        self._ready()
         start = time.perf_counter()
         try:
             return self._worker.call(  # type: ignore[return-value]
