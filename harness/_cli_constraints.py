@@ -4,7 +4,8 @@
 constraints (`packing.parse_pair`, `packing.read_constraints`): a together pair is one item, an apart pair
 never shares an expression. ``--regions FILE`` replaces the rig's vertex regions for motion symmetry
 (sec. 4.4.2, eqs. 11-12) with a JSON object of region name -> vertex indices, or the face groups of an OBJ of
-the rig's mesh (`rigs.read_regions`). Shape and region names are
+the rig's mesh (`rigs.read_regions`). ``harness pack`` hands packing the regions file (`constraint_params`),
+``harness run`` its content, read once for every cell (`grid_constraints`). Shape and region names are
 checked against the rig by `packing` (an unknown name is a one-line error with the close matches).
 """
 
@@ -12,33 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TypedDict
+from typing import Any, TypedDict
 
 import click
 
 from harness._cli_types import Command
 
-
-class ShapePair(click.ParamType):
-    """``A,B`` -> ``("A", "B")`` (`packing.parse_pair`)."""
-
-    name = "A,B"
-
-    def convert(
-        self, value: object, param: click.Parameter | None, ctx: click.Context | None
-    ) -> tuple[str, str]:
-        if isinstance(value, tuple):
-            return value
-        import packing
-
-        try:
-            return packing.parse_pair(str(value))
-        except ValueError as error:
-            self.fail(str(error), param, ctx)
-
-
-SHAPE_PAIR = ShapePair()
-INPUT_FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+#: A file the options read (checked when read, so that a missing file is one line naming it).
+INPUT_FILE = click.Path(dir_okay=False, path_type=Path)
 
 
 def constraint_options(command: Command) -> Command:
@@ -47,16 +29,16 @@ def constraint_options(command: Command) -> Command:
     options = [
         click.option(
             "--together",
-            type=SHAPE_PAIR,
             multiple=True,
-            help="Two shapes always in the same expression (one item), e.g. eyeLookOut_L,eyeLookIn_R. "
+            metavar="A,B",
+            help="Two shapes always in the same expression (one item), e.g. mouthSmile_L,cheekSquint_L. "
             "Repeatable.",
         ),
         click.option(
             "--apart",
-            type=SHAPE_PAIR,
             multiple=True,
-            help="Two shapes never in the same expression, e.g. eyeLookOut_L,eyeLookOut_R. Repeatable.",
+            metavar="A,B",
+            help="Two shapes never in the same expression, e.g. jawOpen,mouthFunnel. Repeatable.",
         ),
         click.option(
             "--constraints",
@@ -84,24 +66,66 @@ class ConstraintParams(TypedDict):
 
 
 def constraint_params(
-    together: Iterable[tuple[str, str]],
-    apart: Iterable[tuple[str, str]],
+    together: Iterable[str],
+    apart: Iterable[str],
     constraints: Path | None,
     regions: Path | None,
 ) -> ConstraintParams:
     """The packing parameters ``together``, ``apart`` and ``regions`` from the options of
-    `constraint_options`: the file's pairs first, then the options', each pair once.
+    `constraint_options` (``A,B`` texts and file paths): the file's pairs first, then the options', each
+    pair once.
 
     Raises
     ------
     ValueError
-        For an unreadable or malformed constraints file (naming it).
+        For a malformed pair (naming the option) or an unreadable or malformed constraints file (naming it).
     """
     import packing
 
     given = packing.read_constraints(constraints) if constraints is not None else {}
+    pairs = {}
+    for kind, texts in (("together", together), ("apart", apart)):
+        parsed = []
+        for text in texts:
+            try:
+                parsed.append(packing.parse_pair(text))
+            except ValueError as error:
+                raise ValueError(f"--{kind}: {error}") from None
+        pairs[kind] = tuple(dict.fromkeys([*given.get(kind, ()), *parsed]))
     return {
-        "together": tuple(dict.fromkeys([*given.get("together", ()), *together])),
-        "apart": tuple(dict.fromkeys([*given.get("apart", ()), *apart])),
+        "together": pairs["together"],
+        "apart": pairs["apart"],
         "regions": None if regions is None else str(regions),
     }
+
+
+def grid_constraints(
+    together: Iterable[str],
+    apart: Iterable[str],
+    constraints: Path | None,
+    regions: Path | None,
+) -> dict[str, Any]:
+    """The `harness.RunConfig` fields the constraint options give, only those given: ``together`` and
+    ``apart`` as in `constraint_params`, and ``regions`` read from the file (JSON or OBJ face groups, as
+    for ``harness pack``) as `harness._grid.regions_tuple` (the content, so a resumed or distributed run
+    does not need the file; each cell checks the indices against its rig).
+
+    Raises
+    ------
+    ValueError
+        For an unreadable or malformed constraints or regions file (naming it).
+    """
+    import rigs
+    from harness._grid import regions_tuple
+
+    together, apart = tuple(together), tuple(apart)
+    given: dict[str, Any] = {}
+    if together or apart or constraints is not None:
+        pairs = constraint_params(together, apart, constraints, None)
+        given.update(together=pairs["together"], apart=pairs["apart"])
+    if regions is not None:
+        read = rigs.read_regions(regions, None)
+        if not read:
+            raise ValueError(f"{regions}: holds no regions")
+        given["regions"] = regions_tuple({name: indices.tolist() for name, indices in read.items()})
+    return given

@@ -13,6 +13,7 @@ from harness._cli_constraints import constraint_options, constraint_params
 from harness._cli_types import DURATION, terminal
 from harness._pack import EXPRESSIONS_FILE, parse_rejections
 from harness._pack import pack as pack_rig
+from harness._pack_constraints import parse_exclusions
 from harness._session import SHEET_FILE
 
 if TYPE_CHECKING:
@@ -94,6 +95,19 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
 )
 @click.option("--refine", is_flag=True, help="Accept or reject each proposed shape at a prompt (sec. 4.5.3).")
 @click.option("--reject", help="Rejections without prompts: EXPR:NAME,... (1-based expression numbers).")
+@click.option(
+    "--exclude",
+    multiple=True,
+    metavar="SHAPE[,SHAPE]",
+    help="Leave shapes out of the whole session (listed in expressions.json's excluded). Repeatable.",
+)
+@click.option(
+    "--default-constraints/--no-default-constraints",
+    default=True,
+    help="Apply the anatomical rules shipped for ARKit-named shapes (the eyes look the same way, a closed "
+    "lid hides the eye, no tongue through closed lips, ...: packing/face_rules.toml) where the rig's names "
+    "match.",
+)
 @constraint_options
 def pack(
     rig: str,
@@ -117,8 +131,10 @@ def pack(
     seed: int,
     refine: bool,
     reject: str | None,
-    together: tuple[tuple[str, str], ...],
-    apart: tuple[tuple[str, str], ...],
+    exclude: tuple[str, ...],
+    default_constraints: bool,
+    together: tuple[str, ...],
+    apart: tuple[str, ...],
     constraints: Path | None,
     regions: Path | None,
 ) -> None:
@@ -168,6 +184,8 @@ def pack(
         minimum=minimum,
         pictures=pictures,
         glb=glb,
+        exclude=parse_exclusions(exclude),
+        default_constraints=default_constraints,
     )
     by = "--minimum (cpsat)" if minimum else solver
     table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {by}"))

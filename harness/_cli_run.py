@@ -17,6 +17,7 @@ import click
 from click.core import ParameterSource
 from rich.markup import escape
 
+from harness._cli_constraints import constraint_options, grid_constraints
 from harness._cli_types import (
     CAPS,
     DURATION,
@@ -40,7 +41,6 @@ from harness._grid import (
     PRESETS,
     CellSpec,
     RunConfig,
-    read_regions,
 )
 from harness._progress import RichReporter
 from harness._records import RecordsWriteError
@@ -105,28 +105,6 @@ class RunReporter(RichReporter):
 
     def cell_lost(self, spec: CellSpec, reason: str) -> None:
         self.console.print(f"[red]   lost[/] {escape(spec.label())}: {escape(reason)}")
-
-
-def _constraints(
-    together: tuple[str, ...], apart: tuple[str, ...], constraints: Path | None
-) -> dict[str, tuple[tuple[str, str], ...]]:
-    """The ``together`` and ``apart`` pairs of the command line and the constraints file (ValueError for a
-    malformed pair or file, naming it)."""
-    import packing
-
-    found = (
-        packing.read_constraints(constraints) if constraints is not None else {"together": (), "apart": ()}
-    )
-    pairs = {}
-    for kind, given in (("together", together), ("apart", apart)):
-        parsed = []
-        for text in given:
-            try:
-                parsed.append(packing.parse_pair(text))
-            except ValueError as error:
-                raise ValueError(f"--{kind}: {error}") from None
-        pairs[kind] = tuple(dict.fromkeys([*found[kind], *parsed]))
-    return pairs
 
 
 def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
@@ -263,31 +241,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     f"{' and '.join(CLAIM_SOLVERS)} only: claims = no importance, alpha 0, alpha 1, no symmetry (what the "
     "paper's claims compare) and the excess distortion. [default: paper: claims; others: none]",
 )
-@click.option(
-    "--together",
-    "together_pairs",
-    multiple=True,
-    metavar="A,B",
-    help="Shapes every expression holds together (an artist constraint; repeatable).",
-)
-@click.option(
-    "--apart",
-    "apart_pairs",
-    multiple=True,
-    metavar="A,B",
-    help="Shapes no expression holds together (an artist constraint; repeatable).",
-)
-@click.option(
-    "--constraints",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help='Artist constraints JSON: {"together": [["A", "B"], ...], "apart": [...]}.',
-)
-@click.option(
-    "--regions",
-    "regions_file",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Vertex regions JSON (region name -> vertex indices) replacing the rigs' own, for motion symmetry.",
-)
+@constraint_options
 @click.option("--jobs", type=click.IntRange(min=1), default=DEFAULT_JOBS, help="Local worker processes.")
 @click.option("--executor", type=click.Choice(["local", "dask"]), default="local", help="Where cells run.")
 @click.option("--scheduler", help="Dask scheduler address (tcp://HOST:PORT), with --executor dask.")
@@ -318,10 +272,10 @@ def run(
     preset: str,
     no_symmetry: bool,
     no_importance: bool,
-    together_pairs: tuple[str, ...],
-    apart_pairs: tuple[str, ...],
+    together: tuple[str, ...],
+    apart: tuple[str, ...],
     constraints: Path | None,
-    regions_file: Path | None,
+    regions: Path | None,
     variations_name: str | None,
     jobs: int,
     executor: str,
@@ -345,10 +299,7 @@ def run(
         given["symmetry"] = (False,)
     if no_importance:
         given["importance"] = (False,)
-    if together_pairs or apart_pairs or constraints is not None:
-        given.update(_constraints(together_pairs, apart_pairs, constraints))
-    if regions_file is not None:
-        given["regions"] = read_regions(regions_file)
+    given.update(grid_constraints(together, apart, constraints, regions))
     if variations_name is not None:
         given["variations"] = CLAIM_VARIATIONS if variations_name == "claims" else ()
     for axis in ("distortion", "examples"):

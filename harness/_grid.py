@@ -121,34 +121,6 @@ def regions_tuple(regions: Mapping[str, Iterable[int]] | Regions) -> Regions:
     return tuple(sorted((str(name), tuple(sorted({int(i) for i in indices}))) for name, indices in items))
 
 
-def read_regions(path: str | os.PathLike[str]) -> Regions:
-    """Vertex regions from a JSON file ``{"region name": [vertex index, ...], ...}`` (`regions_tuple`).
-
-    Raises
-    ------
-    ValueError
-        One line naming the file and what is wrong (missing, not JSON, not an object of name -> list of
-        non-negative integers).
-    """
-    path = Path(path)
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ValueError(f"{path}: regions file not found") from None
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise ValueError(f"{path}: cannot read regions JSON ({error})") from None
-    if not isinstance(document, dict) or not document:
-        raise ValueError(f"{path}: regions JSON must be a non-empty object of region name -> vertex indices")
-    for name, indices in document.items():
-        if not isinstance(indices, list) or not all(
-            isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in indices
-        ):
-            raise ValueError(
-                f"{path}: region {name!r} must be a list of non-negative vertex indices, got {indices!r:.60}"
-            )
-    return regions_tuple(document)
-
-
 #: Cell modes: ``sequence`` (Algorithm 1 with the cell's solver, then transfers) or ``replay`` (the cell's
 #: solver on every subproblem of one reference sequence, `harness._replay`).
 MODES: tuple[str, ...] = ("sequence", "replay")

@@ -15,25 +15,30 @@
                       "status": str, "files": {"mesh": str, "on_target": str, "front": str,
                                                "three_quarter": str}}, ...],
      "excluded": [{"shape": name, "reason": str}, ...],
+     "constraints": {"default": bool, "rules": [{"rule": str, "kind": str, "shapes": [name, name],
+                                                  "why": str}, ...], "notes": [str, ...]},
      "warnings": [str, ...]}
 
 ``params`` are the packing parameters used (`packing.PackingParams` names: ``max_per_expression`` is the
-cap of sec. 6, ``together``/``apart`` the artist constraints, ``regions`` the regions file given, if any);
-``sequence`` the settings of the sequence: ``mode`` ``sequence`` is Algorithm 1 (``jmax`` expressions at
-most, ``time_limit`` per solve and ``timeout`` for the whole packing in seconds), ``minimum`` the fewest
-expressions that cover every shape (`harness._session_minimum`, with ``minimum`` saying what was proved);
-``overlap`` is the share of an item's active vertices the solver may overlap (its declared
-``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced. Together they are what
-the independent checker needs::
+cap of sec. 6, ``together``/``apart`` every pair enforced, the artist's then the anatomical rules',
+``regions`` the regions file given, if any); ``constraints`` says whether the anatomical rules were on, the
+pairs they added (kind ``together``, ``apart``, or ``only_with`` for a shape left out unless scanned with the
+other) with the reason of each, and the rules that yielded to the artist's pairs
+(`harness._pack_constraints`); ``sequence`` the settings of the sequence: ``mode`` ``sequence`` is
+Algorithm 1 (``jmax`` expressions at most, ``time_limit`` per solve and ``timeout`` for the whole packing in
+seconds), ``minimum`` the fewest expressions that cover every shape (`harness._session_minimum`, with
+``minimum`` saying what was proved); ``overlap`` is the share of an item's active vertices the solver may
+overlap (its declared ``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced.
+Together they are what the independent checker needs::
 
     packing.check(rig, doc["expressions"], pairs=doc["pairs"], overlap=doc["sequence"]["overlap"],
                   **doc["params"])
 
 The expressions are in sequence order (priority: scan the first first); ``objective`` is the importance
-sum (eq. 3a). ``excluded`` names every shape in no expression and why (empty, rejected, or the sequence
-stopped before it). ``warnings`` are the pairs of shapes in one expression whose displacements largely
-cancel (`packing.find_cancellations`), a ``timeout`` that cut the sequence short, and a minimum that was
-not proved.
+sum (eq. 3a). ``excluded`` names every shape in no expression and why (left out by ``--exclude`` or by a
+rule, empty, rejected, or the sequence stopped before it). ``warnings`` are the pairs of shapes in one
+expression whose displacements largely cancel (`packing.find_cancellations`), a ``timeout`` that cut the
+sequence short, and a minimum that was not proved.
 
 Beside it (`harness._session`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
 neutral plus the sum of that expression's shapes, primary and extra examples) keeping the source OBJ's
@@ -52,15 +57,17 @@ from __future__ import annotations
 import json
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import _plugins as plugins
 from harness._durations import format_duration
 from harness._outdir import ChangedFileWarning, OutputFolder, claim
+from harness._pack_constraints import session_constraints
+from harness._pack_solver import IsolatedSolver, LoudSolver
 from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
@@ -69,7 +76,7 @@ from harness._session_minimum import minimum_sequence
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
     from rigs import Rig
-    from solvers import Availability, LoadedSolver, Proposal, RefiningSolver
+    from solvers import Availability, Proposal, RefiningSolver
 
 EXPRESSIONS_FILE = "expressions.json"
 
@@ -151,6 +158,8 @@ def pack(
     minimum: bool = False,
     pictures: bool = True,
     glb: bool = False,
+    exclude: Sequence[str] = (),
+    default_constraints: bool = True,
 ) -> PackResult:
     """Pack one rig and write the session folder ``out`` (see the module docstring).
 
@@ -195,13 +204,23 @@ def pack(
         Render the pictures of every expression.
     glb : bool
         Also write ``expressions.glb``.
+    exclude : sequence of str
+        Shapes left out of the whole session.
+    default_constraints : bool
+        Apply the anatomical rules shipped with `packing` to the shapes whose names match
+        (`harness._pack_constraints`).
 
     Raises
     ------
     harness._outdir.OutputFolderError
         For an output folder that may not be used (before any packing is done).
     ValueError
-        For ``minimum`` with refinement, extra examples or a timeout.
+        For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
+        or for an expression the session does not have.
+    harness._pack_solver.SolverFailure
+        A ValueError for a solver that failed on an expression (it raised, answered items the problem does
+        not have, claimed infeasibility, exited or crashed: it solves in a worker process), before anything
+        is written.
     """
     import packing
 
@@ -211,31 +230,45 @@ def pack(
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
     started = monotonic()
-    rig = resolve_rig(rig_argument, seed=seed)
-    target_mesh = read_target(target, rig)
-    solver = plugins.solver("cpsat" if minimum else solver_name)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-        analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
-    regions = params.get("regions")
-    protect = [*input_paths(rig_argument), *inputs]
-    protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
-    folder = claim(out, kind="pack", force=force, protect=protect)
-    deadline = None if timeout is None else Deadline(solver, started + timeout)
-    rejected: dict[int, set[str]] = {}  # filled as the artist decides
-    found: list[str] = []
-    if minimum:
-        result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
-        expressions = result.expressions
-        overlap = 0.0
-        if not result.proven:
-            found.append(result.message())
-    else:
-        solving = _refining(deadline or solver, rig, rejections or {}, decide, rejected)
-        expressions = packing.sequence(
-            rig, solving, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
-        )
-        overlap = solver.capabilities.max_overlap
+    with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
+        full_rig = resolve_rig(rig_argument, seed=seed)
+        target_mesh = read_target(target, full_rig)
+        for name in sorted({name for names in (rejections or {}).values() for name in names}):
+            full_rig.index(name)  # RigError names the rig, the shape and close matches
+        if rejections and jmax is not None and max(rejections) > jmax:
+            raise ValueError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
+        constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
+        rig, params = constraints.rig, constraints.params
+        rejections = {
+            number: kept for number, names in (rejections or {}).items() if (kept := names & set(rig.names))
+        }
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
+            analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
+        regions = params.get("regions")
+        protect = [*input_paths(rig_argument), *inputs]
+        protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
+        folder = claim(out, kind="pack", force=force, protect=protect)
+        deadline = None if timeout is None else Deadline(isolated, started + timeout)
+        rejected: dict[int, set[str]] = {}  # filled as the artist decides
+        found: list[str] = []
+        if minimum:
+            result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
+            expressions = result.expressions
+            overlap = 0.0
+            if not result.proven:
+                found.append(result.message())
+        else:
+            refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
+            expressions = packing.sequence(
+                rig,
+                LoudSolver(refining, solver_name),
+                analysis=analysis,
+                jmax=jmax,
+                time_limit=time_limit,
+                seed=seed,
+            )
+            overlap = isolated.capabilities.max_overlap
     packing.check(
         rig,
         expressions,
@@ -248,7 +281,10 @@ def pack(
     timed_out = deadline is not None and deadline.expired
     refined = bool(rejections) or decide is not None
     missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
-    notes = [*analysis.notes, _symmetry_note(analysis)]
+    if rejections and not timed_out and max(rejections) > len(expressions):
+        made = f"the sequence stopped after {len(expressions)} expressions"
+        raise ValueError(_no_expression(max(rejections), rejections, made))
+    notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
     if minimum:
         notes.append(result.message())
     if missing:
@@ -294,7 +330,8 @@ def pack(
             }
             for expression in expressions
         ],
-        "excluded": _excluded(analysis, missing, reason, rejected),
+        "excluded": _excluded(analysis, missing, reason, rejected, constraints.excluded, full_rig.names),
+        "constraints": constraints.document,
         "warnings": found,
     }
     session = session_files(
@@ -318,7 +355,7 @@ class Deadline:
         The deadline on the ``time.monotonic`` clock.
     """
 
-    def __init__(self, inner: LoadedSolver, end: float) -> None:
+    def __init__(self, inner: IsolatedSolver, end: float) -> None:
         self.inner = inner
         self.name = inner.name
         self.capabilities = inner.capabilities
@@ -383,18 +420,31 @@ def _coverage(
     return missing, reason
 
 
+def _no_expression(number: int, rejections: Mapping[int, set[str]], limit: str) -> str:
+    """The error for a rejection in an expression the session cannot have."""
+    return f"--reject {number}:{','.join(sorted(rejections[number]))}: no expression {number} ({limit})"
+
+
 def _excluded(
-    analysis: Analysis, missing: Sequence[str], reason: str, rejected: Mapping[int, set[str]]
+    analysis: Analysis,
+    missing: Sequence[str],
+    reason: str,
+    rejected: Mapping[int, set[str]],
+    left_out: Mapping[str, str],
+    names: Sequence[str],
 ) -> list[dict[str, str]]:
-    """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in rig order."""
-    why = {name: "empty: no displacement above the noise floor (sec. 4.1)" for name in analysis.empty_names}
+    """``excluded`` of ``expressions.json``: every shape in no expression, with the reason, in the order of
+    the rig's ``names`` (those of the shapes ``left_out`` of the session included)."""
+    why = dict(left_out)
+    empty = "empty: no displacement above the noise floor (sec. 4.1)"
+    why.update((name, empty) for name in analysis.empty_names)
     for name in missing:
         refused = sorted(number for number, names in rejected.items() if name in names)
         rejections = (
             f"; rejected by the artist for expression {', '.join(map(str, refused))}" if refused else ""
         )
         why[name] = f"in no expression: {reason}{rejections}"
-    return [{"shape": name, "reason": why[name]} for name in analysis.rig.names if name in why]
+    return [{"shape": name, "reason": why[name]} for name in names if name in why]
 
 
 def _symmetry_note(analysis: Analysis) -> str:
@@ -408,19 +458,16 @@ def _symmetry_note(analysis: Analysis) -> str:
 
 
 def _refining(
-    solver: LoadedSolver,
+    solver: IsolatedSolver | Deadline,
     rig: Rig,
     rejections: Mapping[int, set[str]],
     decide: Callable[[int, str, bool], bool] | None,
     rejected: dict[int, set[str]],
-) -> LoadedSolver | RefiningSolver:
+) -> IsolatedSolver | Deadline | RefiningSolver:
     """Wrap the solver in `solvers.RefiningSolver` (sec. 4.5.3) when there is anything to decide; every
     rejection lands in ``rejected`` (1-based expression -> shapes) for the checker."""
     if not rejections and decide is None:
         return solver
-    unknown = sorted(name for names in rejections.values() for name in names if name not in rig.names)
-    if unknown:
-        rig.index(unknown[0])  # raises RigError naming the shape and close matches
     import solvers
 
     listed = solvers.rejecting({expression - 1: names for expression, names in rejections.items()})

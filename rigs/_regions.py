@@ -23,7 +23,7 @@ from rigs._safe import read_json, regular_file
 MAX_REGIONS_BYTES = 256 * 1024 * 1024
 
 
-def read_regions(path: str | PathLike[str], n_vertices: int) -> dict[str, np.ndarray]:
+def read_regions(path: str | PathLike[str], n_vertices: int | None) -> dict[str, np.ndarray]:
     """Vertex regions from a JSON file or an OBJ's face groups.
 
     Parameters
@@ -31,8 +31,10 @@ def read_regions(path: str | PathLike[str], n_vertices: int) -> dict[str, np.nda
     path : path
         ``.json``: an object ``{"name": [vertex indices] or [bool per vertex], ...}``. ``.obj``: the rig's
         mesh (same vertex count and order); each ``g`` group is a region holding the vertices of its faces.
-    n_vertices : int
-        Vertex count of the rig the regions select on.
+    n_vertices : int or None
+        Vertex count of the rig the regions select on; None when the rig is not known yet (an OBJ's own
+        vertex count is used, and JSON indices are only checked to be non-negative: the regions are checked
+        again against each rig they are applied to).
 
     Returns
     -------
@@ -56,9 +58,10 @@ def read_regions(path: str | PathLike[str], n_vertices: int) -> dict[str, np.nda
 
 
 def regions_from_mapping(
-    source: Mapping[str, Any], n_vertices: int, origin: str = "regions"
+    source: Mapping[str, Any], n_vertices: int | None, origin: str = "regions"
 ) -> dict[str, np.ndarray]:
-    """Validated regions from a mapping of name -> vertex indices or a boolean mask of all vertices.
+    """Validated regions from a mapping of name -> vertex indices or a boolean mask of all vertices
+    (``n_vertices`` None: a mask of any length, and no upper bound on the indices).
 
     Raises
     ------
@@ -70,7 +73,7 @@ def regions_from_mapping(
         try:
             array = np.asarray(indices)
             if array.dtype == bool:
-                if array.shape != (n_vertices,):
+                if array.ndim != 1 or n_vertices is not None and array.shape != (n_vertices,):
                     raise TypeError
                 array = np.flatnonzero(array)
             if array.size and not np.issubdtype(array.dtype, np.integer):
@@ -78,17 +81,20 @@ def regions_from_mapping(
             array = array.astype(np.int64).ravel()
         except (TypeError, ValueError):
             raise RigError(
-                f"{origin}: region {name!r} must be a list of vertex indices or {n_vertices} booleans"
+                f"{origin}: region {name!r} must be a list of vertex indices or "
+                f"{'one boolean per vertex' if n_vertices is None else f'{n_vertices} booleans'}"
             ) from None
-        if array.size and (array.min() < 0 or array.max() >= n_vertices):
+        if array.size and n_vertices is None and array.min() < 0:
+            raise RigError(f"{origin}: region {name!r} holds a negative vertex index")
+        if array.size and n_vertices is not None and (array.min() < 0 or array.max() >= n_vertices):
             raise RigError(f"{origin}: region {name!r} indexes outside 0..{n_vertices - 1}")
         regions[str(name)] = np.unique(array)
     return regions
 
 
-def _obj_regions(path: Path, n_vertices: int) -> dict[str, np.ndarray]:
+def _obj_regions(path: Path, n_vertices: int | None) -> dict[str, np.ndarray]:
     mesh = read_obj(path)
-    if len(mesh.vertices) != n_vertices:
+    if n_vertices is not None and len(mesh.vertices) != n_vertices:
         raise RigError(
             f"{path}: the selection mesh has {len(mesh.vertices)} vertices, the rig {n_vertices}; "
             "export the rig's own mesh with the selections as face groups"

@@ -57,7 +57,7 @@ if TYPE_CHECKING:
         refresh,
         solver_class,
     )
-    from solvers._worker import Worker, WorkerDied, WorkerError, wait_for_workers
+    from solvers._worker import Worker, WorkerDied, WorkerError, wait_for_workers, worker
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
@@ -93,6 +93,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "refresh",
             "solver_class",
         ],
-        "_worker": ["Worker", "WorkerDied", "WorkerError", "wait_for_workers"],
+        "_worker": ["Worker", "WorkerDied", "WorkerError", "wait_for_workers", "worker"],
     },
 )

@@ -142,7 +142,8 @@ def _pack(out, *extra: str, input: str | None = None) -> dict:
 def test_pack_writes_exactly_the_documented_keys_and_one_mesh_per_expression(tmp_path) -> None:
     document = _pack(tmp_path / "pack")
     assert list(document) == [
-        "rig", "solver", "params", "sequence", "target", "pairs", "expressions", "excluded", "warnings"
+        "rig", "solver", "params", "sequence", "target", "pairs", "expressions", "excluded", "constraints",
+        "warnings",
     ]  # fmt: skip
     assert document["rig"] == "tiny" and document["solver"] == "cpsat"
     assert document["params"] == {
@@ -161,6 +162,7 @@ def test_pack_writes_exactly_the_documented_keys_and_one_mesh_per_expression(tmp
         "mode": "sequence", "jmax": 3, "seed": 0, "time_limit": None, "timeout": None, "overlap": 0.0
     }  # fmt: skip
     assert document["target"] is None and document["excluded"] == []
+    assert document["constraints"] == {"default": True, "rules": [], "notes": []}  # no ARKit gaze in tiny
     assert all(len(pair) == 2 for pair in document["pairs"])
     assert 1 <= len(document["expressions"]) <= 3
     for expression in document["expressions"]:

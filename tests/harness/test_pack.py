@@ -3,6 +3,7 @@ extra examples, artist constraints, regions and cancellation warnings."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 from dataclasses import replace
@@ -121,11 +122,18 @@ class TimedSolver:
         return self.inner.solve(problem, time_limit=time_limit, seed=seed)
 
 
+class InProcess(contextlib.nullcontext):
+    """`harness._pack_solver.IsolatedSolver` without the worker: the solver on the test clock solves here."""
+
+    def __init__(self, label, clock: Clock) -> None:
+        super().__init__(TimedSolver(clock))
+
+
 @pytest.fixture
 def clock(monkeypatch) -> Clock:
     clock = Clock(step=1.0)
     monkeypatch.setattr(harness._pack, "monotonic", clock)
-    monkeypatch.setattr(harness._pack.plugins, "solver", lambda name: TimedSolver(clock))
+    monkeypatch.setattr(harness._pack, "IsolatedSolver", lambda label: InProcess(label, clock))
     return clock
 
 

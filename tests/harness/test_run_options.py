@@ -6,11 +6,13 @@ from __future__ import annotations
 import json
 import re
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
 import harness
 import packing
+from harness._rigspec import resolve_rig
 from harness.cli import cli
 
 
@@ -67,7 +69,7 @@ def test_constraints_and_regions_reach_every_cell_and_run_json(rig_file, tmp_pat
         (
             ("--regions", "{r}"),
             {"r": '{"lip": [1, -2]}'},
-            r"{r}: region 'lip' must be a list of non-negative",
+            r"{r}: region 'lip' holds a negative vertex index",
         ),
         (
             ("--regions", "{r}"),
@@ -94,3 +96,23 @@ def test_bad_constraints_and_regions_are_one_line_errors_before_any_cell(
     assert result.exit_code == 2 and len(lines) == 1, result.output
     assert re.search(message.format(**{key: re.escape(str(path)) for key, path in paths.items()}), lines[0])
     assert not (out / "records").exists()
+
+
+def test_regions_from_the_face_groups_of_an_obj_reach_every_cell(tmp_path) -> None:
+    tiny = resolve_rig("tiny")
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in tiny.neutral]
+    expected = {}
+    for name in sorted(tiny.regions):
+        inside = np.isin(tiny.triangles, tiny.regions[name]).all(axis=1)
+        lines.append(f"g {name}")
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in tiny.triangles[inside]]
+        expected[name] = sorted(np.unique(tiny.triangles[inside]).tolist())
+    regions = tmp_path / "regions.obj"
+    regions.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    arguments = ("--solvers", "greedy", "--transfers", "delta", "--regions", regions, "--out", out, "-q")
+    result = invoke("run", "--rigs", "tiny", *arguments)
+    assert result.exit_code == 0, result.output
+    assert harness.read_run(out)["config"]["regions"] == expected
+    records = harness.read_records(out)
+    assert set(records.loc[records["kind"] == "cell", "status"]) == {"ok"}

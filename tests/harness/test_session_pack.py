@@ -103,6 +103,8 @@ def test_faceunits_session_lists_every_file_and_what_was_left_out(faceunits, fac
     used = {name for e in document["expressions"] for name in e["shapes"]}
     excluded = {entry["shape"]: entry["reason"] for entry in document["excluded"]}
     assert set(excluded) == set(faceunits.names) - used
+    rule = "left out by the default constraints: scanned only with jawOpen"
+    assert excluded.pop("mouthClose").startswith(rule)
     assert all(reason == "in no expression: --jmax 4 reached" for reason in excluded.values())
     assert document["sequence"]["mode"] == "sequence" and document["sequence"]["jmax"] == 4
     assert f"{len(excluded)} blendshapes in no expression (--jmax 4 reached)" in output

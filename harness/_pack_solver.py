@@ -1,0 +1,235 @@
+"""The solver of ``harness pack``: in a worker process of its own, and a failure is the packing's end.
+
+A session must never come out short without saying why. `IsolatedSolver` runs every solve in a worker process
+(`solvers.Worker`): a solver that crashes the interpreter (``os.abort``, a segfault in a backend library) or
+calls ``sys.exit`` loses its process, not the packing, and its failure becomes a `packing.Solution` with
+``Termination.ERROR`` like a raised exception or a malformed answer (`solvers.LoadedSolver`). `LoudSolver`,
+the outermost wrapper, turns every such answer, and a claim that an expression is infeasible (the empty
+expression always is feasible), into a `SolverFailure`: one line naming the solver, the expression and the
+reason, and a non-zero exit of ``harness pack``.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from packing import PackingProblem, Solution
+    from solvers import Availability, Capabilities, LoadedSolver
+
+#: Solvers loaded in this worker process, by label.
+_LOADED: dict[str, LoadedSolver] = {}
+
+
+class SolverFailure(ValueError):
+    """A solver failed on an expression of the packing (one line: solver, expression, reason)."""
+
+
+def load_in_worker(label: str) -> tuple[str, Capabilities]:
+    """Load the solver ``label`` in the worker process (its library import paid before the first solve);
+    its name and capabilities."""
+    from harness import _plugins as plugins
+
+    if label not in _LOADED:
+        _LOADED[label] = plugins.solver(label)
+    return _LOADED[label].name, _LOADED[label].capabilities
+
+
+def warm_in_worker(label: str) -> None:
+    """Solve a one-item problem with the solver ``label`` in the worker process, so that the imports of its
+    backend and of the packing problem are paid while the caller analyses the rig; whatever it answers or
+    raises is ignored (the packing's own solves report failures)."""
+    import numpy as np
+
+    from packing import problem_from_incidence
+
+    load_in_worker(label)
+    try:
+        _LOADED[label].solve(problem_from_incidence(np.ones((1, 1), dtype=bool), [1.0]))
+    except BaseException:  # noqa: BLE001, S110 - a solver that fails here fails again on the packing's solves
+        pass
+
+
+def availability_in_worker(label: str) -> Availability:
+    """The availability of the solver ``label``, asked in the worker process."""
+    load_in_worker(label)
+    return _LOADED[label].availability()
+
+
+def solve_in_worker(label: str, problem: PackingProblem, time_limit: float | None, seed: int) -> Solution:
+    """One solve in the worker process; a solver that calls ``sys.exit`` answers ``Termination.ERROR``."""
+    load_in_worker(label)
+    start = time.perf_counter()
+    try:
+        return _LOADED[label].solve(problem, time_limit=time_limit, seed=seed)
+    except SystemExit as exit_:
+        return failed(label, f"it called sys.exit({exit_.code!r})", time.perf_counter() - start)
+
+
+def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
+    """The ``Termination.ERROR`` answer of ``backend``, with the reason in ``message``."""
+    from packing import Solution, Termination
+
+    return Solution(
+        items=(),
+        shapes=(),
+        objective=0.0,
+        bound=None,
+        termination=Termination.ERROR,
+        solve_time=elapsed,
+        backend=backend,
+        message=message,
+    )
+
+
+class IsolatedSolver:
+    """A solver plugin that solves in a worker process of its own (see the module docstring).
+
+    Parameters
+    ----------
+    label : str
+        The solver's label (``cpsat`` or ``cpsat[workers=2]``).
+
+    Notes
+    -----
+    The worker (one per label and process, `solvers.worker`) starts at once, loads the plugin and warms it up
+    on a one-item problem while the caller goes on (loading and analysing the rig); the plugin's library is
+    imported there only. Its name and capabilities, and the first solve, wait for it.
+    """
+
+    def __init__(self, label: str) -> None:
+        import solvers
+
+        self._label = label
+        self._worker = solvers.worker(f"pack-{label}")
+        self._worker.send("harness._pack_solver:load_in_worker", label)
+        self._worker.send("harness._pack_solver:warm_in_worker", label)
+        self._loaded: tuple[str, Capabilities] | None = None
+        self._warming = True
+
+    @property
+    def name(self) -> str:
+        """The plugin's registered name."""
+        return self._plugin()[0]
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """The plugin's declared capabilities."""
+        return self._plugin()[1]
+
+    def availability(self) -> Availability:
+        """The plugin's availability."""
+        self._ready()
+        return self._worker.call("harness._pack_solver:availability_in_worker", self._label)  # type: ignore[return-value]
+
+    def _ready(self) -> None:
+        """Wait for the worker to have loaded and warmed up the plugin (see `_plugin` for its errors)."""
+        from solvers import WorkerError
+
+        self._plugin()
+        if self._warming:
+            self._warming = False
+            try:
+                self._worker.receive()
+            except WorkerError:  # it died warming up: the next call starts a fresh process and says how
+                pass
+
+    def _plugin(self) -> tuple[str, Capabilities]:
+        """Name and capabilities of the plugin, once the worker has loaded it.
+
+        Raises
+        ------
+        SolverFailure
+            When it could not: the plugin raised, or the process died.
+        """
+        from solvers import WorkerDied, WorkerError
+
+        if self._loaded is None:
+            try:
+                self._loaded = self._worker.receive()  # type: ignore[assignment]
+            except WorkerDied as error:
+                raise SolverFailure(
+                    f"solver {self._label} could not be loaded: its process died ({error.exit})"
+                ) from None
+            except WorkerError as error:
+                raise SolverFailure(
+                    f"solver {self._label} could not be loaded: {_last_line(str(error))}"
+                ) from None
+        assert self._loaded is not None
+        return self._loaded
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """The plugin's answer from the worker, or ``Termination.ERROR`` saying how the worker failed."""
+        from solvers import WorkerDied, WorkerError
+
+        self._ready()
+        start = time.perf_counter()
+        try:
+            return self._worker.call(  # type: ignore[return-value]
+                "harness._pack_solver:solve_in_worker", self._label, problem, time_limit, seed
+            )
+        except WorkerDied as error:
+            reason = f"its process died ({error.exit})"
+        except WorkerError as error:
+            reason = _last_line(str(error))
+        return failed(self.name, reason, time.perf_counter() - start)
+
+    def close(self) -> None:
+        """Leave the worker for the next packing of this process with the same solver (it ends with the
+        process), or end it when a call is unanswered."""
+        if self._worker.pending:
+            self._worker.stop()
+
+    def __enter__(self) -> IsolatedSolver:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class LoudSolver:
+    """The outermost solver of a packing: every failed answer raises `SolverFailure`.
+
+    Parameters
+    ----------
+    inner : solver
+        What the expression sequence calls (the isolated solver, behind a deadline or refinement).
+    name : str
+        The solver's name for the message (the user's ``--solver``).
+    """
+
+    def __init__(self, inner: Any, name: str) -> None:
+        self.inner = inner
+        self.name = name
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
+        """The inner answer, unless it is a failure.
+
+        Raises
+        ------
+        SolverFailure
+            For ``Termination.ERROR`` or ``Termination.INFEASIBLE``.
+        """
+        from packing import Termination
+
+        solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
+        if solution.termination is Termination.ERROR:
+            reason = _last_line(solution.message) or "no message"
+        elif solution.termination is Termination.INFEASIBLE:
+            reason = "it claims the expression is infeasible, but an empty expression always is feasible"
+        else:
+            return solution
+        expression = problem.meta.get("expression", "?")
+        stage = " (extra examples)" if problem.meta.get("stage") == "extra_examples" else ""
+        for prefix in (f"{solution.backend}: ", f"{self.name}: "):  # the plugin's name, said once
+            reason = reason.removeprefix(prefix)
+        reason = re.sub(r"^(?:\w+\.)+(?=\w+: )", "", reason)  # an exception's module path
+        raise SolverFailure(f"solver {self.name} failed on expression {expression}{stage}: {reason}")
+
+
+def _last_line(text: str) -> str:
+    """The last non-empty line of a message (a traceback's names the exception)."""
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    return lines[-1] if lines else ""
