@@ -41,11 +41,16 @@ class RigInputs:
     listings : dict of str to tuple of str
         Relative folder path (with ``/**`` for a recursive search) -> the sorted relative names of the
         entries the reader accepted there (a shape added beside the others changes the rig).
+    argument : str
+        The relative name of the file the rig was read from (empty for a folder): the digest leaves its
+        name out, so a copy of a rig file under another name is the same rig, while the names of the
+        files beside it (shape names, a manifest's entries) count.
     """
 
     root: Path
     files: dict[str, tuple[str, int]] = field(default_factory=dict)
     listings: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    argument: str = ""
 
     def relative(self, path: Path | str) -> str:
         """``path`` relative to `root` (``../`` parts for a file outside it), POSIX spelling."""
@@ -67,6 +72,7 @@ class RigInputs:
     def document(self) -> dict[str, Any]:
         """The inputs as JSON-ready data (`from_document` reads it back)."""
         return {
+            "argument": self.argument,
             "files": {name: list(entry) for name, entry in self.files.items()},
             "listings": {name: list(entries) for name, entries in self.listings.items()},
         }
@@ -76,15 +82,20 @@ class RigInputs:
         """The inputs `document` wrote (``root`` is not stored: the rig's folder at the time of reading)."""
         files = {str(k): (str(v[0]), int(v[1])) for k, v in dict(document.get("files", {})).items()}
         listings = {str(k): tuple(map(str, v)) for k, v in dict(document.get("listings", {})).items()}
-        return cls(Path(root), files, listings)
+        return cls(Path(root), files, listings, str(document.get("argument", "")))
 
     @property
     def digest(self) -> str:
-        """``sha256:`` and 64 hex digits over every file's name and hash and every listing, in name order."""
-        canonical = json.dumps(
-            [sorted(self.document()["files"].items()), sorted(self.document()["listings"].items())],
-            separators=(",", ":"),
-        )
+        """``sha256:`` and 64 hex digits over every file's name and hash and every listing, in name order
+        (the `argument`'s own name left out)."""
+        document = self.document()
+
+        def named(name: str) -> str:
+            return "<argument>" if name == self.argument else name
+
+        files = {named(name): entry for name, entry in document["files"].items()}
+        listings = {name: [named(entry) for entry in found] for name, found in document["listings"].items()}
+        canonical = json.dumps([sorted(files.items()), sorted(listings.items())], separators=(",", ":"))
         return f"sha256:{hashlib.sha256(canonical.encode()).hexdigest()}"
 
     def changes(self, later: RigInputs) -> list[str]:
@@ -111,9 +122,12 @@ _active: ContextVar[RigInputs | None] = ContextVar("rig_inputs", default=None)
 
 
 @contextlib.contextmanager
-def recording(root: Path | str) -> Iterator[RigInputs]:
-    """Collect what the rig reads inside the block open (nested blocks collect into their own)."""
+def recording(root: Path | str, argument: Path | str | None = None) -> Iterator[RigInputs]:
+    """Collect what the rig read from ``argument`` (a file, or None for the folder ``root``) opens inside the
+    block (nested blocks collect into their own)."""
     inputs = RigInputs(Path(root))
+    if argument is not None:
+        inputs.argument = inputs.relative(argument)
     token = _active.set(inputs)
     try:
         yield inputs

@@ -102,7 +102,7 @@ def load_with_inputs(path: str | Path, **options: Any) -> tuple[Rig, RigInputs]:
         Keyword arguments of `load`.
     """
     path = Path(path)
-    with recording(path if path.is_dir() else path.parent) as inputs:
+    with recording(path, None) if path.is_dir() else recording(path.parent, path) as inputs:
         rig = load(path, **options)
     return rig, inputs
 

@@ -12,6 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import harness
+import rigs
 from harness import _records
 from harness._durations import format_duration, parse_duration
 from harness._grid import CellSpec, RunConfig, rig_digest
@@ -219,30 +220,25 @@ def test_cell_ids_are_stable_and_depend_on_every_field() -> None:
 
 
 def test_the_rig_digest_follows_the_content_not_the_path(tmp_path) -> None:
+    """Each file form's whole content is tested in ``tests/rigs/test_rig_inputs.py``."""
     first, copy, other = tmp_path / "a.npz", tmp_path / "b.npz", tmp_path / "c.npz"
-    first.write_bytes(b"rig one")
-    copy.write_bytes(b"rig one")
-    other.write_bytes(b"rig two")
+    rigs.save(rigs.generate("tiny"), first)
+    shutil.copy(first, copy)
+    rigs.save(rigs.generate("tiny", seed=1), other)
     assert rig_digest(str(first), 0) == rig_digest(str(copy), 0) != rig_digest(str(other), 0)
-    folder = tmp_path / "folder"
-    folder.mkdir()
-    (folder / "neutral.obj").write_text("v 0 0 0\n")
+    folder = rigs.save(rigs.generate("tiny"), tmp_path / "folder", format="obj-folder")
+    (folder / "rig.json").unlink()
     before = rig_digest(str(folder), 0)
-    (folder / "smile.obj").write_text("v 0 0 1\n")
+    (folder / "extra.obj").write_bytes(next(folder.glob("*_L.obj")).read_bytes())
     assert rig_digest(str(folder), 0) != before
-    gltf = tmp_path / "face.gltf"
-    gltf.write_text('{"buffers": [{"uri": "face.bin"}]}')
-    (tmp_path / "face.bin").write_bytes(b"one")
-    before = rig_digest(str(gltf), 0)
-    (tmp_path / "face.bin").write_bytes(b"two")
-    assert rig_digest(str(gltf), 0) != before
     assert rig_digest("tiny", 0) == rig_digest("tiny", 0) != rig_digest("tiny", 1) != rig_digest("male", 1)
 
 
 def test_the_rig_digest_never_reads_a_fifo(tmp_path) -> None:
     fifo = tmp_path / "rig.npz"
     os.mkfifo(fifo)
-    assert rig_digest(str(fifo), 0).startswith("sha256:")
+    with pytest.raises(rigs.RigError, match="is a FIFO"):
+        rig_digest(str(fifo), 0)
 
 
 def test_run_config_round_trips_through_json_and_rejects_unknown_keys() -> None:
