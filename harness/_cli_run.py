@@ -263,6 +263,12 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "harness wrote are ever removed).",
 )
 @click.option(
+    "--retry-failed",
+    is_flag=True,
+    help="With --resume: also run again the cells recorded timeout, crashed or error (a new result "
+    "replaces the recorded one).",
+)
+@click.option(
     "--quiet",
     "-q",
     is_flag=True,
@@ -283,6 +289,7 @@ def run(
     out: Path | None,
     resume: Path | None,
     force: bool,
+    retry_failed: bool,
     quiet: bool,
     **grid: object,
 ) -> None:
@@ -343,6 +350,7 @@ def run(
             reporter=RunReporter(console, quiet=quiet),
             command=["harness", *sys.argv[1:]],
             execution=execution,
+            retry_failed=retry_failed,
         )
     except KeyboardInterrupt:
         terminal(stderr=True).print(
