@@ -8,7 +8,6 @@ data given by the user. A *together* pair is forced into one item like a symmetr
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
 from pathlib import Path
@@ -65,6 +64,10 @@ def as_pairs(value: Iterable[Any], what: str) -> tuple[Pair, ...]:
     return tuple(dict.fromkeys(pairs))
 
 
+#: Largest constraints file read: a million pairs of long shape names.
+MAX_CONSTRAINTS_BYTES = 64 * 2**20
+
+
 def read_constraints(path: str | PathLike[str]) -> dict[str, tuple[Pair, ...]]:
     """Artist constraints from a JSON file ``{"together": [["A", "B"], ...], "apart": [...]}``.
 
@@ -73,15 +76,13 @@ def read_constraints(path: str | PathLike[str]) -> dict[str, tuple[Pair, ...]]:
     Raises
     ------
     ValueError
-        Naming the file and what is wrong (missing, not JSON, unknown key, an entry that is not a pair).
+        Naming the file and what is wrong (missing, not a regular file, larger than
+        `MAX_CONSTRAINTS_BYTES`, not JSON or nested too deeply, unknown key, an entry that is not a pair).
     """
+    import rigs
+
     path = Path(path)
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ValueError(f"{path}: constraints file not found") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise ValueError(f"{path}: cannot read constraints JSON: {error}") from None
+    document = rigs.read_json(path, limit=MAX_CONSTRAINTS_BYTES, what="constraints file")
     if not isinstance(document, Mapping):
         raise ValueError(f"{path}: constraints JSON must be an object with 'together' and/or 'apart'")
     unknown = sorted(set(document) - set(CONSTRAINT_KINDS))

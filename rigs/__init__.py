@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from rigs._obj import ObjSurface, plain_surface, rig_surface
     from rigs._regions import read_regions, regions_from_mapping
     from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
+    from rigs._safe import read_json
     from rigs._warp import WARPS, Compose, LocalScale, Scale, warp
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -38,6 +39,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
         "_obj": ["ObjSurface", "plain_surface", "rig_surface"],
         "_regions": ["read_regions", "regions_from_mapping"],
+        "_safe": ["read_json"],
         "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],
         "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "warp"],
     },

@@ -64,8 +64,8 @@ def test_constraints_and_regions_reach_every_cell_and_run_json(rig_file, tmp_pat
         ),
         (("--constraints", "{c}"), {"c": "[1, 2]"}, r"{c}: constraints JSON must be an object"),
         (("--constraints", "{c}"), {"c": '{"alone": []}'}, r"{c}: unknown key 'alone'"),
-        (("--constraints", "{c}"), {}, r"{c}: constraints file not found"),
-        (("--regions", "{r}"), {"r": "{not json"}, r"{r}: cannot read regions JSON"),
+        (("--constraints", "{c}"), {}, r"{c}: no such file"),
+        (("--regions", "{r}"), {"r": "{not json"}, r"{r}: not a readable JSON regions file"),
         (
             ("--regions", "{r}"),
             {"r": '{"lip": [1, -2]}'},

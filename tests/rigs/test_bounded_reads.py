@@ -61,3 +61,14 @@ def test_read_json_caps_before_reading(tmp_path: Path) -> None:
     assert len(read_json(path, limit=4096, what="list")) == 1001
     with pytest.raises(rigs.RigError, match="more than a list can hold"):
         read_json(path, limit=100, what="list")
+
+
+@pytest.mark.parametrize("case", ["device", "fifo", "deep-json", "not-utf8"])
+def test_a_hostile_constraints_file_is_one_line_naming_it(case: str, tmp_path: Path) -> None:
+    import packing
+
+    make, message = CASES[case]
+    path = make(tmp_path)
+    with pytest.raises(ValueError, match=message.replace("regions file", "constraints file")) as caught:
+        packing.read_constraints(path)
+    assert str(path) in str(caught.value) and "\n" not in str(caught.value)
