@@ -89,7 +89,8 @@ def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
     if path is None:
         return None
     import rigs
-    from rigs._obj import parse_obj, read_surface
+    from rigs._obj import parse_obj
+    from rigs._obj_surface import read_surface
 
     path = Path(path)
     surface = None
