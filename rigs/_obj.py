@@ -25,6 +25,8 @@ from rigs._rig import LARGEST_COORDINATE, RigError
 from rigs._safe import UnreadableFile, read_bytes
 
 _FACE_LINE = re.compile(r"^f[ \t]([^\n]*)", re.MULTILINE)
+#: A vertex index in a face corner: ASCII digits with an optional sign.
+_INDEX = re.compile(r"[+-]?[0-9]+")
 #: What follows the vertex index in a face corner (``/vt/vn``), up to the next whitespace.
 _CORNER_REST = re.compile(r"/\S*")
 #: A coordinate as written by any exporter: ASCII decimal notation, or inf/nan (refused as not finite).
@@ -219,14 +221,16 @@ def _plain_mesh(text: bytes, source: str, *, with_faces: bool, faces_of: ObjMesh
     vertices = _plain_vertex_block(lines.text_of(text, lines.vertex))
     if vertices is None:
         return None
-    face_lines = [line[2:] for line in lines.text_of(text, lines.face).decode().split("\n")[:-1]]
-    if any("#" in line or line[:1] == " " or line[-1:] == " " for line in face_lines):
+    face_block = lines.text_of(text, lines.face)
+    face_lines = [line[2:] for line in face_block.decode().split("\n")[:-1]]
+    if b"#" in face_block or b"f  " in face_block or b" \n" in face_block:
         face_lines = [line.split("#", 1)[0].strip() for line in face_lines]
     groups = _groups(text, lines, source)
     if not with_faces or not face_lines:
         return ObjMesh(vertices, (), groups, tuple(face_lines))
     defined_before = np.searchsorted(lines.vertex, lines.face)
-    faces = _faces(face_lines, lines.face + 1, defined_before, len(vertices), source)
+    corners = _plain_corners(face_block)
+    faces = _faces(face_lines, lines.face + 1, defined_before, len(vertices), source, corners)
     vertices_first = defined_before[0] == len(vertices)
     face_section = text[lines.starts[lines.face[0]] :] if vertices_first else b""
     return ObjMesh(vertices, faces, groups, tuple(face_lines), face_section)
@@ -369,11 +373,17 @@ def _vertices(coordinates: array, line_numbers: array, source: str) -> np.ndarra
 
 
 def _faces(
-    lines: list[str], line_numbers: Sequence[int], vertex_counts: Sequence[int], n_vertices: int, source: str
+    lines: list[str],
+    line_numbers: Sequence[int],
+    vertex_counts: Sequence[int],
+    n_vertices: int,
+    source: str,
+    corners: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, ...]:
     """0-based polygons of face lines; ``vertex_counts`` are the vertices defined before each line (for
-    negative indices). Raises `RigError` for the first line at fault."""
-    counts, flat = _face_corners(lines, line_numbers, n_vertices, source)
+    negative indices); ``corners``: their corner counts and indices as written when already read
+    (`_plain_corners`). Raises `RigError` for the first line at fault."""
+    counts, flat = corners if corners is not None else _face_corners(lines, line_numbers, n_vertices, source)
     if counts.size and counts.max() > n_vertices:  # a polygon repeats a vertex (and would be costly)
         i = int(np.argmax(counts))
         raise RigError(
@@ -390,8 +400,50 @@ def _faces(
             f"{source}:{line_numbers[i]}: face indexes a vertex outside 1..{n_vertices} "
             f"(or before any vertex is defined): 'f {lines[i][:80]}'"
         )
+    if (counts == counts[0]).all():  # (one polygon size: rows of one array)
+        return tuple(flat.reshape(-1, int(counts[0])))
     ends = np.cumsum(counts).tolist()
     return tuple(flat[start:end] for start, end in zip([0, *ends[:-1]], ends, strict=True))
+
+
+#: Digits of the longest vertex index `_plain_corners` reads (longer ones are left to `_face_corners`).
+_INDEX_DIGITS = 18
+
+
+def _plain_corners(block: bytes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Corner counts and vertex indices as written of the face lines of a plain file (``block``: its
+    ``f`` lines, each ending in a line feed), read with numpy; None for a comment, a face of fewer than
+    3 corners, or a corner whose vertex index is not a plain integer of up to 18 digits (left to
+    `_face_corners`, which names the line)."""
+    if b"#" in block:
+        return None
+    data = np.frombuffer(block, dtype=np.uint8)
+    separator = (data == _SPACE) | (data == _LINE_FEED)
+    after_separator = np.concatenate([[True], separator[:-1]])
+    starts = np.flatnonzero(~separator & after_separator)
+    keyword = after_separator[starts] & np.concatenate([[True], data[:-1] == _LINE_FEED])[starts]
+    line_of_token = np.cumsum(keyword) - 1
+    counts = np.bincount(line_of_token, minlength=int(keyword.sum())) - 1
+    if not len(counts) or counts.min() < 3:
+        return None
+    starts = starts[~keyword]
+    ends = np.flatnonzero(~separator & np.concatenate([separator[1:], [True]]))[~keyword] + 1
+    slashes = np.flatnonzero(data == ord("/"))
+    next_slash = np.append(slashes, len(data))[np.searchsorted(slashes, starts)]
+    stops = np.minimum(ends, next_slash)
+    signed = (data[starts] == ord("-")) | (data[starts] == ord("+"))
+    first = starts + signed
+    lengths = stops - first
+    if lengths.min() < 1 or lengths.max() > _INDEX_DIGITS:
+        return None
+    values = np.zeros(len(starts), dtype=np.int64)
+    for place in range(int(lengths.max())):
+        inside = lengths > place
+        digit = data[np.where(inside, first + place, 0)].astype(np.int64) - ord("0")
+        if ((digit < 0) | (digit > 9))[inside].any():
+            return None
+        values = np.where(inside, values * 10 + digit, values)
+    return counts, np.where(data[starts] == ord("-"), -values, values)
 
 
 def _face_corners(
@@ -410,7 +462,8 @@ def _face_corners(
     counts = np.fromiter(map(len, map(str.split, lines)), dtype=np.int64, count=len(lines))
     joined = " ".join(lines)
     words = (_CORNER_REST.sub("", joined) if "/" in joined else joined).split()
-    if len(words) == counts.sum() and counts.min() >= 3:
+    plain = joined.isascii() and "_" not in joined  # (int() reads '1_0' and non-ASCII digits)
+    if plain and len(words) == counts.sum() and counts.min() >= 3:
         try:
             return counts, np.fromiter(map(int, words), dtype=np.int64, count=len(words))
         except (ValueError, OverflowError):
@@ -421,7 +474,10 @@ def _face_corners(
         if len(tokens) < 3:
             raise RigError(f"{source}:{line_numbers[i]}: face needs at least 3 corners, got 'f {line[:80]}'")
         try:
-            corners.extend([int(token.partition("/")[0]) for token in tokens])
+            indices = [token.partition("/")[0] for token in tokens]
+            if not all(_INDEX.fullmatch(index) for index in indices):
+                raise ValueError(indices)
+            corners.extend([int(index) for index in indices])
         except ValueError:
             raise RigError(
                 f"{source}:{line_numbers[i]}: face has a malformed vertex index: 'f {line[:80]}'"

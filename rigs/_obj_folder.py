@@ -343,7 +343,7 @@ def _check_same_mesh(base: ObjMesh, shape: ObjMesh, path: Path, neutral_path: Pa
         raise RigError(
             f"{path}: {len(shape.vertices)} vertices, but the neutral {neutral_path.name} has {expected}"
         )
-    if not shape.face_lines or shape.face_lines == base.face_lines:
+    if not shape.face_lines or shape.face_lines is base.face_lines or shape.face_lines == base.face_lines:
         return
     faces = read_obj(path, root=neutral_path.parent).faces
     if len(faces) != len(base.faces):

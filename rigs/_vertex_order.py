@@ -30,10 +30,10 @@ class VertexOrder:
 
     Notes
     -----
-    The shares of edges are measured on at most `SAMPLE` of them, spread evenly over the sorted edge list
-    (a share measured on 8,192 edges is within 1.7 points of the mesh's in 99.7 % of shapes, and a
-    shuffled order changes nearly all edges), with squared lengths against squared bounds: a check costs
-    O(min(E, SAMPLE) + N) per shape, not O(E) logarithms.
+    The shares of edges are measured on at most `SAMPLE` of them, those of triangles spread evenly over
+    the mesh's triangle list (a share measured on 8,192 edges is within 1.7 points of the whole mesh's,
+    three standard deviations, and a shuffled order changes nearly every edge), with squared lengths
+    against squared bounds: a check costs O(min(E, SAMPLE) + N) per shape, not O(E) logarithms.
     """
 
     PERMUTED = 4.0
@@ -42,10 +42,10 @@ class VertexOrder:
     SAMPLE = 8192
 
     def __init__(self, neutral: np.ndarray, triangles: np.ndarray, neutral_path: Path) -> None:
+        if 3 * len(triangles) > self.SAMPLE:  # the edges of triangles spread evenly over the mesh's list
+            triangles = triangles[np.linspace(0, len(triangles) - 1, self.SAMPLE // 3).astype(np.int64)]
         pairs = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
         keys = np.unique(pairs[:, 0] * len(neutral) + pairs[:, 1])  # (sorted as the pairs are)
-        if len(keys) > self.SAMPLE:
-            keys = keys[np.linspace(0, len(keys) - 1, self.SAMPLE).astype(np.int64)]
         first, second = keys // len(neutral), keys % len(neutral)
         rest = _squared_lengths(neutral[first] - neutral[second])
         kept = rest > 0
