@@ -18,7 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import _face_corners, _plain_corners, _plain_vertex_block, parse_obj
+from rigs._obj import _plain_vertex_block, parse_obj
+from rigs._obj_faces import _face_corners, plain_corners
 from rigs._obj_surface import parse_surface
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
@@ -221,7 +222,7 @@ def test_face_corners_read_as_line_by_line(lines) -> None:
 @given(st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6))
 def test_face_corners_read_with_numpy_are_those_read_line_by_line_or_left_to_them(lines) -> None:
     block = "".join(f"f {line}\n" for line in lines).encode()
-    fast = _plain_corners(block)
+    fast = plain_corners(block)
     if fast is None:
         return
     counts, corners = _face_corners(lines, array("q", range(1, len(lines) + 1)), 9, "faces.obj")
@@ -229,7 +230,7 @@ def test_face_corners_read_with_numpy_are_those_read_line_by_line_or_left_to_the
 
 
 def test_plain_face_corners_are_read_with_numpy() -> None:
-    counts, corners = _plain_corners(b"f 1/1/1 2//2 3/3\nf -1 -2 +3 44\n")
+    counts, corners = plain_corners(b"f 1/1/1 2//2 3/3\nf -1 -2 +3 44\n")
     assert counts.tolist() == [3, 4] and corners.tolist() == [1, 2, 3, -1, -2, 3, 44]
 
 
