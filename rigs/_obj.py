@@ -262,7 +262,7 @@ def _groups(text: bytes, lines: _Lines, source: str) -> dict[str, np.ndarray]:
     return {name: np.concatenate(parts) for name, parts in found.items()}
 
 
-def _plain_vertex_block(block: str) -> np.ndarray | None:
+def _plain_vertex_block(block: bytes | str) -> np.ndarray | None:
     """(N, 3) positions of a vertex block of plain ``v x y z`` lines read in one go (`read_vertex_lines`,
     outside the interpreter lock, so that several files are read at once); None for any other line, no
     line, or a non-finite or too large coordinate, left to the line-by-line reader, which names the line."""
