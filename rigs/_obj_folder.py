@@ -47,7 +47,8 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     folder : path
         The folder. Without ``rig.json``, every ``*.obj`` other than the neutral is a blendshape, named by
         its file stem, in sorted order; when the neutral is the only OBJ there, the OBJs of the one
-        subfolder that holds any are. With ``rig.json`` (see :func:`save_obj_folder`), its ``shapes`` list
+        subfolder that holds any are (shapes beside the neutral and OBJs in a subfolder too are refused:
+        which are the shapes?). With ``rig.json`` (see :func:`save_obj_folder`), its ``shapes`` list
         gives the order and its ``regions`` and ``units`` are kept.
     neutral : str or path, optional
         File name (in the folder) or path of the neutral mesh; default ``neutral.obj``, else the one file
@@ -67,10 +68,11 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         One line naming the file and the problem: missing folder or neutral, no blendshape files, a
         blendshape whose vertex count or faces differ from the neutral's (the first such file), or whose
         vertices are clearly in another order (`rigs._vertex_order.VertexOrder`), two files with one stem,
-        a malformed line, a non-finite coordinate; an ``*.obj`` entry that is not a regular file inside
-        the folder (a FIFO, a device, a dangling or looping link, a link outside: see
-        :func:`rigs._safe.rig_entries`); a ``rig.json`` that is not JSON, has fields of the wrong type,
-        or names files outside the folder.
+        two names equal up to case (``jawOpen``, ``JawOpen``), blendshapes both beside the neutral and in
+        a subfolder, a malformed line (a number not in ASCII decimal notation), a non-finite coordinate;
+        an ``*.obj`` entry that is not a regular file inside the folder (a FIFO, a device, a dangling or
+        looping link, a link outside: see :func:`rigs._safe.rig_entries`); a ``rig.json`` that is not
+        JSON, has fields of the wrong type, or names files outside the folder.
 
     Warns
     -----
