@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 from pyarrow import csv
 
-#: The keyword column of vertex lines: every row read must hold this word.
+#: The keyword column of vertex lines: every row read must hold this one-character word.
 _KEYWORD = "v"
 _COLUMNS = ("keyword", "x", "y", "z")
 _WRITE = csv.WriteOptions(include_header=False, delimiter=" ", quoting_style="none")
