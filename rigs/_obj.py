@@ -27,7 +27,9 @@ from rigs._safe import UnreadableFile, read_bytes
 
 _FACE_LINE = re.compile(r"^f[ \t]([^\n]*)", re.MULTILINE)
 #: A coordinate as written by any exporter: ASCII decimal notation, or inf/nan (refused as not finite).
-DECIMAL = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf(?:inity)?|nan)", re.I)
+DECIMAL = re.compile(
+    r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf(?:inity)?|nan)", re.IGNORECASE | re.ASCII
+)
 #: Decimal places `decimal_step` takes for rounding: coordinates with fewer are a design grid (integers,
 #: halves), not rounded; more than 9 is below any noise floor.
 _ROUNDING_DECIMALS = range(3, 10)

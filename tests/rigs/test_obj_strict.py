@@ -25,7 +25,14 @@ def _folder(path, shapes: dict[str, str], neutral: str = NEUTRAL):
 
 @pytest.mark.parametrize(
     ("coordinate", "shown"),
-    [("1_0", "1_0"), ("\uff11", "\uff11"), ("\u0661.5", "\u0661.5"), ("1__0.5", "1__0.5"), ("0x1", "0x1")],
+    [
+        ("1_0", "1_0"),
+        ("\uff11", "\uff11"),
+        ("\u0661.5", "\u0661.5"),
+        ("1__0.5", "1__0.5"),
+        ("0x1", "0x1"),
+        ("\u0131nf", "\u0131nf"),  # (a dotless i: 'inf' to a case-blind Unicode match, not to float())
+    ],
 )
 @pytest.mark.parametrize("fast", [True, False])
 def test_a_coordinate_python_would_read_but_an_obj_cannot_hold_is_refused(coordinate, shown, fast) -> None:
