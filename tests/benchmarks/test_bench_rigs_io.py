@@ -92,10 +92,10 @@ def exported_folder(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_bench_load_an_exported_obj_folder(benchmark, speed_target, exported_folder):
+def test_bench_load_an_exported_obj_folder(benchmark, speed_target, request):
     if benchmark.disabled:
-        pytest.skip("the production-sized OBJ folder is read only with --benchmark-enable")
-    folder, rig = exported_folder
+        pytest.skip("the production-sized OBJ folder is written and read only with --benchmark-enable")
+    folder, rig = request.getfixturevalue("exported_folder")
     seconds = []
     for _ in range(3):
         start = time.process_time()
