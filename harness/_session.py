@@ -149,7 +149,7 @@ def _pictures(
 
 def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:
     """The template with one morph target per expression."""
-    from rigs._gltf import glb_bytes
+    from rigs._gltf_write import glb_bytes
 
     names = tuple(expression_name(index, len(expressions)) for index in range(1, len(expressions) + 1))
     posed = replace(rig, deltas=expression_poses(rig, expressions), names=names, regions={})

@@ -5,7 +5,7 @@ An expression is the template neutral plus the sum of its shapes (primary and ex
 al. 2020, eq. 1 with 0/1 weights). When the rig came from an OBJ (a folder of OBJs, or the Face Units base
 mesh), every file is that OBJ with only its ``v`` lines replaced (`rigs.rig_surface`): texture
 coordinates, normals, groups, material references and face corners pass through as written. When it came
-from glTF, the files carry what the glTF mesh holds besides positions (`rigs._gltf.GltfSurface`): its
+from glTF, the files carry what the glTF mesh holds besides positions (`rigs._gltf_surface.GltfSurface`): its
 ``TEXCOORD_0`` as ``vt`` lines (v flipped: glTF's texture origin is the top left, OBJ's the bottom left),
 the neutral's ``NORMAL`` as ``vn`` lines, and a ``usemtl`` line per primitive material with the library
 ``materials.mtl`` beside them (each material's name and base colour); faces are ``f v/vt/vn``. Otherwise
@@ -27,7 +27,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from rigs import ObjSurface, Rig
-    from rigs._gltf import GltfSurface
+    from rigs._gltf_surface import GltfSurface
 
 NEUTRAL_FILE = "neutral.obj"
 ON_TARGET = "on_target"
@@ -89,7 +89,8 @@ def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
     if path is None:
         return None
     import rigs
-    from rigs._obj import parse_obj, read_surface
+    from rigs._obj import parse_obj
+    from rigs._obj_surface import read_surface
 
     path = Path(path)
     surface = None

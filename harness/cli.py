@@ -16,6 +16,7 @@ from __future__ import annotations
 import gc
 import importlib.metadata
 import sys
+import warnings
 from dataclasses import dataclass
 from typing import IO
 
@@ -206,8 +207,32 @@ def cli() -> None:
     """
 
 
+#: How Python shows a warning (file, line, category, message and the source line).
+_PYTHON_SHOW_WARNING = warnings.showwarning
+
+
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: IO[str] | None = None,
+    line: str | None = None,
+) -> None:
+    """A rig reader's warning (`rigs.RigWarning`: it names the file and what was left out) as one plain
+    ``warning:`` line on stderr; any other warning as Python shows it."""
+    readers = sys.modules.get("rigs._rig")  # (a RigWarning was raised only if the rig package is loaded)
+    if readers is not None and issubclass(category, readers.RigWarning):
+        from rich.markup import escape
+
+        terminal(stderr=True).print(f"[yellow]warning:[/] {escape(str(message))}")
+        return
+    _PYTHON_SHOW_WARNING(message, category, filename, lineno, file, line)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point (``harness = harness.cli:main``); ``argv`` defaults to the process's.
+    Warnings of the rig readers print as one plain line each (`_show_warning`).
 
     The command ends the process (``SystemExit``). Run as the console script (no ``argv``), every object
     is first moved out of the garbage collector's reach (``gc.freeze``): the interpreter's last
@@ -216,6 +241,7 @@ def main(argv: list[str] | None = None) -> None:
     left at exit is neither collected nor finalized (the commands close their files and workers
     themselves, and the process's end frees the memory).
     """
+    warnings.showwarning = _show_warning
     try:
         cli.main(args=argv, prog_name="harness")
     except SystemExit:

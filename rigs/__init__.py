@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from rigs._io import load, load_with_inputs, save
     from rigs._mirror import mirror_map
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
-    from rigs._obj import ObjSurface, plain_surface, rig_surface
+    from rigs._obj_surface import ObjSurface, plain_surface, rig_surface
     from rigs._regions import read_regions, regions_from_mapping
     from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
     from rigs._safe import read_json
@@ -37,7 +37,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_inputs": ["RigInputs"],
         "_mirror": ["mirror_map"],
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
-        "_obj": ["ObjSurface", "plain_surface", "rig_surface"],
+        "_obj_surface": ["ObjSurface", "plain_surface", "rig_surface"],
         "_regions": ["read_regions", "regions_from_mapping"],
         "_safe": ["read_json"],
         "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],

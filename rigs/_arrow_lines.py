@@ -14,15 +14,15 @@ import numpy as np
 import pyarrow as pa
 from pyarrow import csv
 
-#: The keyword column of vertex lines: every row read must hold this word (a dictionary of one entry).
+#: The keyword column of vertex lines: every row read must hold this one-character word.
 _KEYWORD = "v"
 _COLUMNS = ("keyword", "x", "y", "z")
 _WRITE = csv.WriteOptions(include_header=False, delimiter=" ", quoting_style="none")
-_READ = csv.ReadOptions(column_names=list(_COLUMNS), use_threads=False)
+#: Blocks of 64 MiB: a production head's vertex lines are read as one block.
+_READ = csv.ReadOptions(column_names=list(_COLUMNS), use_threads=False, block_size=1 << 26)
 _PARSE = csv.ParseOptions(delimiter=" ", quote_char=False, ignore_empty_lines=False)
 _CONVERT = csv.ConvertOptions(
-    column_types={"keyword": pa.dictionary(pa.int32(), pa.string())}
-    | dict.fromkeys(_COLUMNS[1:], pa.float64()),
+    column_types={"keyword": pa.string()} | dict.fromkeys(_COLUMNS[1:], pa.float64()),
     null_values=[],
     strings_can_be_null=False,
 )
@@ -71,13 +71,13 @@ def triangle_lines(triangles: np.ndarray) -> bytes:
     return _keyword_lines("f", np.asarray(triangles, dtype=np.int64).reshape(-1, 3) + 1)
 
 
-def read_vertex_lines(block: str) -> np.ndarray | None:
+def read_vertex_lines(block: str | bytes) -> np.ndarray | None:
     """(N, 3) positions of text made only of ``v x y z`` lines (one space between words, each line ending
     in a line feed); None when any line is anything else or a number does not read (Arrow refuses
     ``1_000`` and non-ASCII digits, which Python's ``float`` takes)."""
     try:
         table = csv.read_csv(
-            pa.py_buffer(block.encode("ascii")),
+            pa.py_buffer(block.encode("ascii") if isinstance(block, str) else block),
             read_options=_READ,
             parse_options=_PARSE,
             convert_options=_CONVERT,
@@ -85,9 +85,18 @@ def read_vertex_lines(block: str) -> np.ndarray | None:
     except (pa.ArrowInvalid, UnicodeEncodeError):
         return None
     keywords = table.column("keyword").chunks
-    if not keywords or any(chunk.dictionary.to_pylist() != [_KEYWORD] for chunk in keywords):
+    if not keywords or not all(map(_only_keyword, keywords)):
         return None
     return np.column_stack([_floats(table.column(axis)) for axis in _COLUMNS[1:]])
+
+
+def _only_keyword(chunk: pa.StringArray) -> bool:
+    """Whether every value of a string column chunk is `_KEYWORD` (read from its offsets and bytes)."""
+    offsets = np.frombuffer(chunk.buffers()[1], dtype=np.int32, count=len(chunk) + 1, offset=4 * chunk.offset)
+    if not (np.diff(offsets) == len(_KEYWORD)).all():
+        return False
+    data = np.frombuffer(chunk.buffers()[2], dtype=np.uint8)[offsets[0] : offsets[-1]]
+    return bool((data == ord(_KEYWORD)).all())
 
 
 def _floats(column: pa.ChunkedArray) -> np.ndarray:

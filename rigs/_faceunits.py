@@ -12,7 +12,7 @@ character's left (+x), as in the ARKit names. The mesh has no lip or eyelid grou
 
 Beside the ``.npz`` the cache keeps the cropped base mesh as an OBJ (`surface_path`): the same vertices in
 the same order with the base mesh's quads, texture coordinates, groups and material references
-(`rigs._obj.crop_surface`), which ``meta["surface"]`` names so that meshes written for a scanning session
+(`rigs._obj_crop.crop_surface`), which ``meta["surface"]`` names so that meshes written for a scanning session
 keep them.
 """
 
@@ -30,7 +30,7 @@ from pathlib import Path
 from rigs._atomic import atomic_write
 from rigs._io import with_report
 from rigs._npz import load_npz, save_npz
-from rigs._obj import crop_surface
+from rigs._obj_crop import crop_surface
 from rigs._rig import Rig, RigError
 from rigs._target import load_target_zip
 

@@ -7,7 +7,7 @@ Formats, told apart by the path (``format=`` overrides):
 * a folder with ``*.target`` files, a ``*.zip`` (or, with ``format="target"``, any zip such as a wheel),
   or a ``*.json`` manifest with ``base``: ``target``, a MakeHuman/MPFB target set (:mod:`rigs._target`);
 * a folder with ``*.obj`` files, its ``rig.json``, or its neutral ``*.obj`` (the other OBJ files of its
-  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj`);
+  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj_folder`);
 * ``*.usd``, ``*.usda``, ``*.usdc``: ``usd``, UsdSkel blend shapes of one mesh (:mod:`rigs._usd`, needs
   the ``usd`` extra).
 
@@ -37,7 +37,7 @@ import numpy as np
 
 from rigs._inputs import RigInputs, recording
 from rigs._npz import load_npz, save_npz
-from rigs._obj import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
+from rigs._obj_folder import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError, RigWarning, vector_lengths
 from rigs._safe import read_json, regular_file
 from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
@@ -332,7 +332,7 @@ def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
     ------
     RigError
         When the format cannot be told from the path, or the writer refuses (see
-        :func:`rigs._obj.save_obj_folder`).
+        :func:`rigs._obj_folder.save_obj_folder`).
     """
     path = Path(path)
     kind = format

@@ -21,6 +21,7 @@ from __future__ import annotations
 import fnmatch
 import json
 import os
+import re
 import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path, PurePosixPath
@@ -28,7 +29,8 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from rigs._obj import MANIFEST_LIMIT, ObjMesh, faces_are_triangles, parse_obj, read_obj, triangulate
+from rigs._obj import DECIMAL, ObjMesh, parse_obj, read_obj
+from rigs._obj_folder import MANIFEST_LIMIT
 from rigs._rig import LARGEST_COORDINATE, Rig, RigError
 from rigs._safe import (
     check_budget,
@@ -40,8 +42,11 @@ from rigs._safe import (
     regular_file,
     rig_entries,
 )
+from rigs._triangulate import faces_are_triangles, triangulate
 
 TARGET_SUFFIXES = (".target", ".target.gz")
+#: A vertex index in ASCII decimal digits.
+_INTEGER = re.compile(r"[+-]?[0-9]+")
 #: Longest ``vid dx dy dz`` line a target is allowed per vertex (MakeHuman writes about 25 bytes).
 MAX_LINE = 128
 #: Bytes a target may hold beyond its vertex lines: comments, blank lines.
@@ -105,6 +110,13 @@ def parse_target(text: str, source: str, n_vertices: int) -> tuple[np.ndarray, n
     bad = next((i for i, row in enumerate(rows) if len(row) != 4), None)
     if bad is not None:
         raise RigError(f"{source}:{numbers[bad]}: expected 'vid dx dy dz', got {' '.join(rows[bad])!r}")
+    words = " ".join(map(" ".join, rows))
+    if not words.isascii() or "_" in words:  # (numpy reads '1_0' and non-ASCII digits as Python does)
+        bad = next(i for i, row in enumerate(rows) if not _is_strict_row(row))
+        raise RigError(
+            f"{source}:{numbers[bad]}: expected 'vid dx dy dz' in ASCII decimal notation, "
+            f"got {' '.join(rows[bad])[:80]!r}"
+        )
     table = np.array(rows)
     try:
         ids = table[:, 0].astype(np.int64)
@@ -142,6 +154,11 @@ def parse_target(text: str, source: str, n_vertices: int) -> tuple[np.ndarray, n
         lines = [numbers[i] for i in np.flatnonzero(ids == vertex)[:2]]
         raise RigError(f"{source}:{lines[1]}: vertex {vertex} is listed twice (also line {lines[0]})")
     return ids, displacements
+
+
+def _is_strict_row(row: list[str]) -> bool:
+    """Whether a row is an integer and three numbers in ASCII decimal notation (no ``_``)."""
+    return _INTEGER.fullmatch(row[0]) is not None and all(DECIMAL.fullmatch(value) for value in row[1:])
 
 
 def _is_target_row(row: list[str]) -> bool:

@@ -122,7 +122,7 @@ def load_usd(path: str | Path, *, mesh: str | None = None) -> Rig:
     if not np.allclose(matrix, np.eye(4)):  # (USD matrices act on row vectors)
         neutral = neutral @ matrix[:3, :3] + matrix[3, :3]
         deltas = deltas @ matrix[:3, :3]
-    from rigs._obj import faces_are_triangles, triangulate
+    from rigs._triangulate import faces_are_triangles, triangulate
 
     meters = float(UsdGeom.GetStageMetersPerUnit(stage))
     meta = {

@@ -222,7 +222,7 @@ def test_commands_from_the_entry_point_group(test_plugins) -> None:
 
 
 def test_pack_reads_a_target_neutral_obj(tmp_path) -> None:
-    from rigs._obj import write_obj
+    from rigs._obj_folder import write_obj
 
     rig = rigs.generate("tiny")
     target = tmp_path / "target.obj"

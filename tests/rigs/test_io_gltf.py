@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import base64
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,7 +31,8 @@ from scipy.spatial.transform import Rotation
 
 import rigs
 from rigs import RigError
-from rigs._gltf import _dequantise, weld_seams
+from rigs._gltf_buffers import dequantise
+from rigs._gltf_weld import weld_seams
 from rigs._rig import RigWarning
 
 FLOAT, UINT, SHORT, USHORT = 5126, 5125, 5122, 5123
@@ -194,10 +199,10 @@ def test_quantised_positions_with_node_transform(tmp_path):
 
 def test_normalised_integers_map_to_unit_range():
     np.testing.assert_array_equal(
-        _dequantise(np.array([[-128, -127, 0, 127]], dtype=np.int8), True), [[-1, -1, 0, 1]]
+        dequantise(np.array([[-128, -127, 0, 127]], dtype=np.int8), True), [[-1, -1, 0, 1]]
     )
-    np.testing.assert_array_equal(_dequantise(np.array([[0, 255]], dtype=np.uint8), True), [[0, 1]])
-    np.testing.assert_array_equal(_dequantise(np.array([[0, 65535]], dtype=np.uint16), False), [[0, 65535]])
+    np.testing.assert_array_equal(dequantise(np.array([[0, 255]], dtype=np.uint8), True), [[0, 1]])
+    np.testing.assert_array_equal(dequantise(np.array([[0, 65535]], dtype=np.uint16), False), [[0, 65535]])
 
 
 def test_primitive_option_picks_within_the_mesh(tmp_path):
@@ -379,7 +384,7 @@ def test_missing_external_buffer(tmp_path):
     [("KHR_draco_mesh_compression", "DracoPy"), ("EXT_meshopt_compression", "gltfpack")],
 )
 def test_compressed_files_name_the_extension_and_the_decoder(tmp_path, monkeypatch, extension, package):
-    monkeypatch.setattr("rigs._gltf._meshopt", lambda: None)  # no meshopt decoder installed
+    monkeypatch.setitem(sys.modules, "almeshopt", None)  # no meshopt decoder installed
     builder = Builder()
     builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES)
     builder.gltf.extensionsUsed = [extension]
@@ -444,3 +449,33 @@ def test_bad_contents_name_file_and_problem(tmp_path):
         RigError, match=r"cut\.glb: mesh 'Face' primitive 0 POSITION: reads past the end of bufferView 0"
     ):
         rigs.load(builder.save(tmp_path / "cut.glb"))
+
+
+def test_every_mesh_left_out_is_named_with_its_morph_targets(tmp_path):
+    builder = Builder()
+    builder.mesh("Eyes", NEUTRAL, np.zeros((0, 6, 3), dtype=np.float32), TRIANGLES)
+    builder.mesh("Head", NEUTRAL, target_deltas(), TRIANGLES, names=["a", "b", "c"])
+    builder.mesh("Tongue", NEUTRAL, target_deltas()[:2], TRIANGLES, names=["out", "up"])
+    path = builder.save(tmp_path / "head.glb")
+    with pytest.warns(RigWarning) as caught:
+        assert rigs.load(path).names == ("a", "b", "c")
+    (message,) = [str(warning.message) for warning in caught if "left out" in str(warning.message)]
+    assert "left out: 'Eyes' (no morph targets), 'Tongue' (2 morph targets)" in message
+
+
+def test_the_command_line_prints_a_reader_warning_as_one_plain_line(tmp_path):
+    builder = Builder()
+    builder.mesh("Teeth", NEUTRAL, np.zeros((0, 6, 3), dtype=np.float32), TRIANGLES)
+    builder.mesh("Head", NEUTRAL, target_deltas(), TRIANGLES, names=["a", "b", "c"])
+    path = builder.save(tmp_path / "head.glb")
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run(
+        [sys.executable, "-c", "from harness.cli import main; main()", "rigs", "info", str(path)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(root), "COLUMNS": "200"},
+        check=True,
+    )
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    left_out = "only one mesh is read; left out: 'Teeth' (no morph targets) (pass mesh=NAME to read another)"
+    assert lines == [f"warning: {path}: {left_out}"]

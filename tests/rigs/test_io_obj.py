@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 import rigs
 from rigs import Rig, RigError
-from rigs._obj import parse_obj, triangulate
+from rigs._obj import parse_obj
+from rigs._triangulate import triangulate
 
 # A 3 x 2 grid of quads: 12 vertices, 6 quads.
 GRID = np.array([[x, y, 0.0] for y in range(3) for x in range(4)], dtype=float)

@@ -195,3 +195,10 @@ def test_options_of_another_form_are_refused(tmp_path):
         RigError, match=r"set: unknown option 'targets' for target \(accepted: base, crop_rings\)"
     ):
         rigs.load(write_set(tmp_path / "set"), targets="*.target")
+
+
+@pytest.mark.parametrize("row", ["1_0 0 1 0", "\uff11 0 1 0", "3 0 1_0 0", "3 0 \u0661 0", "3 0 \u0131nf 0"])
+def test_target_numbers_are_ascii_decimals_without_underscores(tmp_path, row):
+    folder = write_set(tmp_path / "set", {"ok": "1 0 0 1\n", "bad": f"# c\n{row}\n"})
+    with pytest.raises(RigError, match=r"bad\.target:2: expected 'vid dx dy dz' in ASCII decimal notation"):
+        rigs.load(folder)

@@ -1,9 +1,9 @@
-"""The fast path for blendshape OBJ files reads exactly what the line-by-line reader reads, or steps aside.
+"""The one fast path of the OBJ reader reads exactly what the line-by-line reader reads, or steps aside.
 
-A blendshape file whose vertex lines are all plain ``v x y z`` is read in one go by Arrow; otherwise it is
-compared with its neutral line by line: a ``v`` line written as the neutral's is the neutral's position,
-the others are read. Whatever a file holds, the result (positions, face lines, or the
-error raised) must be the line-by-line reader's.
+A plain file whose vertex lines are all ``v x y z`` is read in one go (numpy finds the lines, Arrow reads
+the vertex lines); a blendshape file ending with its neutral's face section reuses the neutral's face lines.
+Whatever a file holds, the result (positions, face lines, faces, groups, or the error raised) must be the
+line-by-line reader's.
 """
 
 from __future__ import annotations
@@ -18,7 +18,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import _face_corners, _plain_surface, _plain_vertex_block, parse_obj, parse_surface
+from rigs._obj import _plain_vertex_block, parse_obj
+from rigs._obj_faces import _face_corners, plain_corners
+from rigs._obj_surface import parse_surface
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
 TRIANGLES = [(a, a + 1, a + 4) for a in range(11) if a % 4 != 3]
@@ -34,12 +36,12 @@ NEUTRAL_TEXT = _text(GRID)
 NEUTRAL = parse_obj(NEUTRAL_TEXT, "neutral.obj")
 
 
-def _reading(fast_path: str, fast: bool, read, kept):
+def _reading(fast: bool, read, kept):
     """``kept`` of what ``read()`` gives, or the error it raises; with ``fast=False`` the fast path
-    ``rigs._obj.<fast_path>`` steps aside, leaving the line-by-line reader."""
+    ``rigs._obj._plain_mesh`` steps aside, leaving the line-by-line reader."""
     with contextlib.ExitStack() as stack:
         if not fast:
-            stack.enter_context(mock.patch(f"rigs._obj.{fast_path}", return_value=None))
+            stack.enter_context(mock.patch("rigs._obj._plain_mesh", return_value=None))
         try:
             found = read()
         except RigError as error:
@@ -50,7 +52,6 @@ def _reading(fast_path: str, fast: bool, read, kept):
 def _read(text: str, *, fast: bool):
     """Positions and face lines of a blendshape file read against the neutral, or the error raised."""
     return _reading(
-        "_vertices_only",
         fast,
         lambda: parse_obj(text, "shape.obj", with_faces=False, faces_of=NEUTRAL),
         lambda mesh: (mesh.vertices.tolist(), list(mesh.face_lines)),
@@ -61,7 +62,7 @@ def _agree(text: str) -> None:
     assert _read(text, fast=True) == _read(text, fast=False)
 
 
-def test_unmoved_lines_take_the_neutral_position_and_moved_ones_are_read() -> None:
+def test_a_shape_file_reads_its_positions_and_reuses_the_neutral_face_lines() -> None:
     moved = GRID.copy()
     moved[[2, 9]] += [[0.0, 0.5, 0.25], [1e-3, 0.0, -2.0]]
     mesh = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
@@ -164,10 +165,9 @@ def _full_read(text: str, *, fast: bool):
     def kept(mesh):
         groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
         faces = [face.tolist() for face in mesh.faces]
-        lines = mesh.vertex_lines.tolist()
-        return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_text, lines
+        return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_section
 
-    return _reading("_plain_mesh", fast, lambda: parse_obj(text, "mesh.obj"), kept)
+    return _reading(fast, lambda: parse_obj(text, "mesh.obj"), kept)
 
 
 @settings(max_examples=400, deadline=None)
@@ -177,29 +177,11 @@ def test_a_full_read_in_one_go_is_the_line_by_line_reading(edits) -> None:
     assert _full_read(text, fast=True) == _full_read(text, fast=False)
 
 
-def _surface(text: str, *, fast: bool):
-    """What `parse_surface` keeps of a file, or its error."""
-    return _reading(
-        "_plain_surface",
-        fast,
-        lambda: parse_surface(text, "mesh.obj"),
-        lambda surface: (surface.lines, surface.vertex_rows.tolist(), surface.vertex_tails),
-    )
-
-
-def test_a_plain_surface_is_read_in_one_go_and_one_with_vertex_tails_is_not() -> None:
-    lines = NEUTRAL_TEXT.split("\n")[:-1]
-    assert _plain_surface(NEUTRAL_TEXT, lines, "mesh.obj") is not None
+def test_a_surface_keeps_what_a_vertex_line_holds_after_its_coordinates() -> None:
     with_w = NEUTRAL_TEXT.replace("v 1.0 0.0 0.0\n", "v 1.0 0.0 0.0 1.0\n")
-    assert _plain_surface(with_w, with_w.split("\n")[:-1], "mesh.obj") is None
-    assert _surface(with_w, fast=True)[2].count(" 1.0") == 1
-
-
-@settings(max_examples=400, deadline=None)
-@given(_LINE_EDITS)
-def test_a_surface_read_in_one_go_is_the_line_by_line_surface(edits) -> None:
-    text = _edited(edits)
-    assert _surface(text, fast=True) == _surface(text, fast=False)
+    surface = parse_surface(with_w, "mesh.obj")
+    assert surface.vertex_tails.count(" 1.0") == 1
+    assert parse_surface(NEUTRAL_TEXT, "mesh.obj").vertex_tails == ("",) * len(GRID)
 
 
 def _corners_line_by_line(lines: list[str]):
@@ -236,6 +218,22 @@ def test_face_corners_read_as_line_by_line(lines) -> None:
     assert found == _corners_line_by_line(lines)
 
 
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6))
+def test_face_corners_read_with_numpy_are_those_read_line_by_line_or_left_to_them(lines) -> None:
+    block = "".join(f"f {line}\n" for line in lines).encode()
+    fast = plain_corners(block)
+    if fast is None:
+        return
+    counts, corners = _face_corners(lines, array("q", range(1, len(lines) + 1)), 9, "faces.obj")
+    assert fast[0].tolist() == counts.tolist() and fast[1].tolist() == corners.tolist()
+
+
+def test_plain_face_corners_are_read_with_numpy() -> None:
+    counts, corners = plain_corners(b"f 1/1/1 2//2 3/3\nf -1 -2 +3 44\n")
+    assert counts.tolist() == [3, 4] and corners.tolist() == [1, 2, 3, -1, -2, 3, 44]
+
+
 _DECIMALS = st.one_of(
     st.floats(allow_nan=False, allow_infinity=False).map(repr),
     st.from_regex(r"[+-]?[0-9]{1,25}(\.[0-9]{0,25})?([eE][+-]?[0-9]{1,3})?", fullmatch=True),
@@ -266,3 +264,18 @@ def test_a_plain_vertex_block_is_read_in_one_go_and_anything_else_is_left_to_the
         "v 1 2 1e300\n",
     ):
         assert _plain_vertex_block(block + unusual) is None, unusual
+
+
+def test_plain_files_never_reach_the_line_by_line_reader() -> None:
+    moved = GRID.copy()
+    moved[5] += 0.5
+    grouped = (
+        "g left right\n".join(NEUTRAL_TEXT.split("f ", 1)[0:1])
+        + "g left right\nf "
+        + NEUTRAL_TEXT.split("f ", 1)[1]
+    )
+    with mock.patch("rigs._obj._line_by_line", side_effect=AssertionError("line by line")):
+        neutral = parse_obj(grouped, "neutral.obj")
+        shape = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
+    assert list(neutral.groups) == ["left", "right"] and len(neutral.groups["left"]) == len(TRIANGLES)
+    assert np.array_equal(shape.vertices, moved) and shape.face_lines == NEUTRAL.face_lines

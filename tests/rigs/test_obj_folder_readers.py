@@ -7,7 +7,7 @@ import pytest
 
 import rigs
 from rigs import RigError
-from rigs import _obj as obj
+from rigs import _obj_folder as obj
 
 
 @pytest.fixture

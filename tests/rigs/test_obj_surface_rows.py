@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rigs._obj import coordinate_lines, parse_surface
+from rigs._obj_surface import coordinate_lines, parse_surface
 
 TEXT = "# mesh\nv 0 0 0\nvt 0 0\nv 1 0 0 1.0\nv 0 1 0\nv 1 1 0\nf 1/1 2/1 3/1\nf 2/1 4/1 3/1\n"
 
