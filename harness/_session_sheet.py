@@ -52,6 +52,8 @@ CAPTIONS = {PAINTED: "shapes", "front_pose": "front", "three_quarter_pose": "\u0
 #: Millimetres: the width of A4 and the height of US Letter less 10 mm margins (what both papers hold),
 #: the gap between cards, a card's padding and border, the gap between pictures.
 _PAGE = (190.0, 259.0)
+#: Millimetres of the page's height the layout leaves free: text heights are estimated, not measured.
+_SPARE = 8.0
 _GAP, _PADDING, _PICTURE_GAP = 2.0, 3.0, 0.8
 #: Text sizes in points (none below 7) and the line height per point of text in millimetres.
 _TEXT, _HEADING, _TITLE, _LINE = 7.0, 8.0, 12.0, 0.3528 * 1.25
@@ -59,6 +61,8 @@ _TEXT, _HEADING, _TITLE, _LINE = 7.0, 8.0, 12.0, 0.3528 * 1.25
 _CHARACTER = 0.3528 * 0.6
 #: The smallest picture height (mm) a layout gives; below it the sheet takes more pages.
 _SMALLEST_PICTURE = 14.0
+#: The narrowest a card's inside may be (mm): a dozen characters of 7 pt text.
+_NARROWEST = 18.0
 
 _STYLE = """
 @page { margin: 10mm; }
@@ -71,10 +75,9 @@ header p { font-size: 7.5pt; color: #222; margin: 0 0 1.5mm; }
 .grid { display: grid; grid-template-columns: repeat(var(--columns), minmax(0, 1fr)); gap: 2mm; }
 .card { border: 0.25mm solid #888; border-radius: 1mm; padding: 1.25mm; break-inside: avoid;
         page-break-inside: avoid; min-width: 0; }
-.card h2 { font-size: 8pt; margin: 0 0 0.6mm; display: flex; flex-wrap: wrap; column-gap: 1.5mm;
-           justify-content: space-between; }
-.card h2 span, .card h2 small { white-space: nowrap; }
-.card h2 small { font-size: 7pt; font-weight: normal; color: #444; }
+.card h2 { font-size: 8pt; line-height: 1.25; margin: 0 0 0.6mm; }
+.card h2 span { display: block; white-space: nowrap; }
+.card h2 small { display: block; font-size: 7pt; font-weight: normal; color: #444; }
 .views { display: grid; grid-template-columns: repeat(var(--per-row), minmax(0, 1fr)); gap: 0.8mm; }
 figure { margin: 0; min-width: 0; text-align: center; }
 .face { overflow: hidden; height: var(--face-height); width: calc(var(--face-height) * var(--face-aspect));
@@ -109,14 +112,14 @@ def sheet_layout(
     header: Sequence[str] = (),
     footer: Sequence[str] = (),
 ) -> Layout:
-    """The layout that gives the largest pictures with every card on one page (`_PAGE`); without pictures,
-    the fewest columns that fit the page.
+    """The layout that gives the largest pictures with every card on one page (`_PAGE`).
 
-    Every column count and every number of pictures across a card is tried; a card's text wraps at its
-    width (estimated from the characters per line), a row of cards is as tall as its tallest card, and
-    the pictures are as tall as the cards' width and the page's height allow. When no layout keeps the
-    pictures `_SMALLEST_PICTURE` tall on one page, the pictures take that height and the cards flow
-    onto more pages.
+    Every column count that leaves a card `_NARROWEST` wide and every number of pictures across a card is
+    tried; a card's text wraps at its width (estimated from the characters per line), a row of cards is
+    as tall as its tallest card, and the pictures are as tall as the cards' width and the page's height
+    allow. When no layout keeps the pictures `_SMALLEST_PICTURE` tall on one page, they take that height
+    in the layout of the shortest sheet, whose cards flow onto more pages; without pictures, the widest
+    cards that fit one page (else the shortest sheet).
 
     Parameters
     ----------
@@ -129,35 +132,38 @@ def sheet_layout(
     header, footer : sequence of str
         Paragraphs above and below the cards (7.5 and 7 pt, across the page).
     """
-    width, height = _PAGE
-    fixed = (
-        _TITLE * _LINE + sum(_lines(text, width, 7.5) * 7.5 * _LINE for text in header) + 1.5 * len(header)
-    )
-    fixed += sum(_lines(text, width, _TEXT) * _TEXT * _LINE + 0.8 for text in footer) + (
-        2.0 if footer else 0.0
-    )
-    best, roomiest, fitting = Layout(1, 1, 0.0), (-np.inf, 1), None
-    for columns in range(1, max(1, len(cards)) + 1):
-        inner = (width - _GAP * (columns - 1)) / columns - _PADDING
-        rows = [cards[row : row + columns] for row in range(0, max(1, len(cards)), columns)]
-        text = [max((_card_text(card, inner) for card in row), default=0.0) + _GAP + _PADDING for row in rows]
-        room = height - fixed - sum(text)
-        roomiest = max(roomiest, (room, columns), key=lambda pair: pair[0])
-        fitting = fitting or (columns if room >= 0 else None)
+    width, height = _PAGE[0], _PAGE[1] - _SPARE
+    fixed = _TITLE * _LINE + sum(_lines(text, width, 7.5) * 7.5 * _LINE + 1.5 for text in header)
+    fixed += sum(_lines(text, width, _TEXT) * _TEXT * _LINE + 0.8 for text in footer) + 2.0 * bool(footer)
+    widest = max(1, min(len(cards), int((width + _GAP) // (_NARROWEST + _PADDING + _GAP))))
+    grids = [_grid(cards, columns) for columns in range(1, widest + 1)]
+    if not pictures:
+        fitting = [columns for columns, (_, _, text) in enumerate(grids, start=1) if text <= height - fixed]
+        return Layout(fitting[0] if fitting else 1 + int(np.argmin([grid[2] for grid in grids])), 1, 0.0)
+    largest, shortest = Layout(1, 1, 0.0), (np.inf, Layout(1, 1, _SMALLEST_PICTURE))
+    for columns, (inner, rows, text) in enumerate(grids, start=1):
         for per_row in range(1, pictures + 1):
             picture_rows = -(-pictures // per_row)
-            by_width = ((inner - _PICTURE_GAP * (per_row - 1)) / per_row) / aspect
-            by_height = (room - len(rows) * picture_rows * (_TEXT * _LINE + _PICTURE_GAP)) / (
-                len(rows) * picture_rows
-            )
-            picture = min(by_width, by_height)
-            if picture > best.picture:
-                best = Layout(columns, per_row, picture)
-    if not pictures:  # the widest cards that fit the page
-        return Layout(fitting or roomiest[1], 1, 0.0)
-    if best.picture < _SMALLEST_PICTURE:
-        return Layout(best.columns, best.per_row, _SMALLEST_PICTURE)
-    return best
+            by_width = (inner - _PICTURE_GAP * (per_row - 1)) / per_row / aspect
+            extra = rows * picture_rows * (_TEXT * _LINE + _PICTURE_GAP)  # captions and gaps
+            picture = min(by_width, (height - fixed - text - extra) / (rows * picture_rows))
+            if picture > largest.picture:
+                largest = Layout(columns, per_row, picture)
+            total = text + extra + rows * picture_rows * _SMALLEST_PICTURE
+            if by_width >= _SMALLEST_PICTURE and total < shortest[0]:
+                shortest = (total, Layout(columns, per_row, _SMALLEST_PICTURE))
+    return largest if largest.picture >= _SMALLEST_PICTURE else shortest[1]
+
+
+def _grid(cards: Sequence[Sequence[str]], columns: int) -> tuple[float, int, float]:
+    """A card's inside width (mm), the rows of cards and the height (mm) of their text and frames, in
+    ``columns`` columns."""
+    inner = (_PAGE[0] - _GAP * (columns - 1)) / columns - _PADDING
+    starts = range(0, max(1, len(cards)), columns)
+    text = sum(
+        max((_card_text(card, inner) for card in cards[row : row + columns]), default=0.0) for row in starts
+    )
+    return inner, len(starts), text + (_GAP + _PADDING) * len(starts)
 
 
 def _lines(text: str, width: float, points: float) -> int:
@@ -166,12 +172,13 @@ def _lines(text: str, width: float, points: float) -> int:
 
 
 def _card_text(lines: Sequence[str], inner: float) -> float:
-    """Height (mm) of a card's heading and shape lines at ``inner`` millimetres wide."""
+    """Height (mm) of a card's heading (its priority, then its importance) and shape lines at ``inner``
+    millimetres wide."""
     heading = (
         1 if len("Priority 00") * _HEADING + len("importance 0.000") * _TEXT <= inner / _CHARACTER else 2
     )
     shapes = sum(_lines(line, inner - 1.05 * _TEXT * 0.3528, _TEXT) for line in lines)
-    return heading * _HEADING * _LINE + 0.6 + shapes * _TEXT * _LINE + 0.6
+    return heading + 0.6 + shapes * _TEXT * _LINE + 0.6
 
 
 def scan_sheet(
@@ -256,7 +263,8 @@ def _summary(document: Mapping[str, Any], count: int) -> str:
         "left and right shapes kept together" if params.get("symmetry") else "left and right shapes apart",
     ]
     if params.get("max_per_expression"):
-        words.append(f"at most {params['max_per_expression']} shapes per expression")
+        most = params["max_per_expression"]
+        words.append(f"at most {most} shape{'s' if most > 1 else ''} per expression")
     return "; ".join(words) + "."
 
 

@@ -18,6 +18,7 @@ import rigs
 from harness._outdir import MANIFEST_NAME
 from harness.cli import cli
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
+from tests.chromium import run_chromium
 
 BACKGROUND = np.array([1.0, 1.0, 1.0])
 
@@ -436,31 +437,11 @@ def test_minimum_refuses_what_it_cannot_honour(tmp_path) -> None:
 
 
 def test_the_scan_sheet_renders_in_headless_chromium(faceunits_session, tmp_path) -> None:
-    import shutil
-    import subprocess
-
-    browser = next(
-        (shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None
-    )
-    if browser is None:
-        pytest.skip("chromium is not installed (apt-get install chromium)")
     out, document, _ = faceunits_session
     screenshot, pdf = tmp_path / "sheet.png", tmp_path / "sheet.pdf"
-    flags = [
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--hide-scrollbars",
-        f"--user-data-dir={tmp_path}",
-    ]
-    page = (out / "session.html").as_uri()
-    for target in (f"--screenshot={screenshot}", f"--print-to-pdf={pdf}"):
-        subprocess.run(
-            [browser, *flags, "--window-size=1240,1754", "--no-pdf-header-footer", target, page],
-            capture_output=True,
-            timeout=120,
-            check=True,
-        )
+    page = out / "session.html"
+    run_chromium(page, tmp_path / "profile", "--window-size=1240,1754", f"--screenshot={screenshot}")
+    run_chromium(page, tmp_path / "profile", "--no-pdf-header-footer", f"--print-to-pdf={pdf}")
     image = imread(screenshot)[..., :3]
     tinted = np.ptp(image, axis=2) > 0.15  # the pictures' coloured shapes came through
     assert tinted.sum() > 2000
