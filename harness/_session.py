@@ -7,7 +7,7 @@
 * ``pictures/expression_XX_front.png``, ``..._front_pose.png`` and ``..._three_quarter_pose.png``: the
   expression from the front with its shapes coloured and named, and its bare pose from the front and
   at three-quarters (`harness._session_pictures`);
-* ``session.html``: the one-page scan sheet (`harness._session_sheet`).
+* ``session.html``: the scan sheet (`harness._session_sheet`).
 
 Each expression of the document gains ``files``: the names of its mesh, target mesh and pictures.
 """
@@ -65,13 +65,19 @@ def session_files(
         expression["files"] = {"mesh": f"{name}.obj"}
         if target is not None:
             expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
-    yield from session_meshes(rig, expressions, target)
-    if glb:
-        yield GLB_FILE, _glb(rig, expressions)
-    cards: list[Card] = []
     legends = [_legend(expression, document.get("pairs", ())) for expression in expressions]
-    if pictures and expressions:
-        yield from session_pictures(rig, expressions, legends, float(document["params"]["mu"]))
+    mu = float(document["params"]["mu"])
+    rendering = session_pictures(rig, expressions, legends, mu) if pictures and expressions else None
+    try:  # the pictures render while the meshes are written
+        yield from session_meshes(rig, expressions, target)
+        if glb:
+            yield GLB_FILE, _glb(rig, expressions)
+        if rendering is not None:
+            yield from rendering
+    finally:
+        if rendering is not None:
+            rendering.close()
+    cards: list[Card] = []
     for expression, legend in zip(expressions, legends, strict=True):
         cards.append(
             {

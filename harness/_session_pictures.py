@@ -20,7 +20,7 @@ import io
 import os
 import threading
 from collections.abc import Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -67,6 +67,44 @@ def face_size() -> tuple[int, int]:
     return round(FACE_SHARE * SIZE[0]), SIZE[1]
 
 
+class Rendering:
+    """The pictures of a session being rendered on a pool of threads from the moment it is made
+    (`session_pictures`), so that they render while the caller writes other files.
+
+    Iterate it for (file name, PNG) of every picture in order, each recorded in its expression's
+    ``files`` under `PAINTED` or a key of `POSES` as it comes; `close` it when done or given up (it stops
+    what has not started).
+    """
+
+    def __init__(
+        self,
+        rig: Rig,
+        expressions: Sequence[dict[str, Any]],
+        legends: Sequence[Legend],
+        mu: float,
+        workers: int,
+    ) -> None:
+        self._expressions = expressions
+        self._pool = ThreadPoolExecutor(workers, thread_name_prefix="pictures")
+        stage = self._pool.submit(_Stage, rig, expressions, mu)
+        views = {key: self._pool.submit(_backdrop, stage, degrees) for key, degrees in POSES.items()}
+        self._made = [
+            self._pool.submit(_render, stage, views, index, legends[index]) for index in range(len(legends))
+        ]
+
+    def __iter__(self) -> Iterator[tuple[str, bytes]]:
+        count = len(self._expressions)
+        for index, (expression, made) in enumerate(zip(self._expressions, self._made, strict=True), start=1):
+            for key, png in made.result():
+                path = f"{PICTURES}/{expression_name(index, count)}_{key}.png"
+                expression["files"][key] = path
+                yield path, png
+
+    def close(self) -> None:
+        """Stop the pictures not started; those being rendered finish in the background."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
 def session_pictures(
     rig: Rig,
     expressions: Sequence[dict[str, Any]],
@@ -74,9 +112,8 @@ def session_pictures(
     mu: float,
     *,
     workers: int | None = None,
-) -> Iterator[tuple[str, bytes]]:
-    """(file name, PNG) of the pictures of every expression, in order; records each in its expression's
-    ``files`` under `PAINTED` or a key of `POSES`.
+) -> Rendering:
+    """Start rendering the pictures of every expression (`Rendering`).
 
     Parameters
     ----------
@@ -88,52 +125,52 @@ def session_pictures(
     mu : float
         The threshold the expressions were packed with: the active vertices coloured (eq. 2).
     workers : int, optional
-        Threads rendering expressions at once; by default one per processor this process may use.
+        Threads rendering at once; by default one per processor this process may use.
     """
+    return Rendering(rig, expressions, legends, mu, workers or _processors())
+
+
+class _Stage:
+    """What every picture of a session shares: the rig's neutral and normals, the expressions' poses,
+    the active vertices and the front camera."""
+
+    def __init__(self, rig: Rig, expressions: Sequence[dict[str, Any]], mu: float) -> None:
+        import rigs
+
+        self.rig = rig
+        self.normals = vertex_normals(rig.neutral, rig.triangles)
+        self.poses = rig.neutral + expression_poses(rig, expressions)
+        self.active = active_vertices(rig, mu)
+        self.front = rigs.frontal_camera(rig)
+
+
+def _backdrop(stage: Future[_Stage], degrees: float) -> Backdrop:
+    """The neutral in the frame of the view turned ``degrees`` from the front, fitted to every pose."""
     import rigs
 
-    if not expressions:
-        return
-    neutral, triangles = rig.neutral, rig.triangles
-    active = active_vertices(rig, mu)
-    poses = neutral + expression_poses(rig, expressions)
-    normals = vertex_normals(neutral, triangles)
-    front = rigs.frontal_camera(rig)
+    shared = stage.result()
+    neutral = shared.rig.neutral
+    camera = rigs.three_quarter_camera(shared.front, degrees) if degrees else shared.front
     width, height = face_size()
-    backdrops = {
-        key: Backdrop(
-            neutral,
-            triangles,
-            Frame.fitted(
-                rigs.three_quarter_camera(front, degrees) if degrees else front,
-                [neutral, *poses],
-                width=width,
-                height=height,
-            ),
-            normals,
-        )
-        for key, degrees in POSES.items()
-    }
+    frame = Frame.fitted(camera, [neutral, *shared.poses], width=width, height=height)
+    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals)
 
-    def render(index: int) -> list[tuple[str, bytes]]:
-        legend, posed = legends[index], poses[index]
-        colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
-        fills = triangle_colours(triangles, active[rig.indices([entry[1] for entry in legend])], colours)
-        words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
-        motion = Motion.of(posed, neutral, triangles, normals)
-        rasters = {key: backdrop.pose(posed, motion) for key, backdrop in backdrops.items()}
-        painted = _legend_picture(rasters["front_pose"].over(fills, BACKGROUND), words, colours)
-        bare = [(key, _png(raster.over(CLAY, 1.0))) for key, raster in rasters.items()]
-        return [(PAINTED, painted), *bare]
 
-    with ThreadPoolExecutor(workers or _processors()) as pool:
-        made = pool.map(render, range(len(expressions)))
-        for index, (expression, files) in enumerate(zip(expressions, made, strict=True), start=1):
-            name = expression_name(index, len(expressions))
-            for key, png in files:
-                path = f"{PICTURES}/{name}_{key}.png"
-                expression["files"][key] = path
-                yield path, png
+def _render(
+    stage: Future[_Stage], views: Mapping[str, Future[Backdrop]], index: int, legend: Legend
+) -> list[tuple[str, bytes]]:
+    """(key, PNG) of the pictures of expression ``index``: coloured with its legend, then its bare poses."""
+    shared = stage.result()
+    rig, posed = shared.rig, shared.poses[index]
+    colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
+    fills = triangle_colours(
+        rig.triangles, shared.active[rig.indices([entry[1] for entry in legend])], colours
+    )
+    words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
+    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals)
+    rasters = {key: view.result().pose(posed, motion) for key, view in views.items()}
+    painted = _legend_picture(rasters["front_pose"].over(fills, BACKGROUND), words, colours)
+    return [(PAINTED, painted), *((key, _png(raster.over(CLAY, 1.0))) for key, raster in rasters.items())]
 
 
 def _processors() -> int:
