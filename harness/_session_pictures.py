@@ -9,7 +9,7 @@
 
 All the pictures of one view share one `Frame`, fitted to every expression, so they compare at one scale
 and place, and the part of the face an expression does not move is rasterised once for all of them
-(`Backdrop`). Expressions are rendered on a pool of threads (numpy's array loops and Pillow's drawing and
+(`Backdrop`). Expressions are rendered on a pool of threads (numpy's array loops and Pillow's
 PNG encoding run without Python's global lock), one per processor this process may use.
 """
 
@@ -58,6 +58,8 @@ CLAY = 0.84
 #: zlib level of the PNG pictures: level 1 writes them about four times as fast as the default 6, for
 #: files about a third larger.
 _PNG_LEVEL = 1
+#: Most threads rendering at once (each holds a few images' worth of samples).
+_MOST_THREADS = 8
 #: Legend text height in pixels; the legend shrinks down to the smallest to fit its lines.
 _LEGEND_PX, _SMALLEST_PX = 11, 6
 
@@ -125,7 +127,8 @@ def session_pictures(
     mu : float
         The threshold the expressions were packed with: the active vertices coloured (eq. 2).
     workers : int, optional
-        Threads rendering at once; by default one per processor this process may use.
+        Threads rendering at once; by default one per processor this process may use (at most
+        `_MOST_THREADS`).
     """
     return Rendering(rig, expressions, legends, mu, workers or _processors())
 
@@ -174,8 +177,9 @@ def _render(
 
 
 def _processors() -> int:
-    """Processors this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    """Processors this process may run on, at most `_MOST_THREADS`."""
+    found = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return min(found, _MOST_THREADS)
 
 
 def _legend_picture(face: np.ndarray, legend: Sequence[str], colours: np.ndarray) -> bytes:
