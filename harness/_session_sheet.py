@@ -53,7 +53,7 @@ CAPTIONS = {PAINTED: "shapes", "front_pose": "front", "three_quarter_pose": "\u0
 #: the gap between cards, a card's padding and border, the gap between pictures.
 _PAGE = (190.0, 259.0)
 #: Millimetres of the page's height the layout leaves free: text heights are estimated, not measured.
-_SPARE = 8.0
+_SPARE = 4.0
 _GAP, _PADDING, _PICTURE_GAP = 2.0, 3.0, 0.8
 #: Text sizes in points (none below 7) and the line height per point of text in millimetres.
 _TEXT, _HEADING, _TITLE, _LINE = 7.0, 8.0, 12.0, 0.3528 * 1.25
@@ -174,9 +174,7 @@ def _lines(text: str, width: float, points: float) -> int:
 def _card_text(lines: Sequence[str], inner: float) -> float:
     """Height (mm) of a card's heading (its priority, then its importance) and shape lines at ``inner``
     millimetres wide."""
-    heading = (
-        1 if len("Priority 00") * _HEADING + len("importance 0.000") * _TEXT <= inner / _CHARACTER else 2
-    )
+    heading = _HEADING * _LINE + _lines("importance 0.000", inner, _TEXT) * _TEXT * _LINE
     shapes = sum(_lines(line, inner - 1.05 * _TEXT * 0.3528, _TEXT) for line in lines)
     return heading + 0.6 + shapes * _TEXT * _LINE + 0.6
 
