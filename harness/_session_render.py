@@ -109,9 +109,12 @@ def triangle_colours(triangles: np.ndarray, active: np.ndarray, colours: np.ndar
     """
     if not len(active):
         return np.repeat(SKIN[None], len(triangles), axis=0)
+    active, triangles = np.asarray(active, dtype=bool), np.asarray(triangles).reshape(-1, 3)
     palette = np.vstack([np.asarray(colours, dtype=np.float64).reshape(len(active), 3), SKIN])
-    corners = np.asarray(active)[:, triangles].sum(axis=2)  # (S, T)
-    labels = np.where(corners.max(axis=0) > 0, corners.argmax(axis=0), -1)  # -1 picks the skin row
+    touched = np.flatnonzero(active.any(axis=0)[triangles].any(axis=1))  # a corner active in some shape
+    corners = active[:, triangles[touched]].sum(axis=2)  # (S, touched)
+    labels = np.full(len(triangles), -1)  # -1 picks the skin row
+    labels[touched] = corners.argmax(axis=0)
     return palette[labels]
 
 
