@@ -13,7 +13,7 @@
      "pairs": [[name, name], ...],
      "expressions": [{"shapes": [name, ...], "extra_examples": [name, ...], "objective": float,
                       "status": str, "files": {"mesh": str, "on_target": str, "front": str,
-                                               "three_quarter": str}}, ...],
+                                               "front_pose": str, "three_quarter_pose": str}}, ...],
      "excluded": [{"shape": name, "reason": str}, ...],
      "constraints": {"default": bool, "rules": [{"rule": str, "kind": str, "shapes": [name, name],
                                                   "why": str}, ...], "notes": [str, ...]},
@@ -43,8 +43,8 @@ sequence short, and a minimum that was not proved.
 Beside it (`harness._session`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
 neutral plus the sum of that expression's shapes, primary and extra examples) keeping the source OBJ's
 texture coordinates, normals, groups, materials and faces; ``on_target/expression_XX.obj`` with
-``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png`` and
-``..._three_quarter.png``; and the scan sheet ``session.html``.
+``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png``,
+``..._front_pose.png`` and ``..._three_quarter_pose.png``; and the scan sheet ``session.html``.
 
 The folder is claimed with `harness._outdir.claim` (kind ``pack``), whose manifest lists every file
 written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty folder without

@@ -4,10 +4,10 @@
   ``on_target/expression_XX.obj``; ``materials.mtl`` beside them for a glTF rig with materials;
 * ``expressions.glb`` (``glb``): the template with one morph target per expression (its summed
   deltas), named ``expression_XX``, for tools that take glTF;
-* ``pictures/expression_XX_front.png`` and ``pictures/expression_XX_three_quarter.png``: the template
-  posed in the expression, seen from the front found from the face (`rigs.frontal_camera`) and turned
-  35 degrees, the active shapes coloured with a legend in plain words (`harness._session_render`);
-* ``session.html``: the one-page scan sheet (`harness._session_sheet`).
+* ``pictures/expression_XX_front.png``, ``..._front_pose.png`` and ``..._three_quarter_pose.png``: the
+  expression from the front with its shapes coloured and named, and its bare pose from the front and
+  at three-quarters (`harness._session_pictures`);
+* ``session.html``: the scan sheet (`harness._session_sheet`).
 
 Each expression of the document gains ``files``: the names of its mesh, target mesh and pictures.
 """
@@ -18,18 +18,9 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
-from harness._session_render import (
-    FACE_SHARE,
-    SIZE,
-    TITLE_SHARE,
-    active_vertices,
-    picture,
-    shape_colours,
-    triangle_colours,
-)
+from harness._session_pictures import session_pictures
+from harness._session_render import shape_colours
 from harness._session_sheet import Card, Legend, scan_sheet
 from harness._session_words import plain_words
 
@@ -38,8 +29,6 @@ if TYPE_CHECKING:
 
 GLB_FILE = "expressions.glb"
 SHEET_FILE = "session.html"
-PICTURES = "pictures"
-VIEWS = {"front": 0.0, "three_quarter": 35.0}
 
 
 def session_files(
@@ -76,24 +65,29 @@ def session_files(
         expression["files"] = {"mesh": f"{name}.obj"}
         if target is not None:
             expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
-    yield from session_meshes(rig, expressions, target)
-    if glb:
-        yield GLB_FILE, _glb(rig, expressions)
-    cards: list[Card] = []
     legends = [_legend(expression, document.get("pairs", ())) for expression in expressions]
-    if pictures and expressions:
-        yield from _pictures(rig, expressions, legends, float(document["params"]["mu"]))
+    mu = float(document["params"]["mu"])
+    rendering = session_pictures(rig, expressions, legends, mu) if pictures and expressions else None
+    try:  # the pictures render while the meshes are written
+        yield from session_meshes(rig, expressions, target)
+        if glb:
+            yield GLB_FILE, _glb(rig, expressions)
+        if rendering is not None:
+            yield from rendering
+    finally:
+        if rendering is not None:
+            rendering.close()
+    cards: list[Card] = []
     for expression, legend in zip(expressions, legends, strict=True):
         cards.append(
             {
-                "picture": expression["files"].get("front"),
+                "files": expression["files"],
                 "objective": expression["objective"],
                 "legend": legend,
             }
         )
     title = str(document.get("rig", rig.meta.get("source", "rig")))
-    face = (FACE_SHARE, FACE_SHARE * SIZE[0] / (TITLE_SHARE * SIZE[1]))
-    yield SHEET_FILE, scan_sheet(document, cards, title=title, face=face, notes=notes)
+    yield SHEET_FILE, scan_sheet(document, cards, title=title, notes=notes)
 
 
 def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Legend:
@@ -116,35 +110,6 @@ def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Le
     return [
         (plain_words(name), name, colour, extra) for (name, extra), colour in zip(flat, colours, strict=True)
     ]
-
-
-def _pictures(
-    rig: Rig, expressions: Sequence[dict[str, Any]], legends: Sequence[Legend], mu: float
-) -> Iterator[tuple[str, bytes]]:
-    """(file name, PNG) of the two pictures of every expression, one at a time; records them in each
-    expression's ``files``."""
-    import rigs
-
-    active = active_vertices(rig, mu)
-    front = rigs.frontal_camera(rig)
-    cameras = {
-        view: rigs.three_quarter_camera(front, degrees) if degrees else front
-        for view, degrees in VIEWS.items()
-    }
-    poses = expression_poses(rig, expressions)
-    for index, (expression, legend, delta) in enumerate(
-        zip(expressions, legends, poses, strict=True), start=1
-    ):
-        name = expression_name(index, len(expressions))
-        colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
-        fills = triangle_colours(rig.triangles, active[rig.indices([entry[1] for entry in legend])], colours)
-        words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
-        posed = rig.neutral + delta
-        for view, camera in cameras.items():
-            path = f"{PICTURES}/{name}_{view}.png"
-            title = f"{index}. {view.replace('_', '-')}"
-            expression["files"][view] = path
-            yield path, picture(posed, rig.triangles, camera, fills, words, colours, title=title)
 
 
 def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:

@@ -1,32 +1,28 @@
-"""Pictures of expressions: a z-buffered, smoothly shaded render with the active shapes coloured.
+"""The renderer of expressions: a z-buffered, smoothly shaded render with the active shapes coloured.
 
 An expression is the template posed in it (neutral plus the sum of its blendshapes, Carrigan et al. 2020,
 sec. 3) and seen through a camera such as `rigs.frontal_camera`. A triangle takes the colour of the
 expression's shape most of its corners are active in (eq. 2, with the masks packing used:
-`active_vertices`), and a legend names every shape with its colour; no colour repeats within an
-expression (`shape_colours`).
+`active_vertices`); no colour repeats within an expression (`shape_colours`).
 
-`render_mesh` is the one renderer: a scanline rasteriser in numpy with a depth buffer (nearest surface
+`rasterise` is the one rasteriser: scanline conversion in numpy with a depth buffer (nearest surface
 wins, exactly, also where triangles cross), Gouraud-shaded by a two-sided Lambert light and supersampled
-for smooth edges. The session pictures (`picture`, with a title and a legend drawn by Pillow) and the
-report's contact sheets (`reports.contact_sheet`) both use it.
+for smooth edges, into a `Raster` that `Raster.paint` colours. `render_mesh` fits a mesh into an image
+(the report's contact sheets, `reports.contact_sheet`); the session pictures
+(`harness._session_pictures`) frame every expression alike and raster again only what an expression
+moves (`Backdrop`).
 """
 
 from __future__ import annotations
 
 import colorsys
-import importlib.util
-import io
-from collections.abc import Sequence
-from functools import lru_cache
-from pathlib import Path
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
-    from PIL import Image, ImageDraw, ImageFont
-
     from rigs import Rig
 
 #: matplotlib's ``tab20`` colours (ten hues, a dark and a light tone each), without importing matplotlib.
@@ -40,14 +36,7 @@ _TAB20 = (
     )
     / 255.0
 )
-#: Picture size in pixels (width, height).
-SIZE = (420, 400)
 SKIN = np.array([0.86, 0.84, 0.82])
-BACKGROUND = np.array([1.0, 1.0, 1.0])
-#: Share of a picture's width the face takes when it has a legend (the legend is on its right).
-FACE_SHARE = 0.62
-#: Share of a picture's height the face takes when it has a title (the title is above it).
-TITLE_SHARE = 0.92
 #: Light direction in camera coordinates (from the upper left, towards the face).
 _LIGHT = np.array([-0.35, 0.45, 1.0]) / np.linalg.norm([-0.35, 0.45, 1.0])
 _AMBIENT, _DIFFUSE = 0.3, 0.7
@@ -56,11 +45,6 @@ SUPERSAMPLE = 2
 #: Largest number of pixel samples rasterised at once (about 100 MB of temporaries): bounds the memory
 #: of meshes with many large, overlapping triangles.
 _CHUNK_SAMPLES = 2_000_000
-#: zlib level of the PNG pictures: level 1 writes them about four times as fast as the default 6, for
-#: files about a third larger.
-_PNG_LEVEL = 1
-#: Title and legend text heights in pixels; the legend shrinks down to the smallest to fit its lines.
-_TITLE_PX, _LEGEND_PX, _SMALLEST_PX = 13, 11, 6
 
 
 def shape_colours(groups: Sequence[int]) -> np.ndarray:
@@ -125,10 +109,116 @@ def triangle_colours(triangles: np.ndarray, active: np.ndarray, colours: np.ndar
     """
     if not len(active):
         return np.repeat(SKIN[None], len(triangles), axis=0)
+    active, triangles = np.asarray(active, dtype=bool), np.asarray(triangles).reshape(-1, 3)
     palette = np.vstack([np.asarray(colours, dtype=np.float64).reshape(len(active), 3), SKIN])
-    corners = np.asarray(active)[:, triangles].sum(axis=2)  # (S, T)
-    labels = np.where(corners.max(axis=0) > 0, corners.argmax(axis=0), -1)  # -1 picks the skin row
+    touched = np.flatnonzero(active.any(axis=0)[triangles].any(axis=1))  # a corner active in some shape
+    corners = active[:, triangles[touched]].sum(axis=2)  # (S, touched)
+    labels = np.full(len(triangles), -1)  # -1 picks the skin row
+    labels[touched] = corners.argmax(axis=0)
     return palette[labels]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Where an orthographic camera's view lands in a picture of ``width`` x ``height`` pixels of
+    ``supersample`` x ``supersample`` samples: a camera coordinate ``(u, v)`` is at sample
+    ``((u - centre[0]) * scale + columns / 2, (centre[1] - v) * scale + rows / 2)``.
+
+    One frame for several poses (`fitted` to all of them) keeps them the same size and place, so the
+    pictures compare and the unmoved part of the face is rasterised once (`Backdrop`).
+    """
+
+    camera: np.ndarray
+    centre: np.ndarray
+    scale: float
+    width: int
+    height: int
+    supersample: int = SUPERSAMPLE
+
+    @classmethod
+    def fitted(
+        cls,
+        camera: np.ndarray,
+        poses: Sequence[np.ndarray],
+        *,
+        width: int,
+        height: int,
+        margin: float = 0.03,
+        supersample: int = SUPERSAMPLE,
+    ) -> Frame:
+        """The frame in which every pose's projection fits the picture, less ``margin`` (a share of its
+        larger side) on every side, centred."""
+        camera = np.asarray(camera, dtype=np.float64)
+        extents = np.array([_extent(np.asarray(pose, dtype=np.float64) @ camera[:2].T) for pose in poses])
+        low, high = extents[:, 0].min(axis=0), extents[:, 1].max(axis=0)
+        size = np.array([width, height], dtype=np.float64) * supersample
+        room = np.maximum(size - 2.0 * margin * size.max(), 1.0)
+        scale = float(np.min(room / np.maximum(high - low, 1e-300)))
+        return cls(camera, (low + high) / 2.0, scale, width, height, supersample)
+
+    @property
+    def samples(self) -> tuple[int, int]:
+        """Samples across and down."""
+        return self.width * self.supersample, self.height * self.supersample
+
+    def project(self, vertices: np.ndarray) -> np.ndarray:
+        """(N, 3) sample coordinates of ``vertices``: x right, y down, z nearness."""
+        u, v, z = (_dot(vertices, axis) for axis in self.camera)
+        columns, rows = self.samples
+        x = (u - self.centre[0]) * self.scale + columns / 2.0
+        y = (self.centre[1] - v) * self.scale + rows / 2.0
+        return np.stack([x, y, z], axis=1)
+
+    def brightness(self, normals: np.ndarray) -> np.ndarray:
+        """Two-sided Lambert brightness of vertices of unit ``normals`` (`vertex_normals`)."""
+        return _AMBIENT + _DIFFUSE * np.abs(_dot(normals, self.camera.T @ _LIGHT))
+
+
+@dataclass(frozen=True)
+class Raster:
+    """A mesh seen in a `Frame`, before colour: at every sample the nearest triangle (``nearest``, -1
+    where none) and the light on it there (``light``).
+
+    One raster gives any number of pictures of the same pose and view (`paint`): the shapes coloured, or
+    the bare skin.
+    """
+
+    nearest: np.ndarray
+    light: np.ndarray
+    supersample: int
+
+    def paint(self, colours: np.ndarray) -> np.ndarray:
+        """The (height, width, 4) uint8 RGBA image of the raster with ``colours``: (T, 3) RGB in [0, 1]
+        per triangle, or one (3,) RGB for every triangle; straight RGB, alpha the share of the pixel
+        the mesh covers."""
+        rgb, coverage = self._sums(colours)
+        covered = coverage[..., None]
+        straight = np.divide(rgb, covered, out=np.zeros_like(rgb), where=covered > 0)
+        image = np.concatenate([np.clip(straight, 0.0, 1.0), covered / self.supersample**2], axis=2)
+        return (image * 255.0 + 0.5).astype(np.uint8)
+
+    def over(self, colours: np.ndarray | float, background: np.ndarray | float) -> np.ndarray:
+        """The uint8 image of `paint` composited over ``background``: (height, width, 3) RGB for RGB
+        colours, or (height, width) grey for one grey level ``colours`` over a grey ``background``."""
+        rgb, coverage = self._sums(colours)
+        share = np.float32(1.0 / self.supersample**2)
+        uncovered = np.multiply.outer(1.0 - coverage * share, np.asarray(background, dtype=np.float32))
+        return (np.clip(rgb * share + uncovered, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+    def _sums(self, colours: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Per pixel, the sum of its samples' shaded colour and the number of them covered (float32)."""
+        colours = np.asarray(colours, dtype=np.float32)
+        coverage = _blocks((self.nearest >= 0).astype(np.float32), self.supersample)
+        if colours.ndim <= 1:  # one colour (or grey level) for every triangle
+            return np.multiply.outer(_blocks(self.light, self.supersample), colours), coverage
+        table = np.vstack([colours.reshape(-1, 3), np.zeros((1, 3), dtype=np.float32)])  # -1: none
+        channels = [np.take(table[:, c], self.nearest) * self.light for c in range(3)]
+        return np.stack([_blocks(channel, self.supersample) for channel in channels], axis=2), coverage
+
+
+def _blocks(samples: np.ndarray, factor: int) -> np.ndarray:
+    """Sums of the ``factor`` x ``factor`` blocks of a (rows, columns) array of samples: one per pixel."""
+    return sum(samples[row::factor, column::factor] for row in range(factor) for column in range(factor))
 
 
 def render_mesh(
@@ -167,92 +257,196 @@ def render_mesh(
 
     Notes
     -----
-    The nearest surface wins at every sample (a depth buffer), so the picture is right where triangles
-    cross or a mesh folds over itself, unlike the painter's algorithm. Lighting is two-sided, since the
-    orientation of a rig's mesh is unknown. O(T + P) for P covered samples (pixels times supersample
-    squared times overdraw), in numpy; the same input gives the same image.
+    `rasterise` in a `Frame` fitted to the mesh, then `Raster.paint`: the nearest surface wins at every
+    sample (a depth buffer), so the picture is right where triangles cross or a mesh folds over itself,
+    unlike the painter's algorithm. Lighting is two-sided, since the orientation of a rig's mesh is
+    unknown. O(T + P) for P covered samples (pixels times supersample squared times overdraw), in numpy;
+    the same input gives the same image.
     """
-    view = np.asarray(vertices, dtype=np.float64) @ np.asarray(camera, dtype=np.float64).T
-    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    big = (width * supersample, height * supersample)
-    points = _fit(view, big, margin)
-    depth_plane, shade_plane = _planes(points, triangles, _vertex_brightness(view, triangles))
-    nearest = _rasterise(points, triangles, depth_plane, big).reshape(big[1], big[0])
-    return _downsample(*_shade(nearest, shade_plane, colours), supersample)
+    frame = Frame.fitted(
+        camera, [vertices], width=width, height=height, margin=margin, supersample=supersample
+    )
+    return rasterise(vertices, triangles, frame).paint(colours)
 
 
-def _fit(view: np.ndarray, size: tuple[int, int], margin: float) -> np.ndarray:
-    """Camera coordinates to pixel coordinates (x right, y down, z nearness), fitted and centred."""
-    low, high = view[:, :2].min(axis=0), view[:, :2].max(axis=0)
-    extent = np.maximum(high - low, 1e-300)
-    room = np.array(size, dtype=np.float64) - 2.0 * margin * max(size)
-    scale = float(np.min(np.maximum(room, 1.0) / extent))
-    centre = (low + high) / 2.0
-    x = (view[:, 0] - centre[0]) * scale + size[0] / 2.0
-    y = (centre[1] - view[:, 1]) * scale + size[1] / 2.0
-    return np.stack([x, y, view[:, 2]], axis=1)
+def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(N, 3) unit area-weighted normal of each vertex (0 for a vertex in no triangle of any area).
 
-
-def _vertex_brightness(view: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Two-sided Lambert brightness of each vertex from its area-weighted normal."""
-    corners = view[triangles]
-    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    corner_normals = np.repeat(normals, 3, axis=0)
+    Each vertex sums its triangles' normals in the order of ``triangles``, so the normals of the
+    vertices all of whose triangles are in a subset come out bit for bit the same from that subset.
+    """
+    triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    corners = np.asarray(vertices, dtype=np.float64)[triangles.T]  # (3 corners, T, 3)
+    normals = np.cross(corners[1] - corners[0], corners[2] - corners[0])
     summed = np.stack(
-        [np.bincount(triangles.ravel(), corner_normals[:, d], minlength=len(view)) for d in range(3)], axis=1
+        [
+            np.bincount(triangles.ravel(order="F"), np.tile(normals[:, axis], 3), minlength=len(vertices))
+            for axis in range(3)
+        ],
+        axis=1,
     ).astype(np.float64)  # (float even without triangles)
     lengths = np.linalg.norm(summed, axis=1, keepdims=True)
-    unit = np.divide(summed, lengths, out=np.zeros_like(summed), where=lengths > 0)
-    return _AMBIENT + _DIFFUSE * np.abs(unit @ _LIGHT)
+    return np.divide(summed, lengths, out=np.zeros_like(summed), where=lengths > 0)
 
 
-def _planes(
-    points: np.ndarray, triangles: np.ndarray, brightness: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per triangle, depth and brightness as planes ``a x + b y + c`` over the image (orthographic
-    projection keeps both affine across a triangle); NaN rows for triangles of no area in the image."""
-    corners = points[triangles]
-    x, y = corners[..., 0], corners[..., 1]
-    following, last = [1, 2, 0], [2, 0, 1]
-    a = y[:, following] - y[:, last]  # barycentric coordinate i = (a_i x + b_i y + c_i) / area
-    b = x[:, last] - x[:, following]
-    c = x[:, following] * y[:, last] - x[:, last] * y[:, following]
-    area = c.sum(axis=1)
+def rasterise(
+    vertices: np.ndarray, triangles: np.ndarray, frame: Frame, normals: np.ndarray | None = None
+) -> Raster:
+    """The `Raster` of a mesh in ``frame``; ``normals`` (`vertex_normals` of ``vertices``) spare their
+    computation when one pose is seen in several frames."""
+    triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    if normals is None:
+        normals = vertex_normals(vertices, triangles)
+    corners = frame.project(vertices).T[:, triangles.T]  # (3 coordinates, 3 corners, T)
+    depth_plane, shade_plane = _planes(corners, frame.brightness(normals)[triangles.T])
+    nearest, depth = _buffers(frame)
+    for pixel, owner, near in _scan(corners, depth_plane, frame.samples):
+        _keep_nearest(nearest, depth, pixel, owner, near)
+    return _raster(nearest, shade_plane, frame)
+
+
+def _dot(vectors: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """(N,) dot products of (N, 3) ``vectors`` with ``direction``, written out so that a row's result
+    does not depend on the others (as a BLAS product's may)."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    return vectors[:, 0] * direction[0] + vectors[:, 1] * direction[1] + vectors[:, 2] * direction[2]
+
+
+def _extent(view: np.ndarray) -> np.ndarray:
+    """(2, 2): the lowest and the highest camera (x, y) of a projected mesh (zeros for none)."""
+    return np.array([view.min(axis=0), view.max(axis=0)]) if len(view) else np.zeros((2, 2))
+
+
+def _buffers(frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    """Empty nearest-triangle (-1) and depth (-inf) buffers of the frame's samples, row by row."""
+    count = frame.samples[0] * frame.samples[1]
+    return np.full(count, -1, dtype=np.int32), np.full(count, -np.inf)
+
+
+def _raster(nearest: np.ndarray, shade_plane: np.ndarray, frame: Frame) -> Raster:
+    columns, rows = frame.samples
+    image = nearest.reshape(rows, columns)
+    return Raster(image, _light(image, shade_plane), frame.supersample)
+
+
+class Backdrop:
+    """The neutral seen in a `Frame`, kept so that a pose's `Raster` needs only the triangles the pose
+    changes rasterised again: the same raster, sample for sample, as `rasterise` of the whole pose.
+
+    A triangle is changed when one of its corners has a normal some moved vertex bends (`Motion`); the
+    others keep their place, depth and light, and where the neutral's nearest triangle at a sample is a
+    changed one, the nearest unchanged triangle there is found among the neutral's kept samples.
+
+    Parameters
+    ----------
+    neutral : (N, 3) array
+    triangles : (T, 3) int array
+    frame : Frame
+    normals : (N, 3) array
+        `vertex_normals` of the neutral.
+    """
+
+    def __init__(self, neutral: np.ndarray, triangles: np.ndarray, frame: Frame, normals: np.ndarray) -> None:
+        self.triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+        self.frame = frame
+        corners = frame.project(neutral).T[:, self.triangles.T]
+        self.depth_plane, self.shade_plane = _planes(corners, frame.brightness(normals)[self.triangles.T])
+        self.nearest, self.depth = _buffers(frame)
+        pieces = list(_scan(corners, self.depth_plane, frame.samples))
+        for pixel, owner, near in pieces:
+            _keep_nearest(self.nearest, self.depth, pixel, owner, near)
+        self.pixel, self.owner, self.near = (
+            np.concatenate([piece[k] for piece in pieces]) if pieces else np.zeros(0, dtype)
+            for k, dtype in enumerate((np.int64, np.int32, np.float64))
+        )
+
+    def pose(self, vertices: np.ndarray, motion: Motion) -> Raster:
+        """The raster of the pose ``vertices``, whose `Motion` from the neutral is ``motion``."""
+        changed = np.append(motion.changed, False)  # index -1 (no triangle): not changed
+        nearest, depth = self.nearest.copy(), self.depth.copy()
+        hole = changed[nearest]
+        nearest[hole], depth[hole] = -1, -np.inf
+        refill = hole[self.pixel] & ~changed[self.owner]
+        _keep_nearest(nearest, depth, self.pixel[refill], self.owner[refill], self.near[refill])
+        moving = np.flatnonzero(motion.changed)
+        corners = self.frame.project(vertices).T[:, self.triangles[moving].T]
+        brightness = self.frame.brightness(motion.normals)[self.triangles[moving].T]
+        depth_plane, moved_shade = _planes(corners, brightness)
+        for pixel, owner, near in _scan(corners, depth_plane, self.frame.samples):
+            _keep_nearest(nearest, depth, pixel, moving[owner].astype(np.int32), near)
+        shade_plane = self.shade_plane.copy()
+        shade_plane[moving] = moved_shade
+        return _raster(nearest, shade_plane, self.frame)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """What a pose changes of its neutral: ``changed`` (T,) the triangles with a corner whose normal is
+    bent, ``normals`` (N, 3) the pose's `vertex_normals`."""
+
+    changed: np.ndarray
+    normals: np.ndarray
+
+    @classmethod
+    def of(
+        cls, vertices: np.ndarray, neutral: np.ndarray, triangles: np.ndarray, neutral_normals: np.ndarray
+    ) -> Motion:
+        """The motion from ``neutral`` (of normals ``neutral_normals``) to the pose ``vertices``."""
+        triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+        moved = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
+        bent = np.zeros(len(moved), dtype=bool)  # corners of a triangle that moved: their normals change
+        bent[triangles[moved[triangles].any(axis=1)].ravel()] = True
+        changed = bent[triangles].any(axis=1)  # every triangle of a bent vertex: its own normals are exact
+        normals = np.array(neutral_normals, dtype=np.float64)
+        normals[bent] = vertex_normals(vertices, triangles[changed])[bent]
+        return cls(changed, normals)
+
+
+def _planes(corners: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle, depth and brightness (``values`` at its corners, (3, T)) as planes ``a x + b y + c``
+    over the image, (T, 3) rows ``a, b, c`` (orthographic projection keeps both affine across a
+    triangle); NaN rows for triangles of no area in the image."""
+    x, y = corners[0], corners[1]
+    following, last = (1, 2, 0), (2, 0, 1)
+    a = y[following, :] - y[last, :]  # barycentric coordinate i = (a_i x + b_i y + c_i) / area
+    b = x[last, :] - x[following, :]
+    c = x[following, :] * y[last, :] - x[last, :] * y[following, :]
+    area = c[0] + c[1] + c[2]
     flat = np.abs(area) <= 1e-9
-    scale = np.where(flat, np.nan, 1.0 / np.where(flat, 1.0, area))[:, None]
-    weights = np.stack([a, b, c], axis=1) * scale[:, :, None]  # (T, 3 coefficients, 3 corners)
-    depth = np.einsum("tkc,tc->tk", weights, corners[..., 2])
-    shade = np.einsum("tkc,tc->tk", weights, brightness[triangles])
+    scale = np.where(flat, np.nan, 1.0 / np.where(flat, 1.0, area))
+
+    def plane(at_corners: np.ndarray) -> np.ndarray:  # (T, 3): written out, the same sums for any subset
+        sums = [k[0] * at_corners[0] + k[1] * at_corners[1] + k[2] * at_corners[2] for k in (a, b, c)]
+        return np.stack(sums, axis=1) * scale[:, None]
+
+    depth, shade = plane(corners[2]), plane(values)
     return depth, shade
 
 
-def _rasterise(
-    points: np.ndarray, triangles: np.ndarray, depth_plane: np.ndarray, size: tuple[int, int]
-) -> np.ndarray:
-    """(width * height,) index of the nearest triangle at each pixel centre, -1 where none.
+def _scan(
+    corners: np.ndarray, depth_plane: np.ndarray, size: tuple[int, int]
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(pixel index, triangle, depth) of every pixel centre inside the triangles ``corners`` (3
+    coordinates, 3 corners, T), in chunks of at most `_CHUNK_SAMPLES` samples.
 
     Triangles are cut into rows of pixel centres and rows into spans (scanline conversion, all in
-    numpy), in chunks of at most `_CHUNK_SAMPLES` samples; a centre on a shared edge belongs to both
-    triangles. The nearest sample wins; between equally near ones, the triangle of the larger index.
+    numpy); a centre on a shared edge belongs to both triangles. `_keep_nearest` merges the chunks into
+    depth buffers.
     """
     width, height = size
-    edges = _edges(points[triangles])
+    edges = _edges(corners)
     low = np.maximum(np.ceil(edges[:, [0, 6]] - 0.5), 0).astype(np.int64)  # first column and row
     high = np.minimum(np.floor(edges[:, [1, 8]] - 0.5), [width - 1, height - 1]).astype(np.int64)
     spans = np.maximum(high - low + 1, 0)
     bound = np.where(np.isnan(depth_plane[:, 0]), 0, spans[:, 0] * spans[:, 1])
-    nearest = np.full(width * height, -1, dtype=np.int32)
-    depth = np.full(width * height, -np.inf)
-    start, ends = 0, np.cumsum(bound)
-    while start < len(triangles):
+    start, ends, count = 0, np.cumsum(bound), len(bound)
+    while start < count:
         stop = max(
             int(np.searchsorted(ends, ends[start] - bound[start] + _CHUNK_SAMPLES, "right")), start + 1
         )
         chunk = np.arange(start, stop, dtype=np.int32)[bound[start:stop] > 0]
-        pixel, owner, near = _samples(edges[chunk], chunk, low[chunk, 1], spans[chunk, 1], depth_plane, width)
-        _keep_nearest(nearest, depth, pixel, owner, near)
+        yield _samples(edges[chunk], chunk, low[chunk, 1], spans[chunk, 1], depth_plane, width)
         start = stop
-    return nearest
 
 
 def _edges(corners: np.ndarray) -> np.ndarray:
@@ -260,27 +454,30 @@ def _edges(corners: np.ndarray) -> np.ndarray:
     corner, the middle corner and the slopes of the edges from top to middle and middle to bottom, and
     the bottom row: ``x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid, y_bottom,
     slope_lower`` (slopes of horizontal edges are 0: no row crosses them)."""
-    order = np.argsort(corners[:, :, 1], axis=1, kind="stable")
-    top, mid, bottom = (
-        np.take_along_axis(corners[:, :, :2], order[:, [i], None], axis=1)[:, 0] for i in range(3)
-    )
+    x, y = corners[0], corners[1]
+    count = x.shape[1]
+    top = np.argmin(y, axis=0)  # the first lowest y; the bottom is the last largest, the middle the third
+    bottom = 2 - np.argmax(y[::-1], axis=0)
+    flat = np.arange(count)
+    at = [top * count + flat, (3 - top - bottom) * count + flat, bottom * count + flat]
+    (x_top, x_mid, x_bottom), (y_top, y_mid, y_bottom) = ([np.take(c, i) for i in at] for c in (x, y))
 
-    def slope(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        rise = b[:, 1] - a[:, 1]
-        return np.divide(b[:, 0] - a[:, 0], rise, out=np.zeros(len(a)), where=rise != 0)
+    def slope(x_from: np.ndarray, y_from: np.ndarray, x_to: np.ndarray, y_to: np.ndarray) -> np.ndarray:
+        rise = y_to - y_from
+        return np.divide(x_to - x_from, rise, out=np.zeros(count), where=rise != 0)
 
     return np.stack(
         [
-            corners[:, :, 0].min(axis=1),
-            corners[:, :, 0].max(axis=1),
-            top[:, 0],
-            slope(top, bottom),
-            mid[:, 0],
-            slope(top, mid),
-            top[:, 1],
-            mid[:, 1],
-            bottom[:, 1],
-            slope(mid, bottom),
+            x.min(axis=0),
+            x.max(axis=0),
+            x_top,
+            slope(x_top, y_top, x_bottom, y_bottom),
+            x_mid,
+            slope(x_top, y_top, x_mid, y_mid),
+            y_top,
+            y_mid,
+            y_bottom,
+            slope(x_mid, y_mid, x_bottom, y_bottom),
         ],
         axis=1,
     )
@@ -344,136 +541,12 @@ def _keep_nearest(
     np.maximum.at(nearest, pixel[front], owner[front])
 
 
-def _shade(
-    nearest: np.ndarray, shade_plane: np.ndarray, colours: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Shaded RGB (0 where no triangle is) and coverage (0 or 1) of every sample of the image
-    ``nearest`` (the triangle at each sample, -1 for none), in float32."""
-    blank = np.zeros((1, 3), dtype=np.float32)  # row -1: what samples without a triangle take
-    planes = np.vstack([np.asarray(shade_plane, dtype=np.float32), blank])
-    table = np.vstack([np.asarray(colours, dtype=np.float32).reshape(-1, 3), blank])
+def _light(nearest: np.ndarray, shade_plane: np.ndarray) -> np.ndarray:
+    """The brightness (float32) at every sample of the image ``nearest`` (the triangle at each sample, -1
+    for none: 0 there), from each triangle's plane of brightness."""
+    planes = np.vstack([shade_plane, np.zeros((1, 3))]).astype(np.float32)  # row -1: samples of no triangle
     x = np.arange(nearest.shape[1], dtype=np.float32) + 0.5
     y = np.arange(nearest.shape[0], dtype=np.float32)[:, None] + 0.5
     light = np.take(planes[:, 0], nearest) * x + np.take(planes[:, 1], nearest) * y
     light += np.take(planes[:, 2], nearest)
-    rgb = np.stack([np.take(table[:, channel], nearest) * light for channel in range(3)], axis=2)
-    return rgb, (nearest >= 0).astype(np.float32)
-
-
-def _downsample(rgb: np.ndarray, coverage: np.ndarray, factor: int) -> np.ndarray:
-    """The uint8 RGBA image of ``factor`` x ``factor`` blocks of samples: straight RGB averaged over a
-    block's covered samples, alpha the share of them covered."""
-    blocks = [(row, column) for row in range(factor) for column in range(factor)]
-    colour = sum(rgb[row::factor, column::factor] for row, column in blocks)
-    covered = sum(coverage[row::factor, column::factor] for row, column in blocks)[..., None]
-    straight = np.divide(colour, covered, out=np.zeros_like(colour), where=covered > 0)
-    image = np.concatenate([np.clip(straight, 0.0, 1.0), covered / factor**2], axis=2)
-    return (image * 255.0 + 0.5).astype(np.uint8)
-
-
-def picture(
-    vertices: np.ndarray,
-    triangles: np.ndarray,
-    camera: np.ndarray,
-    colours: np.ndarray,
-    legend: Sequence[str],
-    legend_colours: np.ndarray,
-    *,
-    title: str = "",
-    size: tuple[int, int] = SIZE,
-) -> bytes:
-    """A PNG of the mesh (`render_mesh`) with a title above and a legend on its right.
-
-    Parameters
-    ----------
-    vertices : (N, 3) array
-        Posed positions.
-    triangles : (T, 3) int array
-    camera : (3, 3) array
-        Rows right, up, towards the viewer.
-    colours : (T, 3) array
-        The colour of each triangle (`triangle_colours`).
-    legend : sequence of str
-        One entry per shape, in plain words.
-    legend_colours : (len(legend), 3) array
-        The colour of each legend entry.
-    title : str
-    size : (width, height) in pixels
-
-    Returns
-    -------
-    bytes of a PNG image (no timestamp or software tag: the same input gives the same bytes). The face
-    fills the left `FACE_SHARE` of the width (all of it without a legend) and the lower `TITLE_SHARE`
-    of the height (all of it without a title), centred there.
-    """
-    from PIL import Image
-
-    width, height = size
-    face_width = round(FACE_SHARE * width) if len(legend) else width
-    top = height - round(TITLE_SHARE * height) if title else 0
-    face = render_mesh(vertices, triangles, camera, colours, width=face_width, height=height - top)
-    canvas = np.empty((height, width, 3), dtype=np.uint8)
-    canvas[:] = np.round(255 * BACKGROUND).astype(np.uint8)
-    canvas[top:, :face_width] = _over(face, canvas[top:, :face_width])
-    image = Image.fromarray(canvas, "RGB")
-    _draw_text(image, title, legend, np.asarray(legend_colours, dtype=np.float64).reshape(-1, 3), face_width)
-    buffer = io.BytesIO()
-    image.save(buffer, format="PNG", compress_level=_PNG_LEVEL)
-    return buffer.getvalue()
-
-
-def _over(image: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """RGBA ``image`` (uint8) composited over RGB ``background`` (uint8)."""
-    alpha = image[..., 3:].astype(np.float32) / 255.0
-    mixed = image[..., :3] * alpha + background * (1.0 - alpha)
-    return np.round(mixed).astype(np.uint8)
-
-
-def _draw_text(image: Image.Image, title: str, legend: Sequence[str], colours: np.ndarray, left: int) -> None:
-    """The title at the top left; the legend (a swatch and the words per line) right of ``left``,
-    centred vertically, its text shrunk to fit the height and cut to fit the width."""
-    from PIL import ImageDraw
-
-    draw = ImageDraw.Draw(image)
-    width, height = image.size
-    if title:
-        draw.text((round(0.02 * width), round(0.01 * height)), title, fill=(0, 0, 0), font=_font(_TITLE_PX))
-    if not len(legend):
-        return
-    pixels = _LEGEND_PX
-    while pixels > _SMALLEST_PX and len(legend) * round(1.3 * pixels) > 0.96 * height:
-        pixels -= 1
-    font, line = _font(pixels), round(1.3 * pixels)
-    swatch = round(0.8 * pixels)
-    x, y = left + 4, round((height - len(legend) * line) / 2)
-    room = width - (x + swatch + 4) - 2
-    for words, colour in zip(legend, colours, strict=True):
-        fill = tuple(int(round(255 * value)) for value in colour)
-        draw.rectangle((x, y + (line - swatch) // 2, x + swatch - 1, y + (line + swatch) // 2 - 1), fill=fill)
-        draw.text(
-            (x + swatch + 4, y + line // 2),
-            _fitted(draw, words, font, room),
-            fill=(0, 0, 0),
-            font=font,
-            anchor="lm",
-        )
-        y += line
-
-
-def _fitted(draw: ImageDraw.ImageDraw, words: str, font: ImageFont.FreeTypeFont, room: int) -> str:
-    """``words``, cut and ended with an ellipsis when wider than ``room`` pixels."""
-    if draw.textlength(words, font=font) <= room:
-        return words
-    while words and draw.textlength(words + "\u2026", font=font) > room:
-        words = words[:-1]
-    return words.rstrip() + "\u2026"
-
-
-@lru_cache(maxsize=8)
-def _font(pixels: int) -> ImageFont.FreeTypeFont:
-    """DejaVu Sans at ``pixels``: the font matplotlib ships (so every machine draws the same glyphs), found
-    in its package data without importing it."""
-    from PIL import ImageFont
-
-    package = Path(str(importlib.util.find_spec("matplotlib").origin)).parent
-    return ImageFont.truetype(str(package / "mpl-data" / "fonts" / "ttf" / "DejaVuSans.ttf"), pixels)
+    return light

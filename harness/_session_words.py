@@ -1,8 +1,10 @@
 """Blendshape names in plain words for the scan sheet: ``eyeBlink_L`` -> "left eye blink".
 
 Names are split at case changes, digits and separators; a side token (``_L``, ``Left``, ``l_``, ... as
-`rigs.side_of` reads them) becomes "left" or "right" in front; everything is lower case. A side on the jaw
-or the mouth alone is a direction (ARKit's ``jawLeft``: the jaw moves to the character's left).
+`rigs.side_of` reads them) becomes "left" or "right" in front; everything is lower case. Sides are the
+actor's own, as in ARKit's names (``eyeBlinkLeft`` closes the actor's left eye, which a front picture
+shows on its right). A side on the jaw or the mouth alone is a direction (``jawLeft``: the jaw moves to
+the actor's left).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ def plain_words(name: str) -> str:
     >>> plain_words("eyeBlink_L"), plain_words("mouthSmileRight"), plain_words("jawOpen")
     ('left eye blink', 'right mouth smile', 'jaw open')
     >>> plain_words("AU12_lipCornerPuller"), plain_words("brow.R"), plain_words("jawLeft")
-    ('au 12 lip corner puller', 'right brow', 'jaw to the left')
+    ('au 12 lip corner puller', 'right brow', "jaw to the actor's left")
     """
     import rigs
 
@@ -33,6 +35,6 @@ def plain_words(name: str) -> str:
         words = [word for word in words if word not in _SIDE_WORDS] or words
         side_word = "left" if side == "L" else "right"
         if len(words) == 1 and words[0] in _MOVING_PARTS:
-            return f"{words[0]} to the {side_word}"
+            return f"{words[0]} to the actor's {side_word}"
         words.insert(0, side_word)
     return " ".join(words) or name

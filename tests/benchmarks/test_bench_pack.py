@@ -1,7 +1,8 @@
 """Film-scale speed of ``harness pack`` (issue 14): the whole process of
 ``harness pack RIG --out DIR --no-pictures`` on a production-sized rig (N ~ 26.7k vertices, K = 57 shapes,
 the generator's Female-like layout) <= 1 s from its ``.npz`` and <= 1.5 s from its folder of OBJs (written
-by ``harness rigs convert``).
+by ``harness rigs convert``); with its pictures, at most 1.5 times as long as without them, both measured
+in the same run.
 
 Targets are checked on the best of a few fresh processes of the installed project (bytecode compiled, see
 ``conftest.compiled_project``; see ``conftest.speed_target``); each time is also
@@ -27,6 +28,8 @@ import rigs
 SPEC = rigs.PresetSpec("bench-26k", 26_700, 57, "Production-sized rig for the pack benchmark.")
 #: Seconds of the issue for the whole process, by rig source.
 TARGETS = {"npz": 1.0, "obj-folder": 1.5}
+#: Most seconds of a pack with pictures per second of the same pack without them.
+PICTURES_RATIO = 1.5
 RUNS = 3
 
 
@@ -83,3 +86,39 @@ def test_bench_pack_whole_process(
         ratio_to_numpy_start=round(seconds / reference, 2),
     )
     speed_target(f"harness pack ({source}) [s]", seconds, TARGETS[source])
+
+
+def test_bench_pack_pictures_cost_at_most_half_again(
+    benchmark, speed_target, compiled_project, rig_sources, tmp_path
+) -> None:
+    """The pictures and the scan sheet showing them: ``harness pack`` of the OBJ folder with pictures and
+    without, alternated, the best of each compared."""
+    out = tmp_path / "session"
+    times: dict[bool, list[float]] = {True: [], False: []}
+
+    def pack_once(pictures: bool) -> None:
+        shutil.rmtree(out, ignore_errors=True)
+        option = "--pictures" if pictures else "--no-pictures"
+        start = time.perf_counter()
+        subprocess.run(
+            _harness("pack", rig_sources["obj-folder"], "--out", out, option), check=True, capture_output=True
+        )
+        times[pictures].append(time.perf_counter() - start)
+
+    def both() -> None:
+        pack_once(False)
+        pack_once(True)
+
+    benchmark.pedantic(both, rounds=1 if benchmark.disabled else RUNS, iterations=1)
+    document = json.loads((out / "expressions.json").read_text())
+    pictures = sorted(path.name for path in (out / "pictures").iterdir())
+    assert len(pictures) == 3 * len(document["expressions"]) > 0
+    ratio = min(times[True]) / min(times[False])
+    benchmark.extra_info.update(
+        command="harness pack obj-folder --pictures / --no-pictures",
+        pictures=len(pictures),
+        seconds_with_pictures=round(min(times[True]), 4),
+        seconds_without_pictures=round(min(times[False]), 4),
+        ratio=round(ratio, 3),
+    )
+    speed_target("harness pack with / without pictures", ratio, PICTURES_RATIO)

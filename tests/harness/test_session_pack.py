@@ -18,6 +18,7 @@ import rigs
 from harness._outdir import MANIFEST_NAME
 from harness.cli import cli
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
+from tests.chromium import run_chromium
 
 BACKGROUND = np.array([1.0, 1.0, 1.0])
 
@@ -51,7 +52,7 @@ def decimals(path: Path) -> int:
 def assert_frontal(picture: Path) -> None:
     """The face fills the centre of the picture's face area, left-right symmetric, taller than wide."""
     image = imread(picture)[..., :3]
-    face = image[int(0.08 * image.shape[0]) :, : int(0.62 * image.shape[1])]  # (title above, legend right)
+    face = image[:, : int(0.62 * image.shape[1])]  # (legend on the right)
     covered = np.abs(face - BACKGROUND).sum(axis=2) > 0.05
     rows, columns = np.nonzero(covered)
     centre = (columns.min() + columns.max()) / 2
@@ -96,9 +97,9 @@ def test_faceunits_session_lists_every_file_and_what_was_left_out(faceunits, fac
     written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()} - {MANIFEST_NAME}
     manifest = json.loads((out / MANIFEST_NAME).read_text())["files"]
     assert set(manifest) == written
-    assert {"neutral.obj", "session.html", "pictures/expression_04_three_quarter.png"} <= written
+    assert {"neutral.obj", "session.html", "pictures/expression_04_three_quarter_pose.png"} <= written
     for expression in document["expressions"]:
-        assert set(expression["files"]) == {"mesh", "front", "three_quarter"}
+        assert set(expression["files"]) == {"mesh", "front", "front_pose", "three_quarter_pose"}
         assert set(expression["files"].values()) <= written
     used = {name for e in document["expressions"] for name in e["shapes"]}
     excluded = {entry["shape"]: entry["reason"] for entry in document["excluded"]}
@@ -114,10 +115,9 @@ def test_faceunits_pictures_are_frontal(faceunits_session) -> None:
     out, document, _ = faceunits_session
     for expression in document["expressions"]:
         assert_frontal(out / expression["files"]["front"])
-        assert (
-            imread(out / expression["files"]["three_quarter"]).shape
-            == imread(out / expression["files"]["front"]).shape
-        )
+        files = expression["files"]
+        front, turned = (imread(out / files[key]) for key in ("front_pose", "three_quarter_pose"))
+        assert front.shape == turned.shape and not np.array_equal(front, turned)
 
 
 def test_the_scan_sheet_shows_each_expression_in_plain_words(faceunits_session) -> None:
@@ -125,11 +125,13 @@ def test_the_scan_sheet_shows_each_expression_in_plain_words(faceunits_session) 
     sheet = (out / "session.html").read_text()
     assert sheet.count('<section class="card">') == len(document["expressions"])
     for priority, expression in enumerate(document["expressions"], start=1):
-        assert f"Priority {priority} " in sheet and f'src="{expression["files"]["front"]}"' in sheet
+        assert f"<span>Priority {priority}</span>" in sheet
+        for key in ("front", "front_pose", "three_quarter_pose"):
+            assert f'src="{expression["files"][key]}"' in sheet
     if "eyeBlinkLeft" in {name for e in document["expressions"] for name in e["shapes"]}:
         assert "left eye blink" in sheet
     swatches = re.findall(
-        r"background: (rgb\([0-9,]+\))", sheet.split("Priority 1 ")[1].split("Priority 2 ")[0]
+        r"background: (rgb\([0-9,]+\))", sheet.split("Priority 1<")[1].split("Priority 2<")[0]
     )
     assert len(swatches) == len(set(swatches)) == len(document["expressions"][0]["shapes"])
 
@@ -435,31 +437,11 @@ def test_minimum_refuses_what_it_cannot_honour(tmp_path) -> None:
 
 
 def test_the_scan_sheet_renders_in_headless_chromium(faceunits_session, tmp_path) -> None:
-    import shutil
-    import subprocess
-
-    browser = next(
-        (shutil.which(name) for name in ("chromium", "chromium-browser") if shutil.which(name)), None
-    )
-    if browser is None:
-        pytest.skip("chromium is not installed (apt-get install chromium)")
     out, document, _ = faceunits_session
     screenshot, pdf = tmp_path / "sheet.png", tmp_path / "sheet.pdf"
-    flags = [
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--hide-scrollbars",
-        f"--user-data-dir={tmp_path}",
-    ]
-    page = (out / "session.html").as_uri()
-    for target in (f"--screenshot={screenshot}", f"--print-to-pdf={pdf}"):
-        subprocess.run(
-            [browser, *flags, "--window-size=1240,1754", "--no-pdf-header-footer", target, page],
-            capture_output=True,
-            timeout=120,
-            check=True,
-        )
+    page = out / "session.html"
+    run_chromium(page, tmp_path / "profile", "--window-size=1240,1754", f"--screenshot={screenshot}")
+    run_chromium(page, tmp_path / "profile", "--no-pdf-header-footer", f"--print-to-pdf={pdf}")
     image = imread(screenshot)[..., :3]
     tinted = np.ptp(image, axis=2) > 0.15  # the pictures' coloured shapes came through
     assert tinted.sum() > 2000

@@ -1,5 +1,5 @@
 """`harness.render_mesh` and the session pictures: depth-buffered, fitted, deterministic, coloured by the
-masks packing used."""
+masks packing used, the unmoved face rasterised once and the same for it."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from PIL import Image
 import harness
 import packing
 import rigs
-from harness._session_render import FACE_SHARE, SIZE, TITLE_SHARE, picture
+from harness._session_pictures import SIZE, _legend_picture, face_size, session_pictures
+from harness._session_render import Backdrop, Frame, Motion, rasterise, vertex_normals
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
 RED, BLUE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
@@ -73,24 +74,86 @@ def test_the_mesh_is_fitted_centred_and_antialiased() -> None:
     assert (image[..., :3][alpha > 0] > 0).all()  # lit, not black
 
 
-def test_pictures_are_the_same_bytes_for_the_same_input() -> None:
+def session(rig: rigs.Rig, groups: list[list[str]]) -> tuple[list[dict], list]:
+    """Expressions of ``groups`` of shape names and their legends, as `harness._session` makes them."""
+    from harness._session import _legend
+
+    expressions = [{"shapes": group, "extra_examples": [], "files": {}} for group in groups]
+    return expressions, [_legend(expression, ()) for expression in expressions]
+
+
+def test_session_pictures_are_the_same_bytes_for_the_same_input_on_any_thread_count() -> None:
     rig = rigs.generate("tiny")
-    camera = rigs.frontal_camera(rig)
-    colours = harness.shape_colours([2, 1])
-    fills = harness.triangle_colours(rig.triangles, harness.active_vertices(rig)[:3], colours)
-    words = ["left brow up", "right brow up", "jaw open"]
-    first = picture(rig.neutral, rig.triangles, camera, fills, words, colours, title="1. front")
-    assert first == picture(rig.neutral, rig.triangles, camera, fills, words, colours, title="1. front")
-    image = Image.open(io.BytesIO(first))
-    assert image.size == SIZE and not image.info  # no text chunks: no software tag, no time stamp
-    pixels = np.asarray(image.convert("RGB")).astype(int)
-    top, face_width = SIZE[1] - round(TITLE_SHARE * SIZE[1]), round(FACE_SHARE * SIZE[0])
+    groups = [list(rig.names[:3]), [rig.names[4]], list(rig.names[5:7])]
+    expressions, legends = session(rig, groups)
+    serial = list(session_pictures(rig, expressions, legends, 0.3, workers=1))
+    assert [path for path, _ in serial] == [
+        f"pictures/expression_{index:02d}_{key}.png"
+        for index in (1, 2, 3)
+        for key in ("front", "front_pose", "three_quarter_pose")
+    ]
+    assert expressions[0]["files"]["front_pose"] == "pictures/expression_01_front_pose.png"
+    again, _ = session(rig, groups)
+    assert list(session_pictures(rig, again, legends, 0.3, workers=3)) == serial
+    for path, png in serial:
+        image = Image.open(io.BytesIO(png))
+        assert not image.info  # no text chunks: no software tag, no time stamp
+        assert image.size == (SIZE if path.endswith("_front.png") else face_size())
+
+
+def test_the_coloured_picture_has_its_legend_on_the_right_and_no_caption_above() -> None:
+    rig = rigs.generate("tiny")
+    expressions, legends = session(rig, [list(rig.names[:3])])
+    png = dict(session_pictures(rig, expressions, legends, 0.3))[expressions[0]["files"]["front"]]
+    pixels = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    face_width = face_size()[0]
     legend = pixels[:, face_width:]
-    for colour in np.round(255 * colours).astype(int):  # every legend swatch is drawn right of the face
-        assert (np.abs(legend - colour).sum(axis=2) <= 3).sum() >= 25
-    face = np.abs(pixels[top:, :face_width] - 255).sum(axis=2) > 10
+    for _, _, colour, _ in legends[0]:  # every legend swatch is drawn right of the face
+        assert (np.abs(legend - np.round(255 * colour)).sum(axis=2) <= 3).sum() >= 25
+    face = np.abs(pixels[:, :face_width] - 255).sum(axis=2) > 10
     rows, columns = np.nonzero(face)
     assert abs((columns.min() + columns.max()) / 2 - face_width / 2) <= 2
+    assert rows.min() >= 0.03 * SIZE[1] - 1  # the face fills the height less its margin: no title
+
+
+def test_bare_poses_show_no_shape_colour_and_the_coloured_picture_does() -> None:
+    rig = rigs.generate("tiny")
+    expressions, legends = session(rig, [list(rig.names[:3])])
+    made = dict(session_pictures(rig, expressions, legends, 0.3))
+    for key in ("front_pose", "three_quarter_pose", "front"):
+        pixels = np.asarray(Image.open(io.BytesIO(made[expressions[0]["files"][key]])).convert("RGB"))
+        tinted = np.ptp(pixels[:, : face_size()[0]].astype(int), axis=2) > 40
+        assert tinted.any() == (key == "front"), key
+
+
+def test_a_backdrop_rasters_a_pose_exactly_as_the_whole_pose() -> None:
+    rig = rigs.generate("arkit52")
+    camera = rigs.three_quarter_camera(rigs.frontal_camera(rig))
+    weights = np.random.default_rng(3).uniform(0.0, 1.0, (4, rig.n_shapes)) * (
+        np.random.default_rng(4).uniform(size=(4, rig.n_shapes)) < 0.1
+    )
+    poses = rig.neutral + np.tensordot(weights, rig.deltas, axes=1)
+    frame = Frame.fitted(camera, [rig.neutral, *poses], width=90, height=120)
+    normals = vertex_normals(rig.neutral, rig.triangles)
+    backdrop = Backdrop(rig.neutral, rig.triangles, frame, normals)
+    for pose in poses:
+        motion = Motion.of(pose, rig.neutral, rig.triangles, normals)
+        assert 0 < motion.changed.sum() < rig.n_triangles  # a part moves, the rest comes from the backdrop
+        assert np.array_equal(motion.normals, vertex_normals(pose, rig.triangles))
+        fast, whole = backdrop.pose(pose, motion), rasterise(pose, rig.triangles, frame)
+        assert np.array_equal(fast.nearest, whole.nearest) and np.array_equal(fast.light, whole.light)
+
+
+def test_a_raster_over_a_background_is_its_painted_image_composited() -> None:
+    vertices, triangles = crossing_triangles()
+    frame = Frame.fitted(FRONT, [vertices], width=40, height=30)
+    raster = rasterise(vertices, triangles, frame)
+    colours, background = np.array([RED, BLUE]), np.array([0.2, 0.9, 0.4])
+    image = raster.paint(colours).astype(float) / 255.0
+    alpha = image[..., 3:]
+    expected = image[..., :3] * alpha + background * (1.0 - alpha)
+    assert np.abs(raster.over(colours, background) / 255.0 - expected).max() <= 1.5 / 255.0
+    assert set(np.unique(alpha)) - {0.0, 1.0}  # edges partly covered: the blend is tested
 
 
 def test_triangles_take_the_shape_most_of_their_corners_are_active_in() -> None:
@@ -140,15 +203,12 @@ def test_active_vertices_are_the_masks_packing_uses() -> None:
 
 
 def test_a_long_legend_shrinks_and_cuts_its_words_to_fit_the_picture() -> None:
-    rig = rigs.generate("tiny")
     colours = harness.shape_colours([1] * 40)
     words = [f"left upper eyelid squeeze and raise number {k}" for k in range(40)]
-    fills = harness.triangle_colours(rig.triangles, np.zeros((40, rig.n_vertices), bool), colours)
-    image = Image.open(
-        io.BytesIO(picture(rig.neutral, rig.triangles, rigs.frontal_camera(rig), fills, words, colours))
-    )
+    face = np.full((SIZE[1], face_size()[0], 3), 255, dtype=np.uint8)
+    image = Image.open(io.BytesIO(_legend_picture(face, words, colours)))
     pixels = np.asarray(image.convert("RGB")).astype(int)
-    legend = pixels[:, round(FACE_SHARE * SIZE[0]) :]
+    legend = pixels[:, face_size()[0] :]
     for colour in np.round(255 * colours).astype(int):  # all forty swatches fit the height
         assert (np.abs(legend - colour).sum(axis=2) <= 3).sum() >= 9
     assert (pixels[:, -2:] == 255).all()  # no word runs off the right edge

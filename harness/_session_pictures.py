@@ -1,0 +1,259 @@
+"""The pictures of a scanning session, in ``pictures/``, for every expression:
+
+* ``expression_XX_front.png``: the template posed in the expression, seen from the front found from the
+  face (`rigs.frontal_camera`), each active shape coloured (`harness._session_render.triangle_colours`)
+  and named on the right in plain words with its colour;
+* ``expression_XX_front_pose.png`` and ``expression_XX_three_quarter_pose.png``: the same pose bare, in
+  grey, from the front and turned 35 degrees towards the character's left (`rigs.three_quarter_camera`),
+  so that the form of the pose shows, which the colours cover.
+
+All the pictures of one view share one `Frame`, fitted to every expression, so they compare at one scale
+and place, and the part of the face an expression does not move is rasterised once for all of them
+(`Backdrop`). Expressions are rendered on a pool of threads (numpy's array loops and Pillow's
+PNG encoding run without Python's global lock), one per processor this process may use.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import io
+import os
+import threading
+from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from harness._session_mesh import expression_name, expression_poses
+from harness._session_render import (
+    Backdrop,
+    Frame,
+    Motion,
+    active_vertices,
+    triangle_colours,
+    vertex_normals,
+)
+
+if TYPE_CHECKING:
+    from PIL import Image, ImageDraw, ImageFont
+
+    from harness._session_sheet import Legend
+    from rigs import Rig
+
+PICTURES = "pictures"
+#: Key (in an expression's ``files``) of the coloured front picture, and of the bare poses with the turn
+#: of their camera from the front in degrees.
+PAINTED = "front"
+POSES = {"front_pose": 0.0, "three_quarter_pose": 35.0}
+#: Size of the coloured picture in pixels (width, height); the face takes `FACE_SHARE` of its width on
+#: the left, the legend the rest. A pose picture is the face's part alone.
+SIZE = (420, 400)
+FACE_SHARE = 0.62
+BACKGROUND = np.array([1.0, 1.0, 1.0])
+#: Grey level of a bare pose (its pictures are greyscale on white: a third of the data to encode).
+CLAY = 0.84
+#: zlib level of the PNG pictures: level 1 writes them about four times as fast as the default 6, for
+#: files about a third larger.
+_PNG_LEVEL = 1
+#: Most threads rendering at once (each holds a few images' worth of samples).
+_MOST_THREADS = 8
+#: Legend text height in pixels; the legend shrinks down to the smallest to fit its lines.
+_LEGEND_PX, _SMALLEST_PX = 11, 6
+
+
+def face_size() -> tuple[int, int]:
+    """(width, height) in pixels of the face in every picture: a pose picture's size."""
+    return round(FACE_SHARE * SIZE[0]), SIZE[1]
+
+
+class Rendering:
+    """The pictures of a session being rendered on a pool of threads from the moment it is made
+    (`session_pictures`), so that they render while the caller writes other files.
+
+    Iterate it for (file name, PNG) of every picture in order, each recorded in its expression's
+    ``files`` under `PAINTED` or a key of `POSES` as it comes; `close` it when done or given up (it stops
+    what has not started).
+    """
+
+    def __init__(
+        self,
+        rig: Rig,
+        expressions: Sequence[dict[str, Any]],
+        legends: Sequence[Legend],
+        mu: float,
+        workers: int,
+    ) -> None:
+        self._expressions = expressions
+        self._pool = ThreadPoolExecutor(workers, thread_name_prefix="pictures")
+        stage = self._pool.submit(_Stage, rig, expressions, mu)
+        views = {key: self._pool.submit(_backdrop, stage, degrees) for key, degrees in POSES.items()}
+        self._made = [
+            self._pool.submit(_render, stage, views, index, legends[index]) for index in range(len(legends))
+        ]
+
+    def __iter__(self) -> Iterator[tuple[str, bytes]]:
+        count = len(self._expressions)
+        for index, (expression, made) in enumerate(zip(self._expressions, self._made, strict=True), start=1):
+            for key, png in made.result():
+                path = f"{PICTURES}/{expression_name(index, count)}_{key}.png"
+                expression["files"][key] = path
+                yield path, png
+
+    def close(self) -> None:
+        """Stop the pictures not started; those being rendered finish in the background."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
+def session_pictures(
+    rig: Rig,
+    expressions: Sequence[dict[str, Any]],
+    legends: Sequence[Legend],
+    mu: float,
+    *,
+    workers: int | None = None,
+) -> Rendering:
+    """Start rendering the pictures of every expression (`Rendering`).
+
+    Parameters
+    ----------
+    rig : rigs.Rig
+    expressions : sequence of dict
+        ``expressions.json``'s expressions (``shapes`` and ``extra_examples``).
+    legends : sequence of Legend
+        Per expression, its shapes in legend order with their words and colours.
+    mu : float
+        The threshold the expressions were packed with: the active vertices coloured (eq. 2).
+    workers : int, optional
+        Threads rendering at once; by default one per processor this process may use (at most
+        `_MOST_THREADS`).
+    """
+    return Rendering(rig, expressions, legends, mu, workers or _processors())
+
+
+class _Stage:
+    """What every picture of a session shares: the rig's neutral and normals, the expressions' poses,
+    the active vertices and the front camera."""
+
+    def __init__(self, rig: Rig, expressions: Sequence[dict[str, Any]], mu: float) -> None:
+        import rigs
+
+        self.rig = rig
+        self.normals = vertex_normals(rig.neutral, rig.triangles)
+        self.poses = rig.neutral + expression_poses(rig, expressions)
+        self.active = active_vertices(rig, mu)
+        self.front = rigs.frontal_camera(rig)
+
+
+def _backdrop(stage: Future[_Stage], degrees: float) -> Backdrop:
+    """The neutral in the frame of the view turned ``degrees`` from the front, fitted to every pose."""
+    import rigs
+
+    shared = stage.result()
+    neutral = shared.rig.neutral
+    camera = rigs.three_quarter_camera(shared.front, degrees) if degrees else shared.front
+    width, height = face_size()
+    frame = Frame.fitted(camera, [neutral, *shared.poses], width=width, height=height)
+    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals)
+
+
+def _render(
+    stage: Future[_Stage], views: Mapping[str, Future[Backdrop]], index: int, legend: Legend
+) -> list[tuple[str, bytes]]:
+    """(key, PNG) of the pictures of expression ``index``: coloured with its legend, then its bare poses."""
+    shared = stage.result()
+    rig, posed = shared.rig, shared.poses[index]
+    colours = np.asarray([entry[2] for entry in legend]).reshape(len(legend), 3)
+    fills = triangle_colours(
+        rig.triangles, shared.active[rig.indices([entry[1] for entry in legend])], colours
+    )
+    words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
+    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals)
+    rasters = {key: view.result().pose(posed, motion) for key, view in views.items()}
+    painted = _legend_picture(rasters["front_pose"].over(fills, BACKGROUND), words, colours)
+    return [(PAINTED, painted), *((key, _png(raster.over(CLAY, 1.0))) for key, raster in rasters.items())]
+
+
+def _processors() -> int:
+    """Processors this process may run on, at most `_MOST_THREADS`."""
+    found = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return min(found, _MOST_THREADS)
+
+
+def _legend_picture(face: np.ndarray, legend: Sequence[str], colours: np.ndarray) -> bytes:
+    """The PNG of `SIZE`: the RGB ``face`` on the left, the legend (a swatch and the words per line) on
+    its right, centred vertically, its text shrunk to fit the height and cut to fit the width."""
+    from PIL import Image, ImageDraw
+
+    width, height = SIZE
+    left = face.shape[1]
+    canvas = np.empty((height, width, 3), dtype=np.uint8)
+    canvas[:] = np.round(255 * BACKGROUND).astype(np.uint8)
+    canvas[:, :left] = face
+    image = Image.fromarray(canvas)
+    if len(legend):
+        _draw_legend(ImageDraw.Draw(image), legend, np.asarray(colours, dtype=np.float64), left, SIZE)
+    return _png(image)
+
+
+def _draw_legend(
+    draw: ImageDraw.ImageDraw, legend: Sequence[str], colours: np.ndarray, left: int, size: tuple[int, int]
+) -> None:
+    width, height = size
+    pixels = _LEGEND_PX
+    while pixels > _SMALLEST_PX and len(legend) * round(1.3 * pixels) > 0.96 * height:
+        pixels -= 1
+    font, line = _font(pixels, threading.get_ident()), round(1.3 * pixels)
+    swatch = round(0.8 * pixels)
+    x, y = left + 4, round((height - len(legend) * line) / 2)
+    room = width - (x + swatch + 4) - 2
+    for words, colour in zip(legend, colours.reshape(-1, 3), strict=True):
+        fill = tuple(int(round(255 * value)) for value in colour)
+        draw.rectangle((x, y + (line - swatch) // 2, x + swatch - 1, y + (line + swatch) // 2 - 1), fill=fill)
+        draw.text(
+            (x + swatch + 4, y + line // 2),
+            _fitted(draw, words, font, room),
+            fill=(0, 0, 0),
+            font=font,
+            anchor="lm",
+        )
+        y += line
+
+
+def _png(image: np.ndarray | Image.Image) -> bytes:
+    """PNG bytes of an RGB or grey image, without a timestamp or software tag (the same image, the same
+    bytes)."""
+    from PIL import Image
+
+    if isinstance(image, np.ndarray):
+        image = Image.fromarray(image)
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG", compress_level=_PNG_LEVEL)
+    return buffer.getvalue()
+
+
+def _fitted(draw: ImageDraw.ImageDraw, words: str, font: ImageFont.FreeTypeFont, room: int) -> str:
+    """``words``, cut and ended with an ellipsis when wider than ``room`` pixels."""
+    if draw.textlength(words, font=font) <= room:
+        return words
+    while words and draw.textlength(words + "\u2026", font=font) > room:
+        words = words[:-1]
+    return words.rstrip() + "\u2026"
+
+
+@lru_cache(maxsize=64)
+def _font(pixels: int, thread: int) -> ImageFont.FreeTypeFont:
+    """DejaVu Sans at ``pixels`` for one ``thread`` (a FreeType face is not shared between threads): the
+    font matplotlib ships (so every machine draws the same glyphs), found in its package data without
+    importing it."""
+    from PIL import ImageFont
+
+    package = Path(str(importlib.util.find_spec("matplotlib").origin)).parent
+    return ImageFont.truetype(str(package / "mpl-data" / "fonts" / "ttf" / "DejaVuSans.ttf"), pixels)
+
+
+def picture_files(files: Mapping[str, str]) -> list[tuple[str, str]]:
+    """(key, file) of an expression's pictures as the scan sheet shows them: coloured, then the poses."""
+    return [(key, files[key]) for key in (PAINTED, *POSES) if key in files]
