@@ -17,21 +17,10 @@ import harness
 from reports import build_report
 from reports._document import CONTENT_SECURITY_POLICY, Image, Section, html_page
 from reports.cli import report as report_command
+from tests.chromium import FLAGS, chromium_binary
 
 #: The committed run of the quick preset that CI compares against (``benchmarks/baseline``).
 BASELINE = Path(__file__).resolve().parents[2] / "benchmarks" / "baseline"
-
-_CHROMIUM_FLAGS = (
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--hide-scrollbars",
-)
 
 # Injected first into <head> of a copy of the page: records failed images, error events, console errors and
 # policy violations, and writes them into the DOM once the page has loaded, where --dump-dom shows them.
@@ -56,11 +45,8 @@ window.addEventListener("load", () => {
 
 @pytest.fixture(scope="module")
 def chromium() -> str:
-    """Path of the Debian ``chromium`` binary (`.ci/run` installs it); the test skips without it."""
-    found = shutil.which("chromium")
-    if found is None:
-        pytest.skip("headless Chromium is not installed (apt-get install chromium, as .ci/run does)")
-    return found
+    """Path of the Chromium binary (`.ci/run` installs Debian's); the test skips without it."""
+    return chromium_binary()
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +114,7 @@ def test_report_html_is_self_contained_and_deterministic(reported_run):
 
 
 def _chromium_flags(chromium: str, profile: Path) -> list[str]:
-    return [chromium, *_CHROMIUM_FLAGS, f"--user-data-dir={profile}", "--virtual-time-budget=5000"]
+    return [chromium, *FLAGS, f"--user-data-dir={profile}", "--virtual-time-budget=5000"]
 
 
 def _probe(chromium: str, page: Path, profile: Path) -> dict:
