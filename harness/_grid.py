@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 from harness._settings import expand, settings_text, split_label
+from registry import HarnessError
 
 #: J values evaluated by transfer when none are given; each is capped by the sequence's length, so the
 #: whole sequence is always evaluated too.
@@ -191,16 +192,18 @@ def read_regions(path: str | os.PathLike[str]) -> Regions:
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise ValueError(f"{path}: regions file not found") from None
+        raise HarnessError(f"{path}: regions file not found") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise ValueError(f"{path}: cannot read regions JSON ({error})") from None
+        raise HarnessError(f"{path}: cannot read regions JSON ({error})") from None
     if not isinstance(document, dict) or not document:
-        raise ValueError(f"{path}: regions JSON must be a non-empty object of region name -> vertex indices")
+        raise HarnessError(
+            f"{path}: regions JSON must be a non-empty object of region name -> vertex indices"
+        )
     for name, indices in document.items():
         if not isinstance(indices, list) or not all(
             isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in indices
         ):
-            raise ValueError(
+            raise HarnessError(
                 f"{path}: region {name!r} must be a list of non-negative vertex indices, got {indices!r:.60}"
             )
     return regions_tuple(document)
@@ -365,20 +368,22 @@ class RunConfig:
             or not isinstance(self.permutations, int)
             or self.permutations < 1
         ):
-            raise ValueError(f"--permutations must be a positive integer, got {self.permutations!r}")
+            raise HarnessError(f"--permutations must be a positive integer, got {self.permutations!r}")
         if not isinstance(self.examples, tuple) or not self.examples or set(self.examples) - set(EXAMPLES):
-            raise ValueError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
+            raise HarnessError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
         if not isinstance(self.seed, tuple) or not self.seed:
-            raise ValueError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
+            raise HarnessError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
         unknown = sorted(set(self.distortion) - set(DISTORTIONS))
         if unknown:
-            raise ValueError(f"--distortion must be among {', '.join(DISTORTIONS)}, got {', '.join(unknown)}")
+            raise HarnessError(
+                f"--distortion must be among {', '.join(DISTORTIONS)}, got {', '.join(unknown)}"
+            )
         for variation in self.variations:
             if not variation or any(len(change) != 2 for change in variation):
-                raise ValueError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
+                raise HarnessError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
             unknown = sorted({field for field, _ in variation} - set(VARIATION_FIELDS))
             if unknown:
-                raise ValueError(
+                raise HarnessError(
                     f"variation {_plain(variation)!r} changes {', '.join(unknown)}; a variation may change "
                     f"{', '.join(VARIATION_FIELDS)}"
                 )
@@ -477,7 +482,7 @@ class RunConfig:
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:
-            raise ValueError(
+            raise HarnessError(
                 f"run.json config has unknown keys {unknown}; this harness knows {sorted(known)}"
             )
         return _from_dict(cls, data)
