@@ -37,11 +37,22 @@ def transfer_names() -> list[str]:
 
 def solver(label: str) -> LoadedSolver:
     """The solver plugin of a label (``cpsat`` or ``cpsat[workers=2]``), made with the label's settings and
-    behind the framework's checks and normalisation (`solvers.get`)."""
+    behind the framework's checks and normalisation (`solvers.get`).
+
+    Raises
+    ------
+    HarnessError
+        For settings the plugin refuses, naming the label and what the plugin said.
+    """
     import solvers
 
     name, settings = split_label(label)
-    return solvers.get(name, **dict(settings))
+    if not settings:
+        return solvers.get(name)
+    try:
+        return solvers.get(name, **dict(settings))
+    except (TypeError, ValueError) as error:
+        raise HarnessError(f"--solver {label}: {error}") from None
 
 
 def solver_info(label: str) -> PluginInfo:

@@ -35,7 +35,8 @@ def handle_stop_signals() -> Iterator[None]:
         yield
     finally:
         for number, handler in earlier.items():
-            signal.signal(number, handler)
+            if handler is not None:  # (None: a handler not set from Python, which cannot be put back)
+                signal.signal(number, handler)
 
 
 def stop_signal() -> signal.Signals | None:
@@ -57,8 +58,14 @@ def stop_signals_deferred() -> Iterator[None]:
         yield
         return
     arrived: list[int] = []
+
+    def defer(number: int, frame: FrameType | None) -> None:
+        arrived.append(number)
+
     earlier = {
-        number: signal.signal(number, lambda got, frame: arrived.append(got)) for number in STOP_SIGNALS
+        number: signal.signal(number, defer)
+        for number in STOP_SIGNALS
+        if signal.getsignal(number) is not None  # (a handler not set from Python is left alone)
     }
     try:
         yield

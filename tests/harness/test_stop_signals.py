@@ -20,7 +20,7 @@ import rigs
 import solvers
 from harness._outdir import MANIFEST_NAME, claim
 from harness.cli import main
-from registry import handle_stop_signals, stop_signal
+from registry import handle_stop_signals, stop_signal, stop_signals_deferred
 from solvers._minimum import colour_cpsat
 from solvers.cpsat import CpSatSolver, interruptible
 from solvers.greedy import GreedySolver
@@ -276,3 +276,13 @@ def test_a_run_into_the_folder_of_its_rig_file_is_refused(rig_file, tmp_path) ->
     result = invoke("run", "--rigs", neutral, "--warps", "none", "--solvers", "greedy", "--out", folder)
     assert_one_line_error(result, str(folder), "the input", "apart from the inputs")
     assert not (folder / MANIFEST_NAME).exists()
+
+
+def test_a_stop_signal_in_a_deferred_block_arrives_as_the_block_ends() -> None:
+    reached = []
+    with handle_stop_signals(), pytest.raises(KeyboardInterrupt):
+        with stop_signals_deferred():
+            signal.raise_signal(signal.SIGTERM)
+            reached.append("the block's end")
+        reached.append("after the block")
+    assert reached == ["the block's end"] and stop_signal() == signal.SIGTERM
