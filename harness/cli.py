@@ -8,7 +8,8 @@ summaries here (`BUILTIN`) and a plugin command from its source when that says i
 (`harness._cli_summary`), else by importing it, so that it starts at once.
 
 User errors (`registry.HarnessError`: unknown names, malformed files, an occupied output directory; and a
-missing file or folder, or no permission) end as one line on stderr saying what to do, with exit code 2.
+missing file or folder, no permission, a full disk) end as one line on stderr saying what to do, with exit
+code 2.
 Ctrl-C and SIGTERM stop a command alike (the clean-up of either runs) with exit code 128 + the signal's
 number (130, 143). Any other exception, a plugin's own ``KeyboardInterrupt`` included, is a fault of the
 program: a short traceback and where to report it, with exit code 70 (``EX_SOFTWARE``).
@@ -16,6 +17,7 @@ program: a short traceback and where to report it, with exit code 70 (``EX_SOFTW
 
 from __future__ import annotations
 
+import errno
 import gc
 import importlib.metadata
 import os
@@ -178,7 +180,7 @@ class HarnessGroup(click.Group):
                 raise UserError(
                     f"{error.strerror}; free space, then finish with: harness run --resume OUT"
                 ) from None
-            if isinstance(error, _USER_OS_ERRORS):
+            if isinstance(error, _USER_OS_ERRORS) or error.errno in _FULL_OR_READ_ONLY:
                 raise UserError(_one_line(error)) from None
             _report_fault(error)
         except KeyboardInterrupt as interrupt:
@@ -194,6 +196,8 @@ class HarnessGroup(click.Group):
 
 #: File errors a user can fix (a wrong path, a folder given for a file, no permission): one line each.
 _USER_OS_ERRORS = (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
+#: ... and a full disk, an exceeded quota or a read-only file system.
+_FULL_OR_READ_ONLY = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
 #: Frames of the traceback shown for a fault of the program (the innermost ones).
 FAULT_FRAMES = 6
 #: Where faults of the program are reported.

@@ -4,6 +4,7 @@ fault of the program is reported as one (a short traceback and where to report i
 
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import subprocess
@@ -286,3 +287,12 @@ def test_a_stop_signal_in_a_deferred_block_arrives_as_the_block_ends() -> None:
             reached.append("the block's end")
         reached.append("after the block")
     assert reached == ["the block's end"] and stop_signal() == signal.SIGTERM
+
+
+def test_a_full_disk_anywhere_is_one_line_not_a_fault(monkeypatch) -> None:
+    def full(*_: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device", "/somewhere/file")
+
+    monkeypatch.setattr(harness._plugins, "expand_names", full)
+    result = invoke("pack", "tiny", "--out", "unused")
+    assert_one_line_error(result, "No space left on device", "/somewhere/file")
