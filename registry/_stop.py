@@ -46,8 +46,12 @@ def stop_signal() -> signal.Signals | None:
 
 def raised_without_signal() -> bool:
     """Whether the `KeyboardInterrupt` being handled was raised by code (a plugin's own), not by a stop
-    signal: known only inside `handle_stop_signals` (outside it, every one counts as the user's)."""
-    return signal.getsignal(signal.SIGINT) is _stop and not _received
+    signal: known inside `handle_stop_signals`, and where Ctrl-C is ignored or left to the system (a
+    solver worker process); under any other handler (Python's default one) every one counts as the user's."""
+    handler = signal.getsignal(signal.SIGINT)
+    if handler is _stop:
+        return not _received
+    return handler in (signal.SIG_IGN, signal.SIG_DFL)
 
 
 @contextlib.contextmanager

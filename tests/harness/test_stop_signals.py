@@ -231,8 +231,14 @@ def test_a_plugins_own_keyboard_interrupt_is_a_failed_solve_not_a_ctrl_c() -> No
         assert stop_signal() is None
     assert solution.termination is packing.Termination.ERROR
     assert "self-interrupting: raised KeyboardInterrupt itself" in solution.message
-    with pytest.raises(KeyboardInterrupt):  # outside the command, no one can tell: it is the user's
+    with pytest.raises(KeyboardInterrupt):  # under Python's own handler no one can tell: it is the user's
         solvers.load(SelfInterruptingSolver).solve(_tiny_problem())
+    earlier = signal.signal(signal.SIGINT, signal.SIG_IGN)  # as in a solver worker process
+    try:
+        solution = solvers.load(SelfInterruptingSolver).solve(_tiny_problem())
+    finally:
+        signal.signal(signal.SIGINT, earlier)
+    assert solution.termination is packing.Termination.ERROR
 
 
 def test_stop_signals_raise_keyboard_interrupt_and_are_remembered() -> None:
