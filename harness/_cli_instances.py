@@ -14,6 +14,7 @@ import click
 from click.core import ParameterSource
 
 from harness._cli_types import DURATION, terminal
+from registry import HarnessError
 
 #: Options that set the packing of a rig argument; a run directory has them in its run.json.
 PACKING_OPTIONS = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "jmax", "seed")
@@ -166,13 +167,13 @@ def _export(
             if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
         ]
         if given:
-            raise ValueError(
+            raise HarnessError(
                 f"{argument} is a run directory, whose run.json gives the packing: drop {', '.join(given)}"
             )
         chosen = sources.from_run(Path(argument), rig=run_rig, time_limit=time_limit)
     else:
         if run_rig is not None:
-            raise ValueError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
+            raise HarnessError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
         chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
     solver = plugins.solver(solver_name)
     result = export_instances(chosen, solver=solver, out=out, force=force)

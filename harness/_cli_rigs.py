@@ -13,6 +13,7 @@ from rich.table import Table
 
 from harness._cli_types import terminal
 from harness._rigspec import FETCHED_RIGS, fetched_path, resolve_rig
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from packing import Cancellation
@@ -32,7 +33,7 @@ def _preset_names() -> list[str]:
 
 def _check_preset(preset: str) -> None:
     if preset not in _preset_names():
-        raise ValueError(f"unknown rig preset {preset!r}; valid: {', '.join(_preset_names())}")
+        raise HarnessError(f"unknown rig preset {preset!r}; valid: {', '.join(_preset_names())}")
 
 
 @rigs.command("generate")

@@ -9,6 +9,7 @@ import click
 
 from harness._durations import parse_duration
 from harness._settings import expand, split_requests
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -71,7 +72,7 @@ class PluginList(click.ParamType):
 def seed_number(text: str) -> int:
     """A seed: ASCII digits, >= 0 (ValueError otherwise)."""
     if not text.isascii() or not text.isdigit():
-        raise ValueError(text)
+        raise HarnessError(text)
     return int(text)
 
 
@@ -141,7 +142,7 @@ def positive_int(text: str) -> int:
     """An int >= 1 (ValueError otherwise)."""
     number = int(text)
     if number < 1:
-        raise ValueError(text)
+        raise HarnessError(text)
     return number
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from registry import HarnessError
+
 _UNITS = {"ms": 0.001, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0}
 _PATTERN = re.compile(r"^\s*(?P<value>\d+(?:\.\d*)?|\.\d+)\s*(?P<unit>ms|s|min|m|h)?\s*$")
 
@@ -33,7 +35,7 @@ def parse_duration(text: str) -> float:
     """
     match = _PATTERN.match(str(text))
     if match is None:
-        raise ValueError(f"not a duration: {text!r} (use e.g. 30s, 2m, 500ms, 1h or plain seconds)")
+        raise HarnessError(f"not a duration: {text!r} (use e.g. 30s, 2m, 500ms, 1h or plain seconds)")
     return float(match["value"]) * _UNITS[match["unit"] or "s"]
 
 

@@ -51,6 +51,7 @@ from harness._cell import (
 )
 from harness._grid import CellSpec
 from harness._journal import SEQUENCE_END, new_journal, read_journal, remove_journal
+from registry import HarnessError
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 
 if TYPE_CHECKING:
@@ -139,7 +140,7 @@ class LocalExecutor:
 
     def __init__(self, jobs: int = 1, timeout: float | None = None) -> None:
         if jobs < 1:
-            raise ValueError(f"--jobs must be at least 1, got {jobs}")
+            raise HarnessError(f"--jobs must be at least 1, got {jobs}")
         self.jobs = jobs
         self.timeout = timeout
         self.templates: dict[TemplateKey, Rig] = {}
@@ -295,14 +296,14 @@ class DaskExecutor:
         try:
             from distributed import Client
         except ImportError as error:
-            raise ValueError(
+            raise HarnessError(
                 "--executor dask needs the 'distributed' package: "
                 "pip install 'expression-packing-harness[dask]'"
             ) from error
         try:
             self._client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as error:
-            raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from error
+            raise HarnessError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from error
         self.timeout = timeout
         self._futures: list[Future] = []
 

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from harness._settings import expand, settings_text, split_label
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from rigs import RigInputs
@@ -279,20 +280,22 @@ class RunConfig:
             or not isinstance(self.permutations, int)
             or self.permutations < 1
         ):
-            raise ValueError(f"--permutations must be a positive integer, got {self.permutations!r}")
+            raise HarnessError(f"--permutations must be a positive integer, got {self.permutations!r}")
         if not isinstance(self.examples, tuple) or not self.examples or set(self.examples) - set(EXAMPLES):
-            raise ValueError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
+            raise HarnessError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
         if not isinstance(self.seed, tuple) or not self.seed:
-            raise ValueError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
+            raise HarnessError(f"seed must be a tuple of rig generator seeds, got {self.seed!r}")
         unknown = sorted(set(self.distortion) - set(DISTORTIONS))
         if unknown:
-            raise ValueError(f"--distortion must be among {', '.join(DISTORTIONS)}, got {', '.join(unknown)}")
+            raise HarnessError(
+                f"--distortion must be among {', '.join(DISTORTIONS)}, got {', '.join(unknown)}"
+            )
         for variation in self.variations:
             if not variation or any(len(change) != 2 for change in variation):
-                raise ValueError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
+                raise HarnessError(f"a variation must be (field, value) pairs, got {_plain(variation)!r}")
             unknown = sorted({field for field, _ in variation} - set(VARIATION_FIELDS))
             if unknown:
-                raise ValueError(
+                raise HarnessError(
                     f"variation {_plain(variation)!r} changes {', '.join(unknown)}; a variation may change "
                     f"{', '.join(VARIATION_FIELDS)}"
                 )
@@ -391,7 +394,7 @@ class RunConfig:
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:
-            raise ValueError(
+            raise HarnessError(
                 f"run.json config has unknown keys {unknown}; this harness knows {sorted(known)}"
             )
         return _from_dict(cls, data)

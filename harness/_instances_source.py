@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from registry import HarnessError
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -148,9 +150,9 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
     try:
         config = RunConfig.from_dict(info["config"])
     except (KeyError, TypeError) as error:
-        raise ValueError(f"{run}: run.json holds no usable config ({error})") from None
+        raise HarnessError(f"{run}: run.json holds no usable config ({error})") from None
     if rig is not None and rig not in config.rigs:
-        raise ValueError(f"--rig {rig!r}: the run in {run} has rigs {', '.join(config.rigs)}")
+        raise HarnessError(f"--rig {rig!r}: the run in {run} has rigs {', '.join(config.rigs)}")
     chosen: dict[tuple[Any, ...], CellSpec] = {}
     for spec in config.cells(info.get("rig_digests") or {}):
         if rig is None or spec.rig == rig:
@@ -161,7 +163,7 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
         try:
             template, target = rig_pair(spec)
         except RigChangedError as error:
-            raise ValueError(str(error)) from None
+            raise HarnessError(str(error)) from None
         sequences.append(
             Sequence(
                 prefix=_run_prefix(spec, specs),

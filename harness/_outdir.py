@@ -14,7 +14,11 @@ session that wrote it (``pack``, ``run``, ...) and the SHA-256 of what it wrote.
   rewritten files are overwritten, `OutputFolder.remove_stale` removes the leftovers);
 * a non-empty folder without a manifest is refused unless ``force`` (its files are then left alone);
 * a folder that is, contains or lies inside a protected path (the input rig's file or folder) is always
-  refused, so that writing the output can never touch the input.
+  refused, so that writing the output can never touch the input (`check_apart`).
+
+Temporary files a killed writer left (named as `rigs.stage` names them, `rigs.staged_target`) are no
+output: a folder holding only those counts as empty, and `claim` removes them from the folder and from the
+folders of its listed files (every folder, when nothing else is in the folder).
 
 Whatever ``force`` says, a file is overwritten or removed only when the manifest lists it for this kind
 and its content is still what the harness wrote; a file changed since is left in place with a
@@ -35,14 +39,15 @@ from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 
-from rigs import StagedFile, atomic_write, stage, sync_folders
+from registry import HarnessError
+from rigs import StagedFile, atomic_write, stage, staged_target, sync_folders
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
 MANIFEST_VERSION = 1
 
 
-class OutputFolderError(ValueError):
+class OutputFolderError(HarnessError):
     """An output folder the harness may not write into, or a file in it the harness may not replace."""
 
 
@@ -385,7 +390,7 @@ def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ())
         One line naming the folder, what is wrong and how to proceed.
     """
     folder = Path(folder)
-    _check_apart(folder, protect)
+    check_apart(folder, protect)
     if folder.exists() and not folder.is_dir():
         raise OutputFolderError(f"{folder}: exists and is not a folder; choose another output folder")
     files: dict[str, dict[str, str]] = {}
@@ -411,11 +416,61 @@ def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ())
         raise OutputFolderError(
             f"{folder}: cannot create the output folder ({error.strerror or error})"
         ) from None
+    _remove_leftovers(folder, files)
     return OutputFolder(folder, kind, files)
 
 
-def _check_apart(folder: Path, protect: Iterable[Path]) -> None:
-    """Refuse an output folder that is, contains or lies inside a protected input path."""
+def _leftover(path: Path) -> bool:
+    """Whether ``path`` is a temporary file a killed writer left (a regular file named as staged)."""
+    return staged_target(path.name) is not None and path.is_file() and not path.is_symlink()
+
+
+def _only_leftovers(folder: Path) -> bool:
+    """Whether ``folder`` holds nothing but leftover temporary files and folders holding only those."""
+    for path in folder.iterdir():
+        if path.is_dir() and not path.is_symlink():
+            if not _only_leftovers(path):
+                return False
+        elif not _leftover(path):
+            return False
+    return True
+
+
+def _remove_leftovers(folder: Path, files: Mapping[str, object]) -> list[Path]:
+    """Remove the leftover temporary files in ``folder`` and in the folders of its listed ``files`` (in a
+    folder holding nothing else: in every folder, and the folders they leave empty). Returns the removed
+    files."""
+    whole = not files and _only_leftovers(folder)
+    if whole:
+        places = [Path(root) for root, _, _ in os.walk(folder)]
+    else:
+        places = list(dict.fromkeys([folder, *((folder / name).parent for name in sorted(files))]))
+    removed = []
+    for place in places:
+        if not place.is_dir() or place.is_symlink() or not (place == folder or _inside_folder(folder, place)):
+            continue
+        for path in sorted(place.iterdir()):
+            if _leftover(path):
+                path.unlink(missing_ok=True)
+                removed.append(path)
+    if whole:
+        _remove_empty({path.parent for path in removed} - {folder})
+    return removed
+
+
+def _inside_folder(folder: Path, place: Path) -> bool:
+    """Whether ``place`` lies inside ``folder`` without a link leading out of it."""
+    return place.resolve().is_relative_to(folder.resolve())
+
+
+def check_apart(folder: Path, protect: Iterable[Path]) -> None:
+    """Refuse an output folder that is, contains or lies inside a protected input path.
+
+    Raises
+    ------
+    OutputFolderError
+        Naming the folder, the input and how they overlap.
+    """
     resolved = folder.resolve()
     for guarded in protect:
         target = Path(guarded).resolve()
@@ -436,8 +491,7 @@ def _read_manifest(path: Path) -> tuple[dict[str, dict[str, str]], str]:
     """The manifest's file entries, and what makes the folder not ours ("" when it is ours or empty)."""
     folder = path.parent
     if not os.path.lexists(path):
-        others = next(folder.iterdir(), None)
-        return {}, "" if others is None else "is not empty and holds no harness output"
+        return {}, "" if _only_leftovers(folder) else "is not empty and holds no harness output"
     try:
         if path.is_symlink() or not path.is_file():
             raise ValueError("not a regular file")

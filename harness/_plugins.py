@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 from harness._grid import NO_WARP
 from harness._rigspec import is_rig_file
 from harness._settings import split_label
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from registry import PluginInfo
@@ -36,11 +37,22 @@ def transfer_names() -> list[str]:
 
 def solver(label: str) -> LoadedSolver:
     """The solver plugin of a label (``cpsat`` or ``cpsat[workers=2]``), made with the label's settings and
-    behind the framework's checks and normalisation (`solvers.get`)."""
+    behind the framework's checks and normalisation (`solvers.get`).
+
+    Raises
+    ------
+    HarnessError
+        For settings the plugin refuses, naming the label and what the plugin said.
+    """
     import solvers
 
     name, settings = split_label(label)
-    return solvers.get(name, **dict(settings))
+    if not settings:
+        return solvers.get(name)
+    try:
+        return solvers.get(name, **dict(settings))
+    except (TypeError, ValueError) as error:
+        raise HarnessError(f"--solver {label}: {error}") from None
 
 
 def solver_info(label: str) -> PluginInfo:
@@ -118,11 +130,11 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
                 names.append(expanded)
     unknown = [name for name in names if split_label(name)[0] not in known]
     if unknown:
-        raise ValueError(
+        raise HarnessError(
             f"unknown {what} {', '.join(map(repr, unknown))} for {option}; valid: {', '.join(known)} or {ALL}"
         )
     if not names:
-        raise ValueError(f"{option} names no {what}; valid: {', '.join(known)} or {ALL}")
+        raise HarnessError(f"{option} names no {what}; valid: {', '.join(known)} or {ALL}")
     return tuple(names)
 
 
@@ -143,13 +155,13 @@ def check_settings(solver_labels: Iterable[str], transfer_labels: Iterable[str])
         try:
             solvers.solver_class(name)(**dict(settings))
         except (TypeError, ValueError) as error:
-            raise ValueError(f"--solvers {label}: {error}") from None
+            raise HarnessError(f"--solvers {label}: {error}") from None
     for label in transfer_labels:
         if split_label(label)[1]:
             try:
                 transfer_method(label)
             except (TypeError, ValueError) as error:
-                raise ValueError(f"--transfers {label}: {error}") from None
+                raise HarnessError(f"--transfers {label}: {error}") from None
 
 
 def check_rigs(names: Iterable[str]) -> None:
@@ -158,7 +170,7 @@ def check_rigs(names: Iterable[str]) -> None:
 
     bad = [name for name in names if not is_rig_file(name) and name not in rigs.PRESETS]
     if bad:
-        raise ValueError(
+        raise HarnessError(
             f"unknown rig {', '.join(map(repr, bad))} for --rigs: not a file or folder, and not a preset "
             f"(presets: {', '.join(sorted(rigs.PRESETS))})"
         )
@@ -170,7 +182,7 @@ def check_warps(names: Iterable[str]) -> None:
 
     bad = [name for name in names if name != NO_WARP and name not in rigs.WARPS]
     if bad:
-        raise ValueError(
+        raise HarnessError(
             f"unknown warp {', '.join(map(repr, bad))} for --warps; valid: {', '.join(sorted(rigs.WARPS))} "
             f"or {NO_WARP}"
         )

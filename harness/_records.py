@@ -163,6 +163,7 @@ import pyarrow.parquet as pq
 from harness._cell import ColumnType, RecordValue, expression_columns
 from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, atomic_write, claim
 from packing import Expression
+from registry import HarnessError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -341,7 +342,7 @@ class RecordsWriteError(OSError):
     """A records file could not be written; nothing half-written was left behind."""
 
 
-class RecordsReadError(ValueError):
+class RecordsReadError(HarnessError):
     """A part file does not read back as the records of its cell."""
 
 

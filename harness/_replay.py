@@ -31,6 +31,7 @@ from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec
 from harness._instances import recorded_sequence
 from packing import Expression, Termination
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from packing import Analysis, PackingProblem
@@ -132,7 +133,7 @@ def _solve(problem: PackingProblem, solver: LoadedSolver, spec: CellSpec) -> Exp
     solution = solver.solve(problem, time_limit=spec.time_limit, seed=spec.seed)
     chosen = np.array(sorted({int(item) for item in solution.items}), dtype=np.int64)
     if chosen.size and (chosen[0] < 0 or chosen[-1] >= problem.n_items):
-        raise ValueError(
+        raise HarnessError(
             f"solver {solution.backend or '?'} returned items {list(solution.items)} "
             f"outside 0..{problem.n_items - 1}"
         )

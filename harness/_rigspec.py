@@ -7,6 +7,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from registry import HarnessError
+
 if TYPE_CHECKING:
     from rigs import Rig, RigInputs
     from rigs._warp import Warp
@@ -90,7 +92,7 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
                 rigs.WARPS[name].resolve(rig)
             except rigs.RigError as error:
                 usable = [other for other in sorted(rigs.WARPS) if _applies(rigs.WARPS[other], rig)]
-                raise ValueError(
+                raise HarnessError(
                     f"--warps {name}: {error}; warps that apply to this rig: {', '.join([*usable, no_warp])}"
                 ) from None
     return found

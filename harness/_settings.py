@@ -13,6 +13,8 @@ from __future__ import annotations
 import itertools
 import re
 
+from registry import HarnessError
+
 #: A plugin's keyword arguments, in the order given.
 Settings = tuple[tuple[str, object], ...]
 
@@ -35,12 +37,12 @@ def split_requests(text: str) -> list[str]:
     for position, character in enumerate(text):
         depth += {"[": 1, "]": -1}.get(character, 0)
         if depth not in (0, 1):
-            raise ValueError(f"{text!r}: brackets must not nest or close before they open")
+            raise HarnessError(f"{text!r}: brackets must not nest or close before they open")
         if character == "," and depth == 0:
             requests.append(text[start:position])
             start = position + 1
     if depth:
-        raise ValueError(f"{text!r}: a bracket is not closed")
+        raise HarnessError(f"{text!r}: a bracket is not closed")
     requests.append(text[start:])
     return [request.strip() for request in requests if request.strip()]
 
@@ -55,7 +57,7 @@ def parse(request: str) -> tuple[str, list[Settings]]:
     """
     match = _LABEL.fullmatch(request.strip())
     if match is None:
-        raise ValueError(f"{request!r}: expected NAME or NAME[key=value,...]")
+        raise HarnessError(f"{request!r}: expected NAME or NAME[key=value,...]")
     name, body = match["name"].strip(), match["body"]
     if body is None:
         return name, [()]
@@ -65,15 +67,15 @@ def parse(request: str) -> tuple[str, list[Settings]]:
         if "=" in token:
             key, token = (part.strip() for part in token.split("=", 1))
             if not _KEY.fullmatch(key):
-                raise ValueError(f"{request!r}: {key!r} is not a parameter name")
+                raise HarnessError(f"{request!r}: {key!r} is not a parameter name")
             if key in values:
-                raise ValueError(f"{request!r}: parameter {key!r} is given twice")
+                raise HarnessError(f"{request!r}: parameter {key!r} is given twice")
             values[key] = []
         if key is None or not token:
-            raise ValueError(f"{request!r}: expected key=value[,value...] inside the brackets")
+            raise HarnessError(f"{request!r}: expected key=value[,value...] inside the brackets")
         values[key].append(_value(token))
     if not values:
-        raise ValueError(f"{request!r}: empty brackets (leave them out for the default settings)")
+        raise HarnessError(f"{request!r}: empty brackets (leave them out for the default settings)")
     return name, [
         tuple(zip(values, combination, strict=True)) for combination in itertools.product(*values.values())
     ]
@@ -105,7 +107,7 @@ def split_label(text: str) -> tuple[str, Settings]:
     """
     name, settings = parse(text)
     if len(settings) != 1:
-        raise ValueError(f"{text!r} stands for {len(settings)} settings; give one value per parameter")
+        raise HarnessError(f"{text!r} stands for {len(settings)} settings; give one value per parameter")
     return name, settings[0]
 
 

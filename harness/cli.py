@@ -7,23 +7,32 @@ A built-in command's module is imported the same way: ``harness --help`` lists t
 summaries here (`BUILTIN`) and a plugin command from its source when that says its help plainly
 (`harness._cli_summary`), else by importing it, so that it starts at once.
 
-User errors (unknown names, unreadable files, an occupied output directory) end as one line on stderr saying
-what to do, with exit code 2; Ctrl-C ends with exit code 130.
+User errors (`registry.HarnessError`: unknown names, malformed files, an occupied output directory; and a
+missing file or folder, no permission, a full disk) end as one line on stderr saying what to do, with exit
+code 2.
+Ctrl-C and SIGTERM stop a command alike (the clean-up of either runs) with exit code 128 + the signal's
+number (130, 143). Any other exception, a plugin's own ``KeyboardInterrupt`` included, is a fault of the
+program: a short traceback and where to report it, with exit code 70 (``EX_SOFTWARE``).
 """
 
 from __future__ import annotations
 
+import errno
 import gc
 import importlib.metadata
+import os
+import signal
 import sys
+import traceback
 import warnings
 from dataclasses import dataclass
-from typing import IO
+from typing import IO, NoReturn
 
 import click
 
 from harness._cli_summary import static_command
 from harness._cli_types import terminal
+from registry import HarnessError, handle_stop_signals, raised_without_signal, stop_signal
 
 #: Entry-point group through which other packages add ``harness`` subcommands.
 COMMANDS_GROUP = "harness.commands"
@@ -163,23 +172,52 @@ class HarnessGroup(click.Group):
     def invoke(self, ctx: click.Context) -> object:
         try:
             return super().invoke(ctx)
+        except (click.ClickException, click.exceptions.Exit, click.Abort):
+            raise
+        except HarnessError as error:
+            raise UserError(_one_line(error)) from None
         except OSError as error:
             if _is_records_write_error(error):
                 raise UserError(
                     f"{error.strerror}; free space, then finish with: harness run --resume OUT"
                 ) from None
-            if isinstance(error, _USER_OS_ERRORS):
+            if isinstance(error, _USER_OS_ERRORS) or error.errno in _FULL_OR_READ_ONLY:
                 raise UserError(_one_line(error)) from None
-            raise
-        except ValueError as error:
-            raise UserError(_one_line(error)) from None
-        except KeyboardInterrupt:
-            terminal(stderr=True).print("[yellow]interrupted[/]")
-            sys.exit(130)
+            _report_fault(error)
+        except KeyboardInterrupt as interrupt:
+            if raised_without_signal():
+                _report_fault(interrupt)
+            stopped = stop_signal()
+            word = "terminated" if stopped is not None and stopped != signal.SIGINT else "interrupted"
+            terminal(stderr=True).print(f"[yellow]{word}[/]")
+            sys.exit(128 + (stopped or signal.SIGINT))
+        except Exception as error:  # noqa: BLE001 - the boundary that reports the program's own faults
+            _report_fault(error)
 
 
 #: File errors a user can fix (a wrong path, a folder given for a file, no permission): one line each.
 _USER_OS_ERRORS = (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
+#: ... and a full disk, an exceeded quota or a read-only file system.
+_FULL_OR_READ_ONLY = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
+#: Frames of the traceback shown for a fault of the program (the innermost ones).
+FAULT_FRAMES = 6
+#: Where faults of the program are reported.
+REPORT_TO = "the issue tracker of expression-packing-harness"
+
+
+def _report_fault(error: BaseException) -> NoReturn:
+    """End the command on an exception that is no user error: the innermost frames of its traceback,
+    and a request to report it (exit code 70, ``EX_SOFTWARE``)."""
+    from rich.markup import escape
+
+    shown = "".join(traceback.format_exception(error, limit=-FAULT_FRAMES, chain=False)).rstrip()
+    console = terminal(stderr=True)
+    console.print(escape(shown), highlight=False, soft_wrap=True)
+    console.print(
+        f"[bold red]error:[/] unexpected {type(error).__name__} (a fault of harness, not of the input); "
+        f"please report it to {REPORT_TO} with the command and this output"
+    )
+    sys.exit(os.EX_SOFTWARE)
 
 
 def _is_records_write_error(error: BaseException) -> bool:
@@ -239,11 +277,13 @@ def main(argv: list[str] | None = None) -> None:
     collections at exit would otherwise traverse everything NumPy, SciPy, Arrow and OR-Tools loaded, about
     60 ms, a sixth of a whole ``harness pack`` of a small rig. Exit handlers still run; cyclic garbage
     left at exit is neither collected nor finalized (the commands close their files and workers
-    themselves, and the process's end frees the memory).
+    themselves, and the process's end frees the memory). SIGINT and SIGTERM stop the command alike
+    (`registry.handle_stop_signals`).
     """
     warnings.showwarning = _show_warning
     try:
-        cli.main(args=argv, prog_name="harness")
+        with handle_stop_signals():
+            cli.main(args=argv, prog_name="harness")
     except SystemExit:
         if argv is None:
             gc.freeze()

@@ -23,6 +23,7 @@ from packing._importance import (
 from packing._params import PackingParams, params_from
 from packing._problem import PackingProblem, problem_from_incidence, with_meta
 from packing._symmetry import SymmetryResult, detect_pairs, resolve_constraints
+from registry import HarnessError
 from rigs import Rig
 
 #: Scale of the tie-break perturbation (see `tie_break_perturbation`).
@@ -266,7 +267,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("symmetry")
     if settings.max_per_expression == 1 and symmetry.pairs:
         a, b = symmetry.pairs[0]
-        raise ValueError(
+        raise HarnessError(
             f"max_per_expression=1 cannot hold the symmetry pair {rig.names[a]}+{rig.names[b]} "
             f"({len(symmetry.pairs)} pairs found); use a cap >= 2 or symmetry=False"
         )

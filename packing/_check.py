@@ -12,6 +12,7 @@ from packing._binary import rig_masks
 from packing._params import params_from
 from packing._solution import Termination
 from packing._symmetry import detect_pairs
+from registry import HarnessError
 from rigs import Rig
 
 #: Terminations after which a solver had the chance to fill its expression (a record's string compares
@@ -19,7 +20,7 @@ from rigs import Rig
 _RAN_TO_END = (Termination.OPTIMAL, Termination.COMPLETED)
 
 
-class CheckError(ValueError):
+class CheckError(HarnessError):
     """An expression sequence breaks a rule of the method.
 
     Attributes

@@ -13,6 +13,8 @@ from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from registry import HarnessError
+
 if TYPE_CHECKING:
     from rigs import Rig
 
@@ -32,9 +34,9 @@ def parse_pair(text: str) -> Pair:
     """
     parts = [part.strip() for part in str(text).split(",")]
     if len(parts) != 2 or not all(parts):
-        raise ValueError(f"{text!r} is not a pair of shape names 'A,B'")
+        raise HarnessError(f"{text!r} is not a pair of shape names 'A,B'")
     if parts[0] == parts[1]:
-        raise ValueError(f"{text!r} pairs a shape with itself")
+        raise HarnessError(f"{text!r} pairs a shape with itself")
     return parts[0], parts[1]
 
 
@@ -47,19 +49,19 @@ def as_pairs(value: Iterable[Any], what: str) -> tuple[Pair, ...]:
         Naming ``what`` (e.g. ``together``) and the entry at fault.
     """
     if isinstance(value, str | bytes):
-        raise ValueError(f"{what} must be a list of shape pairs, got the string {value!r}")
+        raise HarnessError(f"{what} must be a list of shape pairs, got the string {value!r}")
     pairs = []
     try:
         entries = list(value)
     except TypeError:
-        raise ValueError(f"{what} must be a list of shape pairs, got {value!r}") from None
+        raise HarnessError(f"{what} must be a list of shape pairs, got {value!r}") from None
     for entry in entries:
         if isinstance(entry, str):
             pair = parse_pair(entry)
         elif isinstance(entry, Sequence) and len(entry) == 2 and all(isinstance(n, str) for n in entry):
             pair = parse_pair(",".join(entry))
         else:
-            raise ValueError(f"{what}: entry {entry!r} is not a pair of shape names")
+            raise HarnessError(f"{what}: entry {entry!r} is not a pair of shape names")
         pairs.append(pair)
     return tuple(dict.fromkeys(pairs))
 
@@ -84,14 +86,16 @@ def read_constraints(path: str | PathLike[str]) -> dict[str, tuple[Pair, ...]]:
     path = Path(path)
     document = rigs.read_json(path, limit=MAX_CONSTRAINTS_BYTES, what="constraints file")
     if not isinstance(document, Mapping):
-        raise ValueError(f"{path}: constraints JSON must be an object with 'together' and/or 'apart'")
+        raise HarnessError(f"{path}: constraints JSON must be an object with 'together' and/or 'apart'")
     unknown = sorted(set(document) - set(CONSTRAINT_KINDS))
     if unknown:
-        raise ValueError(f"{path}: unknown key {', '.join(map(repr, unknown))}; expected 'together', 'apart'")
+        raise HarnessError(
+            f"{path}: unknown key {', '.join(map(repr, unknown))}; expected 'together', 'apart'"
+        )
     try:
         return {kind: as_pairs(document.get(kind, ()), kind) for kind in CONSTRAINT_KINDS}
     except ValueError as error:
-        raise ValueError(f"{path}: {error}") from None
+        raise HarnessError(f"{path}: {error}") from None
 
 
 def resolve_pairs(rig: Rig, pairs: Iterable[Pair], what: str) -> list[tuple[int, int]]:
@@ -107,7 +111,7 @@ def resolve_pairs(rig: Rig, pairs: Iterable[Pair], what: str) -> list[tuple[int,
         try:
             first, second = rig.index(a), rig.index(b)
         except ValueError as error:  # RigError names the rig, the shape and close matches
-            raise ValueError(f"{what} {a},{b}: {error}") from None
+            raise HarnessError(f"{what} {a},{b}: {error}") from None
         resolved.append((min(first, second), max(first, second)))
     return resolved
 
@@ -124,12 +128,12 @@ def check_consistent(rig: Rig, together: list[tuple[int, int]], apart: list[tupl
     both = sorted(set(together) & set(apart))
     if both:
         a, b = both[0]
-        raise ValueError(f"{names[a]},{names[b]} is both a together and an apart pair")
+        raise HarnessError(f"{names[a]},{names[b]} is both a together and an apart pair")
     seen: dict[int, int] = {}
     for a, b in together:
         for shape, other in ((a, b), (b, a)):
             if shape in seen and seen[shape] != other:
-                raise ValueError(
+                raise HarnessError(
                     f"{names[shape]} is in two together pairs ({names[seen[shape]]} and {names[other]}); "
                     "an item holds at most two shapes"
                 )

@@ -19,6 +19,7 @@ from packing._binary import (
     sparse_masks,
 )
 from packing._params import params_from
+from registry import HarnessError
 from rigs import Rig, bounding_box
 
 #: How eq. 6's edge ratios become a triangle's distortion: the paper's sum, or its excess over 2.
@@ -97,7 +98,9 @@ def triangle_distortion(
     ``c != 1``) has ``s_t = 2 max(c, 1/c) > 2``: a uniformly scaled target has excess everywhere.
     """
     if distortion not in DISTORTIONS:
-        raise ValueError(f"distortion must be one of {', '.join(map(repr, DISTORTIONS))}, got {distortion!r}")
+        raise HarnessError(
+            f"distortion must be one of {', '.join(map(repr, DISTORTIONS))}, got {distortion!r}"
+        )
     scale = max(_diagonal(template), _diagonal(target)) or 1.0
     ratios, degenerate = [], np.zeros(len(triangles), dtype=bool)
     for corner in (0, 2):  # vu, then vw
@@ -281,7 +284,7 @@ def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray |
             target.triangles, rig.triangles
         )
         if not same or target.n_vertices != rig.n_vertices:
-            raise ValueError(
+            raise HarnessError(
                 f"target rig {target.meta.get('source', '?')!r} has other topology than the template "
                 f"{rig.meta.get('source', '?')!r}: {target.n_vertices} vertices and {target.n_triangles} "
                 f"triangles against {rig.n_vertices} and {rig.n_triangles}, or different triangles"
@@ -289,13 +292,13 @@ def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray |
         return target.neutral
     neutral = np.asarray(target, dtype=np.float64)
     if neutral.shape != rig.neutral.shape:
-        raise ValueError(
+        raise HarnessError(
             f"target_neutral has shape {neutral.shape}; the template rig {rig.meta.get('source', '?')!r} "
             f"has {rig.n_vertices} vertices, so it must be {rig.neutral.shape} (same topology)"
         )
     if not np.isfinite(neutral).all():
         vertex = int(np.argwhere(~np.isfinite(neutral))[0, 0])
-        raise ValueError(f"target_neutral has a non-finite coordinate at vertex {vertex}")
+        raise HarnessError(f"target_neutral has a non-finite coordinate at vertex {vertex}")
     return neutral
 
 
@@ -317,7 +320,7 @@ def _shape_index(rig: Rig, shape: str | int) -> int:
         return rig.index(shape)
     if isinstance(shape, (int, np.integer)) and 0 <= shape < rig.n_shapes:
         return int(shape)
-    raise ValueError(f"used: {shape!r} is neither a blendshape name nor an index in 0..{rig.n_shapes - 1}")
+    raise HarnessError(f"used: {shape!r} is neither a blendshape name nor an index in 0..{rig.n_shapes - 1}")
 
 
 @functools.lru_cache(maxsize=16)
@@ -397,7 +400,7 @@ def importance(
 def require_nonempty(rig: Rig, empty: np.ndarray) -> None:
     """Refuse a rig with nothing to pack."""
     if empty.all():
-        raise ValueError(
+        raise HarnessError(
             f"rig {rig.meta.get('source', '?')!r}: every one of its {rig.n_shapes} blendshapes is empty "
             "(no displacement above the noise floor); there is nothing to pack"
         )

@@ -11,6 +11,7 @@ from os import PathLike
 from typing import Any, Literal
 
 from packing._constraints import as_pairs
+from registry import HarnessError
 
 #: Sketched region pairs for motion symmetry (sec. 4.4.2): upper/lower lip and upper/lower eyelids.
 DEFAULT_REGION_PAIRS: tuple[tuple[str, str], ...] = (
@@ -105,7 +106,7 @@ class PackingParams:
         check_range("alpha", self.alpha, 0.0, 1.0)
         check_range("beta", self.beta, 0.0, math.inf)
         if self.distortion not in ("paper", "excess"):
-            raise ValueError(f"distortion must be 'paper' or 'excess', got {self.distortion!r}")
+            raise HarnessError(f"distortion must be 'paper' or 'excess', got {self.distortion!r}")
         check_range("shape_tol", self.shape_tol, 0.0, math.inf, low_open=True)
         check_range("pair_overlap", self.pair_overlap, 0.0, 1.0)
         check_range("motion_cos", self.motion_cos, -1.0, 1.0)
@@ -115,10 +116,10 @@ class PackingParams:
             check_range("mirror_tol", self.mirror_tol, 0.0, math.inf)
         cap = self.max_per_expression
         if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int) or cap < 1):
-            raise ValueError(f"max_per_expression must be a positive integer or None, got {cap!r}")
+            raise HarnessError(f"max_per_expression must be a positive integer or None, got {cap!r}")
         pairs = tuple(tuple(pair) for pair in self.region_pairs)
         if any(len(pair) != 2 or not all(isinstance(name, str) for name in pair) for pair in pairs):
-            raise ValueError(f"region_pairs must be pairs of region names, got {self.region_pairs!r}")
+            raise HarnessError(f"region_pairs must be pairs of region names, got {self.region_pairs!r}")
         object.__setattr__(self, "region_pairs", pairs)
         for kind in ("together", "apart"):
             object.__setattr__(self, kind, as_pairs(getattr(self, kind), kind))
@@ -151,7 +152,7 @@ def params_from(params: PackingParams | None = None, /, **values: Any) -> Packin
     unknown = sorted(set(values) - known)
     if unknown:
         hints = [f"{name!r}" + _hint(name, known) for name in unknown]
-        raise ValueError(f"unknown packing parameter {', '.join(hints)}; known: {', '.join(sorted(known))}")
+        raise HarnessError(f"unknown packing parameter {', '.join(hints)}; known: {', '.join(sorted(known))}")
     if params is None:
         return PackingParams(**values)
     return dataclasses.replace(params, **values) if values else params
@@ -166,8 +167,8 @@ def check_range(name: str, value: Any, low: float, high: float, *, low_open: boo
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        raise HarnessError(f"{name} must be a number, got {value!r}") from None
     below = number <= low if low_open else number < low
     if math.isnan(number) or below or number > high:
         interval = f"{'(' if low_open else '['}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
-        raise ValueError(f"{name} must be in {interval}, got {value!r}")
+        raise HarnessError(f"{name} must be in {interval}, got {value!r}")

@@ -18,6 +18,7 @@ from packing._binary import (
 )
 from packing._constraints import check_consistent, resolve_pairs
 from packing._params import DEFAULT_REGION_PAIRS, PackingParams, params_from
+from registry import HarnessError
 from rigs import Rig, bounding_box, compare_name_pairs, mirror_map, read_regions, regions_from_mapping
 
 
@@ -661,7 +662,7 @@ def sketch_regions(
             usable,
             f"motion symmetry skipped region pairs {', '.join(skipped)}: {source} has no such regions",
         )
-    raise ValueError(
+    raise HarnessError(
         f"motion symmetry: no region {', '.join(map(repr, missing))} of the region pairs; "
         f"{source} regions: {', '.join(sorted(regions)) or 'none'}"
     )
@@ -771,7 +772,9 @@ def resolve_constraints(
     for pair in together:
         for k in pair:
             if empty[k]:
-                raise ValueError(f"together {','.join(rig.names[j] for j in pair)}: {rig.names[k]} is empty")
+                raise HarnessError(
+                    f"together {','.join(rig.names[j] for j in pair)}: {rig.names[k]} is empty"
+                )
     return together, apart
 
 

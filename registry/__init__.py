@@ -3,11 +3,13 @@
 Solvers (``harness.solvers``), transfer methods (``harness.transfers``) and ``harness`` subcommands
 (``harness.commands``) are each a `PluginRegistry`: names from installed metadata without importing a
 plugin, a plugin loaded on first use, a load failure or a missing attribute listed as unavailable with the
-reason, a name registered twice warned about, and an `Availability` for every plugin. This package
-imports nothing else of the project, so every package may use it.
+reason, a name registered twice warned about, and an `Availability` for every plugin. Beside them, what
+every package shares: `HarnessError`, the error type of bad input, and the stop signals
+(`handle_stop_signals`). This package imports nothing else of the project, so every package may use it.
 """
 
 from registry._availability import Availability, AvailabilityStatus, package_availability
+from registry._errors import HarnessError
 from registry._registry import (
     PluginInfo,
     PluginRegistry,
@@ -16,15 +18,28 @@ from registry._registry import (
     collect,
     missing_attributes,
 )
+from registry._stop import (
+    STOP_SIGNALS,
+    handle_stop_signals,
+    raised_without_signal,
+    stop_signal,
+    stop_signals_deferred,
+)
 
 __all__ = [
+    "STOP_SIGNALS",
     "Availability",
     "AvailabilityStatus",
+    "HarnessError",
     "PluginInfo",
     "PluginRegistry",
     "PluginUnavailableError",
     "UnknownPluginError",
     "collect",
+    "handle_stop_signals",
     "missing_attributes",
     "package_availability",
+    "raised_without_signal",
+    "stop_signal",
+    "stop_signals_deferred",
 ]

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from registry._availability import Availability
+from registry._errors import HarnessError
 
 
-class UnknownPluginError(ValueError):
+class UnknownPluginError(HarnessError):
     """No plugin of that name is installed; the message lists the valid names."""
 
 

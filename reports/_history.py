@@ -38,6 +38,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from registry import HarnessError
 from rigs import atomic_write
 
 #: Columns of a history file, in order; its first line is exactly these names joined by commas.
@@ -64,7 +65,7 @@ _TEXT_COLUMNS = ("date", "commit", "dirty", "machine", "case", "figure", "case_i
 _FLOAT_FORMAT = "%.6g"
 
 
-class HistoryError(ValueError):
+class HistoryError(HarnessError):
     """A history file that cannot be used: not in this format, or with rows that do not parse."""
 
 

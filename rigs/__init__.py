@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
-    from rigs._atomic import StagedFile, atomic_write, stage, sync_folders
+    from rigs._atomic import StagedFile, atomic_write, stage, staged_target, sync_folders
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_atomic": ["StagedFile", "atomic_write", "stage", "sync_folders"],
+        "_atomic": ["StagedFile", "atomic_write", "stage", "staged_target", "sync_folders"],
         "_camera": ["frontal_camera", "three_quarter_camera"],
         "_character": ["Character"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],

@@ -4,12 +4,14 @@ The one writer behind every file the project writes (rigs, fetched rigs, run rec
 the performance history): a uniquely named temporary file in the same folder, flushed to disk, renamed
 over the target (``os.replace``) and the folder's entry flushed too; on any failure the temporary file is
 removed and the target is unchanged. The two halves are available apart (`stage`, `StagedFile.commit`)
-for a writer that puts several files in place only once all of them are written.
+for a writer that puts several files in place only once all of them are written. A temporary file a killed
+process left behind is recognisable by its name (`staged_target`), so that the next writer can remove it.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -22,6 +24,10 @@ def _current_umask() -> int:
     os.umask(mask)
     return mask
 
+
+#: The name `stage` gives a temporary file: ``.<name>.<8 random characters>.tmp`` for the file ``<name>``
+#: (the random part is ``tempfile.mkstemp``'s: lowercase letters, digits and ``_``).
+STAGED_NAME = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}\.tmp")
 
 #: Permissions of new files (a temporary file is created private): what ``open()`` would give.
 NEW_FILE_MODE = 0o666 & ~_current_umask()
@@ -108,6 +114,13 @@ def stage(path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None
         Path(temporary).unlink(missing_ok=True)
         raise
     return StagedFile(path, Path(temporary))
+
+
+def staged_target(name: str) -> str | None:
+    """The name of the file a temporary file called ``name`` was staged for by `stage` (None when ``name``
+    is not named as `stage` names its temporary files)."""
+    match = STAGED_NAME.fullmatch(name)
+    return None if match is None else match["target"]
 
 
 def sync_folders(paths: Iterable[str | os.PathLike]) -> None:

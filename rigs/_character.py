@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from registry import HarnessError
 from rigs._face_mesh import LANDMARK_REGIONS, region_centre
 from rigs._rig import Rig, RigError
 
@@ -63,9 +64,9 @@ def _number(label: str, value: Any) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"character {label} must be a number, got {value!r}") from None
+        raise HarnessError(f"character {label} must be a number, got {value!r}") from None
     if not np.isfinite(number):
-        raise ValueError(f"character {label} must be finite, got {value!r}")
+        raise HarnessError(f"character {label} must be finite, got {value!r}")
     return number
 
 
@@ -97,11 +98,11 @@ class Character:
         strength = _number("strength", self.strength)
         low, high = STRENGTH_RANGE
         if not low <= strength <= high:
-            raise ValueError(f"character strength must lie in [{low:g}, {high:g}], got {self.strength!r}")
+            raise HarnessError(f"character strength must lie in [{low:g}, {high:g}], got {self.strength!r}")
         object.__setattr__(self, "strength", strength)
         seed = _number("seed", self.seed)
         if seed < 0 or seed != int(seed):
-            raise ValueError(f"character seed must be a non-negative integer, got {self.seed!r}")
+            raise HarnessError(f"character seed must be a non-negative integer, got {self.seed!r}")
         object.__setattr__(self, "seed", int(seed))
 
     def resolve(self, rig: Rig) -> list[Any]:

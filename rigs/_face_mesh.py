@@ -16,6 +16,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from registry import HarnessError
+
 _DENSITY_SAMPLES = 4001
 #: Relative steepness of the column grading (x = W * (u + c u^3) / (1 + c): denser near the midline).
 _COLUMN_GRADING = 0.6
@@ -147,7 +149,7 @@ def build_face_mesh(n_vertices: int, layout: FaceLayout = FaceLayout()) -> FaceM
     eye_row, eye_y = _snap_between_rows(row_heights, layout.eye_y)
     mouth_row, mouth_y = _snap_between_rows(row_heights, layout.mouth_y)
     if eye_row == mouth_row:
-        raise ValueError(
+        raise HarnessError(
             f"n_vertices={n_vertices} is too coarse: the eye and lip lines fall between the same rows"
         )
     layout = replace(layout, eye_y=eye_y, mouth_y=mouth_y)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from registry import HarnessError
 from rigs._face_mesh import MOTION_REGION_PAIRS, FaceLayout, FaceMesh, build_face_mesh
 from rigs._rig import Rig
 from rigs._shape_library import JITTER, MOTIONS, Component, ShapeSpec, Site, catalogue, face_sites, select
@@ -170,9 +171,9 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     """
     spec = _preset(preset)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise HarnessError(f"seed must be a non-negative integer, got {seed!r}")
     if spec.n_vertices < _MIN_VERTICES or spec.n_shapes < 0:
-        raise ValueError(
+        raise HarnessError(
             f"preset {spec.name!r}: need n_vertices >= {_MIN_VERTICES} and n_shapes >= 0, "
             f"got {spec.n_vertices} and {spec.n_shapes}"
         )
@@ -272,7 +273,7 @@ def _preset(preset: str | PresetSpec) -> PresetSpec:
         return preset
     if isinstance(preset, str) and preset in PRESETS:
         return PRESETS[preset]
-    raise ValueError(f"unknown rig preset {preset!r}; choose one of: {', '.join(PRESETS)}")
+    raise HarnessError(f"unknown rig preset {preset!r}; choose one of: {', '.join(PRESETS)}")
 
 
 def _evaluate(

@@ -10,8 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from registry import HarnessError
 
-class RigError(ValueError):
+
+class RigError(HarnessError):
     """A rig, or a file that should hold one, is malformed.
 
     The message names the source (file or field), the shape if one is at fault, and what is wrong.

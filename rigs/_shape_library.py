@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
+from registry import HarnessError
 from rigs._face_mesh import FaceLayout
 
 #: Per-component random perturbation: centre shift (cm), radius scale range, relative amplitude, direction
@@ -438,7 +439,7 @@ def catalogue(name: str, layout: FaceLayout) -> Catalogue:
         return Catalogue(_ARKIT, ())
     if name == "tiny":
         return Catalogue(_TINY, _FACS_MOTION_PAIRS)
-    raise ValueError(f"unknown shape catalogue {name!r}; choose one of: arkit52, facs, tiny")
+    raise HarnessError(f"unknown shape catalogue {name!r}; choose one of: arkit52, facs, tiny")
 
 
 def variant_name(name: str, number: int) -> str:

@@ -5,14 +5,18 @@ A rig is one mesh: its ``points`` are the neutral, its polygons (``faceVertexCou
 by ``skel:blendShapes``) a delta blendshape: ``offsets`` at its ``pointIndices`` (every point when absent).
 In-between shapes are not read (a `RigWarning` names them). Needs ``usd-core`` (the ``usd`` extra).
 
-The file is untrusted: every layer it composes (sublayers, references, payloads) must be a file inside
-its folder, checked before the stage is opened, and every array is checked against the mesh's size.
+The file is untrusted: every layer it composes (sublayers, references and payloads, in variant sets too,
+and value clips: their asset paths, manifest and template) must be a file inside its folder, checked
+before the stage is opened, and every array is checked against the mesh's size. What ``pxr`` cannot read
+(garbage text, a truncated ``.usdc``, a malformed clip) is a `RigError` naming the file.
 """
 
 from __future__ import annotations
 
+import contextlib
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +29,23 @@ USD_SUFFIXES = (".usd", ".usda", ".usdc")
 #: Length units by ``metersPerUnit`` (the stage metadata), and back.
 _UNITS = {1.0: "m", 0.1: "dm", 0.01: "cm", 0.001: "mm"}
 _INVALID = re.compile(r"[^A-Za-z0-9_]")
+
+
+@contextlib.contextmanager
+def _readable(source: str) -> Iterator[None]:
+    """Turn what ``pxr`` raises on a file it cannot read into a `RigError` naming ``source``."""
+    from pxr import Tf
+
+    try:
+        yield
+    except Tf.ErrorException as error:
+        raise RigError(f"{source}: not a readable USD file ({_tf_reason(error)})") from None
+
+
+def _tf_reason(error: Exception) -> str:
+    """The reasons of a ``pxr.Tf.ErrorException`` (its quoted messages), without USD's source locations."""
+    reasons = re.findall(r" : '(.*)'\s*$", str(error), flags=re.MULTILINE)
+    return "; ".join(reasons) or " ".join(str(error).split())
 
 
 def _pxr(source: str) -> Any:
@@ -63,6 +84,13 @@ def load_usd(path: str | Path, *, mesh: str | None = None) -> Rig:
     regular_file(path)
     Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt = _pxr(source)
     _check_layers(Sdf, path, source)
+    with _readable(source):
+        return _read_stage(path, source, mesh)
+
+
+def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
+    """`load_usd` once every layer the file composes is known to lie in its folder."""
+    Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt = _pxr(source)
     stage = Usd.Stage.Open(str(path))
     if stage is None:
         raise RigError(f"{source}: not a readable USD stage")
@@ -142,7 +170,11 @@ def load_usd(path: str | Path, *, mesh: str | None = None) -> Rig:
 
 
 def _check_layers(Sdf: Any, path: Path, source: str) -> None:
-    """Every layer ``path`` composes is a regular file inside its folder (refused before opening it)."""
+    """Every layer ``path`` composes is a regular file inside its folder (refused before opening it): the
+    sublayers, references and payloads of every layer, and its value clips (``UsdUtils`` lists the files a
+    clip template names)."""
+    from pxr import UsdUtils
+
     folder = path.parent
     pending, seen = [path], set()
     while pending:
@@ -150,15 +182,17 @@ def _check_layers(Sdf: Any, path: Path, source: str) -> None:
         if current in seen:
             continue
         seen.add(current)
-        layer = Sdf.Layer.FindOrOpen(str(current))
-        if layer is None:
-            raise RigError(f"{current}: not a readable USD layer")
-        for asset in layer.GetCompositionAssetDependencies():
-            dependency = named_path(current.parent, asset, f"{source} layer {current.name}")
-            if not Path(dependency).resolve().is_relative_to(folder.resolve()):
+        with _readable(str(current)):
+            sublayers, references, payloads = UsdUtils.ExtractExternalReferences(str(current))
+        origin = f"{source} layer {current.name}"
+        for asset in dict.fromkeys([*sublayers, *references, *payloads]):
+            if Sdf.FileFormat.FindByExtension(Path(asset).suffix.lstrip(".")) is None:
+                continue  # not a layer (a texture, say): USD does not open it with the stage
+            dependency = named_path(current.parent, asset, origin)
+            if not dependency.resolve().is_relative_to(folder.resolve()):
                 raise RigError(f"{source}: composes {asset!r}, outside the file's folder {folder}")
             regular_file(dependency, folder)
-            pending.append(Path(dependency))
+            pending.append(dependency)
 
 
 def _finite(values: np.ndarray, label: str) -> np.ndarray:

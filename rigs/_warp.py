@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from registry import HarnessError
 from rigs._character import Character
 from rigs._face_mesh import LANDMARK_REGIONS, region_centre
 from rigs._rig import Rig, RigError
@@ -60,9 +61,9 @@ def _positive(label: str, value: Any) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{label} must be a positive number, got {value!r}") from None
+        raise HarnessError(f"{label} must be a positive number, got {value!r}") from None
     if not np.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{label} must be a positive number, got {value!r}")
+        raise HarnessError(f"{label} must be a positive number, got {value!r}")
     return number
 
 
@@ -112,7 +113,7 @@ class Scale:
             or isinstance(self.factors, str)
             or len(self.factors) != 3
         ):
-            raise ValueError(f"scale factors must be three positive numbers, got {self.factors!r}")
+            raise HarnessError(f"scale factors must be three positive numbers, got {self.factors!r}")
         factors = tuple(_positive("scale factor", value) for value in self.factors)
         object.__setattr__(self, "factors", factors)
 
@@ -159,7 +160,7 @@ class LocalScale:
         low, high = FACTOR_RANGE
         factor = _positive("local factor", self.factor)
         if not low <= factor <= high:
-            raise ValueError(
+            raise HarnessError(
                 f"local factor must lie in [{low}, {high}] to stay invertible, got {self.factor!r}"
             )
         object.__setattr__(self, "factor", factor)
@@ -172,7 +173,7 @@ class LocalScale:
             except (TypeError, ValueError):
                 center = ()
             if len(center) != 3 or not all(np.isfinite(center)):
-                raise ValueError(f"local center must be a name or three coordinates, got {self.center!r}")
+                raise HarnessError(f"local center must be a name or three coordinates, got {self.center!r}")
             object.__setattr__(self, "center", center)
 
     def resolve(self, rig: Rig) -> list[Primitive]:
@@ -369,7 +370,7 @@ def parse_warp(spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Warp:
         return _parse_mapping(spec)
     if isinstance(spec, Sequence) and spec:
         return Compose(tuple(parse_warp(step) for step in spec))
-    raise ValueError(f"warp spec must be a preset name, a string, a dict, a list or a Warp, got {spec!r}")
+    raise HarnessError(f"warp spec must be a preset name, a string, a dict, a list or a Warp, got {spec!r}")
 
 
 def _parse_step(text: str) -> Warp:
@@ -391,8 +392,8 @@ def _parse_step(text: str) -> Warp:
                 return LocalScale(center, values[1], radius_rel=radius[:-1])
             return LocalScale(center, values[1], radius=radius)
     except ValueError as error:
-        raise ValueError(f"warp step {text!r}: {error}") from None
-    raise ValueError(
+        raise HarnessError(f"warp step {text!r}: {error}") from None
+    raise HarnessError(
         f"unknown warp step {text!r}; use a preset ({', '.join(WARPS)}), 'scale:SX,SY,SZ' "
         f"'local:CENTER,FACTOR[,RADIUS]' (CENTER a name or [x;y;z], RADIUS like 2.5 or 0.1d) "
         f"or 'character:STRENGTH[,SEED]'"
@@ -405,13 +406,13 @@ def _parse_mapping(spec: Mapping[str, Any]) -> Warp:
     allowed["character"] = {"kind", "strength", "seed"}
     allowed["compose"] = {"kind", "steps"}
     if kind not in allowed:
-        raise ValueError(
+        raise HarnessError(
             f"warp dict needs 'kind' of scale, local or compose, got {kind!r}; "
             "or character for a character-specific target"
         )
     unknown = sorted(set(spec) - allowed[kind])
     if unknown:
-        raise ValueError(
+        raise HarnessError(
             f"{kind} warp: unknown key {', '.join(map(repr, unknown))}; allowed: {sorted(allowed[kind])}"
         )
     try:
@@ -423,7 +424,7 @@ def _parse_mapping(spec: Mapping[str, Any]) -> Warp:
             return Character(spec.get("strength", 1.0), spec.get("seed", 0))
         return Compose(tuple(parse_warp(step) for step in spec["steps"]))
     except KeyError as error:
-        raise ValueError(f"{kind} warp: missing key {error.args[0]!r}") from None
+        raise HarnessError(f"{kind} warp: missing key {error.args[0]!r}") from None
 
 
 def locate(rig: Rig, center: str | tuple[float, float, float]) -> np.ndarray:

@@ -2,7 +2,8 @@
 
 A plugin's ``solve`` returns a `Result`: its items, why it stopped and any bound. `load` wraps the plugin in
 a `LoadedSolver`, whose ``solve`` checks the arguments before the plugin sees them, times the call, turns
-an exception or a malformed answer into ``Termination.ERROR`` with a message naming the plugin, and
+an exception or a malformed answer into ``Termination.ERROR`` with a message naming the plugin (a
+`KeyboardInterrupt` too, unless a stop signal raised it: `registry.raised_without_signal`), and
 builds the `Solution`: items sorted, their shapes, the objective recomputed as the importance sum of
 eq. 3a, the bound never below it, the backend name and version, the fallback that supplied the items, if
 any. `solvers.get` returns loaded solvers, so every caller (the expression sequence, the harness, the
@@ -19,6 +20,7 @@ import traceback
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from registry import raised_without_signal
 from solvers._base import Availability, Capabilities, Result, check_solve_arguments, make_solution
 
 if TYPE_CHECKING:
@@ -85,6 +87,11 @@ class LoadedSolver:
             return _solution(problem, answer, elapsed, self.name, self.plugin)
         except Exception as error:  # a failing plugin is reported, never raised into the run
             detail = "".join(traceback.format_exception_only(error)).strip()
+            return _failed(problem, self, f"{self.name}: {detail}", time.perf_counter() - start)
+        except KeyboardInterrupt:
+            if not raised_without_signal():
+                raise  # the user's Ctrl-C (or SIGTERM)
+            detail = "raised KeyboardInterrupt itself (no Ctrl-C was given)"
             return _failed(problem, self, f"{self.name}: {detail}", time.perf_counter() - start)
 
 

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from packing import PackingProblem, SolutionStatus, Termination, conflict_set_bound, first_fit_colouring
 from solvers import _registry as registry
 from solvers._base import Stopwatch, check_solve_arguments, distribution_version
-from solvers.cpsat import cpsat_parameters, integer_weights
+from solvers.cpsat import integer_weights, solve_cp_model
 
 
 @dataclass(frozen=True)
@@ -202,9 +202,7 @@ def colour_cpsat(problem, start, lower, time_limit, seed):
     model.add(sum(used) >= lower)
     model.minimize(sum(used))
     _hint(model, x, start, n_colours)
-    solver = cp_model.CpSolver()
-    cpsat_parameters(solver, time_limit, seed, workers=1)
-    status = solver.solve(model)
+    solver, status = solve_cp_model(model, time_limit, seed)
     version = f"ortools {distribution_version('ortools')}"
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return start, lower, False, version
@@ -408,9 +406,7 @@ def _heaviest_step(cp_model, problem, remaining, cover, left, time_limit, seed):
     for c, group in enumerate(cover):
         hint[[position[i] for i in group]] = c
     _hint(model, x, _first_use_order(hint, ordered), left)
-    solver = cp_model.CpSolver()
-    cpsat_parameters(solver, time_limit, seed, workers=1)
-    status = solver.solve(model)
+    solver, status = solve_cp_model(model, time_limit, seed)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return list(cover[0]), [list(group) for group in cover[1:]], Termination.TIME_LIMIT
     colour = np.array(
