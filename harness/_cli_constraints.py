@@ -18,6 +18,7 @@ from typing import Any, TypedDict
 import click
 
 from harness._cli_types import Command
+from registry import HarnessError
 
 #: A file the options read (checked when read, so that a missing file is one line naming it).
 INPUT_FILE = click.Path(dir_okay=False, path_type=Path)
@@ -90,7 +91,7 @@ def constraint_params(
             try:
                 parsed.append(packing.parse_pair(text))
             except ValueError as error:
-                raise ValueError(f"--{kind}: {error}") from None
+                raise HarnessError(f"--{kind}: {error}") from None
         pairs[kind] = tuple(dict.fromkeys([*given.get(kind, ()), *parsed]))
     return {
         "together": pairs["together"],
@@ -126,6 +127,6 @@ def grid_constraints(
     if regions is not None:
         read = rigs.read_regions(regions, None)
         if not read:
-            raise ValueError(f"{regions}: holds no regions")
+            raise HarnessError(f"{regions}: holds no regions")
         given["regions"] = regions_tuple({name: indices.tolist() for name, indices in read.items()})
     return given

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import errno
 import os
+import signal
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -45,6 +46,7 @@ from harness._grid import (
 from harness._progress import RichReporter
 from harness._records import RecordsWriteError
 from harness._run import RUN_FILE, read_run, run_grid
+from registry import HarnessError, stop_signal
 
 #: Exit code of a run that lost cells to the infrastructure.
 EXIT_INCOMPLETE = 1
@@ -59,7 +61,7 @@ def _one_or_both(names: tuple[str, ...]) -> Callable[[str], tuple[str, ...]]:
         if text == "both":
             return names
         if text not in names:
-            raise ValueError(text)
+            raise HarnessError(text)
         return (text,)
 
     return parse
@@ -356,11 +358,11 @@ def run(
         terminal(stderr=True).print(
             f"[yellow]interrupted[/]: finished cells are recorded; resume with harness run --resume {target}"
         )
-        sys.exit(130)
+        sys.exit(128 + (stop_signal() or signal.SIGINT))
     except RecordsWriteError as error:
         fix = "free space" if error.errno == errno.ENOSPC else "fix that"
         then = f"finish with: harness run --resume {target}" if (target / RUN_FILE).is_file() else "run again"
-        raise ValueError(f"{error.strerror}; {fix}, then {then}") from None
+        raise HarnessError(f"{error.strerror}; {fix}, then {then}") from None
     counts = (
         ", ".join(f"{status} {count}" for status, count in sorted(summary.statuses.items()))
         or "nothing to do"

@@ -72,6 +72,7 @@ from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
 from harness._session_minimum import minimum_sequence
+from registry import HarnessError
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -133,7 +134,7 @@ def parse_rejections(text: str | None) -> dict[int, set[str]]:
             continue
         index, _, name = entry.partition(":")
         if not name or not index.strip().isdigit() or int(index) < 1:
-            raise ValueError(
+            raise HarnessError(
                 f"--reject entry {entry!r} is not EXPR:NAME with EXPR a 1-based expression number"
             )
         rejections.setdefault(int(index), set()).add(name.strip())
@@ -225,7 +226,7 @@ def pack(
     import packing
 
     if minimum and (rejections or decide is not None or params.get("extra_examples") or timeout is not None):
-        raise ValueError(
+        raise HarnessError(
             "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
@@ -236,7 +237,7 @@ def pack(
         for name in sorted({name for names in (rejections or {}).values() for name in names}):
             full_rig.index(name)  # RigError names the rig, the shape and close matches
         if rejections and jmax is not None and max(rejections) > jmax:
-            raise ValueError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
+            raise HarnessError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
         constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
         rig, params = constraints.rig, constraints.params
         rejections = {
@@ -283,7 +284,7 @@ def pack(
     missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
     if rejections and not timed_out and max(rejections) > len(expressions):
         made = f"the sequence stopped after {len(expressions)} expressions"
-        raise ValueError(_no_expression(max(rejections), rejections, made))
+        raise HarnessError(_no_expression(max(rejections), rejections, made))
     notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
     if minimum:
         notes.append(result.message())
@@ -291,7 +292,7 @@ def pack(
         notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
     expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
     if timed_out and not expressions:
-        raise ValueError(
+        raise HarnessError(
             f"--timeout {format_duration(timeout)} ran out before the first expression was found "
             f"(loading and analysing {rig_argument} took {format_duration(deadline.started - started)}); "
             "give a longer --timeout"

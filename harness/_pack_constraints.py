@@ -15,6 +15,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from registry import HarnessError
+
 if TYPE_CHECKING:
     from rigs import Rig
 
@@ -69,7 +71,7 @@ def session_constraints(
     together, apart = tuple(params.get("together", ())), tuple(params.get("apart", ()))
     constrained = sorted({name for pair in (*together, *apart) for name in pair} & set(exclude))
     if constrained:
-        raise ValueError(f"--exclude {constrained[0]}: the shape is also in a --together or --apart pair")
+        raise HarnessError(f"--exclude {constrained[0]}: the shape is also in a --together or --apart pair")
     excluded = dict.fromkeys(exclude, "left out by --exclude")
     document: dict[str, Any] = {"default": default, "rules": [], "notes": []}
     if default:
@@ -90,7 +92,7 @@ def session_constraints(
         document.update(rules=matched.applied, notes=matched.notes)
     kept = [name for name in rig.names if name not in excluded]
     if not kept:
-        raise ValueError(f"--exclude leaves no shape of {rig.meta.get('source', 'the rig')} to pack")
+        raise HarnessError(f"--exclude leaves no shape of {rig.meta.get('source', 'the rig')} to pack")
     excluded = {name: excluded[name] for name in rig.names if name in excluded}
     return SessionConstraints(
         rig.subset(kept) if excluded else rig, dict(params), excluded, document, _notes(document, excluded)

@@ -61,7 +61,7 @@ from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
 from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
-from harness._outdir import OutputFolder
+from harness._outdir import OutputFolder, OutputFolderError, check_apart
 from harness._overlap import OVERLAP_COLUMNS, overlap_table
 from harness._records import (
     OVERLAP_FILE,
@@ -80,7 +80,8 @@ from harness._records import (
     write_listed,
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
-from harness._rigspec import check_rig_files, is_rig_file
+from harness._rigspec import check_rig_files, input_paths
+from registry import HarnessError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -90,7 +91,7 @@ if TYPE_CHECKING:
 RUN_FORMAT = 2
 
 
-class RunDirectoryError(ValueError):
+class RunDirectoryError(HarnessError):
     """The output directory cannot take this run (holds another run, is in use, or has nothing to resume)."""
 
 
@@ -191,16 +192,16 @@ def validate_config(config: RunConfig) -> RunConfig:
     plugins.check_rigs(config.rigs)
     plugins.check_warps(config.warps)
     if config.repetitions < 1:
-        raise ValueError(f"--repetitions must be at least 1, got {config.repetitions}")
+        raise HarnessError(f"--repetitions must be at least 1, got {config.repetitions}")
     if config.jmax is not None and config.jmax < 1:
-        raise ValueError(f"--jmax must be at least 1, got {config.jmax}")
+        raise HarnessError(f"--jmax must be at least 1, got {config.jmax}")
     if any(j < 1 for j in config.j_values):
-        raise ValueError(f"--j-values must be positive integers, got {list(config.j_values)}")
+        raise HarnessError(f"--j-values must be positive integers, got {list(config.j_values)}")
     _check_packing_params(config)
     plugins.check_settings(solvers, transfers)
     for option, value in (("--time-limit", config.time_limit), ("--timeout", config.timeout)):
         if value is not None and value <= 0:
-            raise ValueError(f"{option} must be positive, got {value}")
+            raise HarnessError(f"{option} must be positive, got {value}")
     return config.with_overrides(solvers=solvers, transfers=transfers)
 
 
@@ -227,7 +228,7 @@ def _check_packing_params(config: RunConfig) -> None:
                 warnings.simplefilter("ignore")
                 packing.analyse(rig, None, **packing_params(spec))
         except ValueError as error:
-            raise ValueError(f"{given} on rig {argument}: {error}") from None
+            raise HarnessError(f"{given} on rig {argument}: {error}") from None
 
 
 def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | None:
@@ -284,15 +285,10 @@ def current_versions(config: RunConfig) -> dict[str, Any]:
 def _check_apart_from_rigs(out: Path, arguments: tuple[str, ...]) -> None:
     """The run folder may not be a rig's file or folder or lie inside a rig folder (its content would
     change as the run writes)."""
-    resolved = out.resolve()
-    for argument in arguments:
-        if not is_rig_file(argument):
-            continue
-        rig = Path(argument).resolve()
-        if resolved == rig or resolved.is_relative_to(rig):
-            raise RunDirectoryError(
-                f"--out {out} is or lies inside the rig {argument}; choose an output folder apart from it"
-            )
+    try:
+        check_apart(out, [path for argument in arguments for path in input_paths(argument)])
+    except OutputFolderError as error:
+        raise RunDirectoryError(f"--out {error}") from None
 
 
 @contextlib.contextmanager

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from packing._constraints import Pair
+from registry import HarnessError
 
 #: The rules file shipped with the package.
 RULES_FILE = "face_rules.toml"
@@ -96,25 +97,25 @@ def read_rules(path: str | PathLike[str] | None = None) -> tuple[FaceRule, ...]:
         try:
             text = Path(path).read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as error:
-            raise ValueError(f"{where}: cannot read the rules file: {error}") from None
+            raise HarnessError(f"{where}: cannot read the rules file: {error}") from None
     try:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{where}: not TOML: {error}") from None
+        raise HarnessError(f"{where}: not TOML: {error}") from None
     return tuple(_rule(entry, f"{where}: rule {number}") for number, entry in enumerate(document["rule"], 1))
 
 
 def _rule(entry: Mapping[str, Any], where: str) -> FaceRule:
     name, kind, why, pairs = (entry.get(key) for key in ("name", "kind", "why", "pairs"))
     if not isinstance(name, str) or not isinstance(why, str) or not why.strip():
-        raise ValueError(f"{where}: needs a 'name' and a 'why'")
+        raise HarnessError(f"{where}: needs a 'name' and a 'why'")
     if kind not in KINDS:
-        raise ValueError(f"{where} ({name}): kind {kind!r} is not one of {', '.join(KINDS)}")
+        raise HarnessError(f"{where} ({name}): kind {kind!r} is not one of {', '.join(KINDS)}")
     if not isinstance(pairs, list) or not all(
         isinstance(pair, list) and len(pair) == 2 and all(isinstance(shape, str) for shape in pair)
         for pair in pairs
     ):
-        raise ValueError(f"{where} ({name}): 'pairs' must be a list of two shape names each")
+        raise HarnessError(f"{where} ({name}): 'pairs' must be a list of two shape names each")
     expanded = [_sided(pair, side) for pair in pairs for side in _sides(pair)]
     return FaceRule(name, kind, tuple(dict.fromkeys(expanded)), " ".join(why.split()))
 

@@ -26,6 +26,7 @@ from rich.markup import escape
 from rich.table import Table
 
 import harness
+from registry import HarnessError
 from reports._history import (
     HISTORY_COLUMNS,
     RUN_COLUMNS,
@@ -244,7 +245,7 @@ def _benchmark_metrics(path: Path) -> list[Metric]:
         document = json.loads(path.read_text(encoding="utf-8"))
         benchmarks = document["benchmarks"]
     except (OSError, ValueError, KeyError, TypeError) as error:
-        raise ValueError(f"{path}: not a pytest-benchmark JSON file ({error})") from None
+        raise HarnessError(f"{path}: not a pytest-benchmark JSON file ({error})") from None
     metrics = []
     for benchmark in benchmarks:
         name = benchmark.get("fullname") or benchmark["name"]
@@ -263,7 +264,9 @@ def _benchmark_metrics(path: Path) -> list[Metric]:
 
 def _read_run(path: Path) -> pd.DataFrame:
     if not (path / "records").is_dir():
-        raise ValueError(f"{path}: neither a run directory (with records/) nor a pytest-benchmark JSON file")
+        raise HarnessError(
+            f"{path}: neither a run directory (with records/) nor a pytest-benchmark JSON file"
+        )
     return harness.read_records(path)
 
 
@@ -279,7 +282,7 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         When a path is neither kind or the two kinds differ.
     """
     if old.is_file() != new.is_file():
-        raise ValueError(
+        raise HarnessError(
             f"compare: {old} and {new} must both be run directories or both benchmark JSON files"
         )
     if old.is_file():
@@ -332,7 +335,7 @@ def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
     run_dir = Path(run_dir)
     records = _read_run(run_dir)
     if not _has_ratios(records):
-        raise ValueError(
+        raise HarnessError(
             f"{run_dir}: a group of cells has fewer than {MIN_REFERENCE_SOLVERS} exact solvers, so no "
             f"reference time and no ratios for the history"
         )
@@ -364,7 +367,7 @@ def _history_spreads(
     """Spreads of the figures in the history at ``path`` by (`case_id`, figure) over its commits
     (`reports._history.spreads`), leaving out the rows of run ``new`` itself."""
     if not (new / "records").is_dir():
-        raise ValueError(f"compare: a history applies to run directories, not to {new}")
+        raise HarnessError(f"compare: a history applies to run directories, not to {new}")
     history = read_history(path)
     identity = run_identity(harness.read_run(new))
     own = (history[list(RUN_COLUMNS)] == pd.Series({c: identity[c] for c in RUN_COLUMNS})).all(axis=1)
@@ -520,7 +523,7 @@ def compare(
         When ``history`` does not exist.
     """
     if min(threshold, tolerance, min_time, spread) < 0 or min(window, min_runs) < 1 or not 0 < alpha < 1:
-        raise ValueError(
+        raise HarnessError(
             f"compare: threshold, tolerance, min_time and spread must be >= 0, window and min_runs >= 1 and "
             f"alpha in (0, 1), got {threshold}, {tolerance}, {min_time}, {spread}, {window}, {min_runs} and "
             f"{alpha}"

@@ -169,7 +169,7 @@ def test_force_removes_only_files_the_harness_wrote(rig_file, tmp_path, inline) 
 def test_the_run_folder_may_not_lie_inside_a_rig_folder(rig_file, tmp_path, inline) -> None:
     folder = tmp_path / "rig"
     rigs.save(rigs.load(rig_file), folder, format="obj-folder")
-    with pytest.raises(harness.RunDirectoryError, match="lies inside the rig"):
+    with pytest.raises(harness.RunDirectoryError, match="lies inside the input"):
         harness.run_grid(_config(folder), folder / "results", make_executor=inline)
     assert not (folder / "results").exists()
 
