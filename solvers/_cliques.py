@@ -52,7 +52,10 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     common = np.bitwise_and.reduceat(closed[model.row_items], model.row_starts[:-1], axis=0)
     open_rows = np.flatnonzero((common != member_bits).any(axis=1))
-    for item in np.argsort(-model.weights, kind="stable").tolist():
+    outside = np.bitwise_or.reduce(common & ~member_bits, axis=0)[None, :]
+    candidate = np.unpackbits(outside.astype(">u8").view(np.uint8), axis=1, count=n_items)[0].astype(bool)
+    order = np.argsort(-model.weights, kind="stable")
+    for item in order[candidate[order]].tolist():  # items that may join some row
         if open_rows.size == 0:
             break
         word, bit = item // 64, np.uint64(1) << np.uint64(63 - item % 64)
