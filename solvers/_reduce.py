@@ -92,7 +92,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     alive = np.ones(n_items, dtype=bool)
     taken = np.zeros(n_items, dtype=bool)
     while True:
-        live = closed & _pack(alive[None, :])[0]
+        live = closed & pack_bits(alive[None, :])[0]
         degree = np.bitwise_count(live).sum(axis=1, dtype=np.int64) - 1
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
         dominated = _dominated(live, alive, degree, pairs)
@@ -121,7 +121,7 @@ def _dominated(
     return dominated
 
 
-def _pack(rows: np.ndarray) -> np.ndarray:
+def pack_bits(rows: np.ndarray) -> np.ndarray:
     """(n, W) uint64 words of n bool rows; column 0 is the highest bit of word 0 (`np.packbits` order)."""
     width = -(-rows.shape[1] // 64) * 64
     padded = np.zeros((rows.shape[0], width), dtype=bool)

@@ -183,3 +183,46 @@ def test_ordered_minimum_sequence_against_the_plain_sequence(benchmark, preset):
     covered = sorted(i for expression in ordered.expressions for i in expression)
     assert covered == list(range(problem.n_items))
     assert ordered.objectives[0] <= plain_weights[0] + 1e-12  # the plain first step is unconstrained
+
+
+#: Film-scale exact sequences (the Female layout on 20k vertices, the alien target, Algorithm 1 until every
+#: shape is used): CPU seconds of the whole sequence per (shapes, backend).
+FILM_SEQUENCE_TARGETS = {(1000, "cpsat"): 1.0, (2000, "cpsat"): 5.0, (2000, "highs"): 10.0}
+
+
+@functools.cache
+def _film_analysis(n_shapes: int):
+    from dataclasses import replace
+
+    rig = rigs.generate(replace(rigs.PRESETS["film"], n_shapes=n_shapes))
+    return rig, packing.analyse(rig, rigs.warp(rig, "alien").neutral)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("n_shapes", "name"), sorted(FILM_SEQUENCE_TARGETS))
+def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
+    """The whole exact sequence in CPU seconds, against the kernel's conflict sets solved as they are (no
+    grown cliques, `solvers._cliques`): the same items at every expression, and how much faster."""
+    rig, analysis = _film_analysis(n_shapes)
+    loaded = solvers.get(name)
+    if not loaded.availability():
+        pytest.skip(f"{name} is not available here")
+    plugin = type(loaded.plugin)
+    plain = solvers.load(type(f"{plugin.__name__}Plain", (plugin,), {"grows_cliques": False}))
+
+    def cpu_seconds(solver):
+        start = time.process_time()
+        expressions = packing.sequence(rig, solver, analysis=analysis)
+        return time.process_time() - start, expressions
+
+    grown_time, grown = min((cpu_seconds(loaded) for _ in range(2)), key=lambda run: run[0])
+    plain_time, reference = cpu_seconds(plain)
+    benchmark.pedantic(cpu_seconds, args=(loaded,), rounds=1, iterations=1)
+    packing.check(rig, grown, pairs=analysis.pairs)
+    assert [e.items for e in grown] == [e.items for e in reference]
+    assert [e.objective for e in grown] == [e.objective for e in reference]
+    benchmark.extra_info.update(
+        shapes=n_shapes, solver=name, expressions=len(grown), cpu_s=grown_time, plain_cpu_s=plain_time
+    )
+    limit = FILM_SEQUENCE_TARGETS[n_shapes, name]
+    speed_target(f"film {n_shapes} shapes, whole {name} sequence [CPU s]", grown_time, limit)
