@@ -543,10 +543,16 @@ def compare(
     changes = [Change(m.case, m.name, m.kind, m.value, None, "missing") for m, o in pairs if o is None]
     for index, (metric, other) in enumerate(found):
         if metric.kind == "time":
-            spread = judged.get((other.case_id, other.name))
-            test = tests.get(index)
+            history_spread = judged.get((other.case_id, other.name))
             changes.append(
-                _time_change(metric, other, threshold=threshold, min_time=min_time, test=test, spread=spread)
+                _time_change(
+                    metric,
+                    other,
+                    threshold=threshold,
+                    min_time=min_time,
+                    test=tests.get(index),
+                    spread=history_spread,
+                )
             )
         else:
             changes.append(_quality_change(metric, other, tolerance))
