@@ -24,7 +24,7 @@ class UnknownPluginError(HarnessError):
     """No plugin of that name is installed; the message lists the valid names."""
 
 
-class PluginUnavailableError(RuntimeError):
+class PluginUnavailableError(HarnessError):
     """The plugin is installed but cannot run here; ``availability`` says why."""
 
     def __init__(self, kind: str, name: str, availability: Availability) -> None:
