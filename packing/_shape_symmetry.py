@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import entries, largest_lengths, sparse_masks
+from packing._binary import largest_lengths, sparse_masks
 from packing._symmetry_candidates import candidate_pairs, vertex_cells
-from packing._symmetry_field import SymmetryField, mirrored_entries, row_sums
+from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
 
 
 def reflection_normal(neutral: np.ndarray, mirror: np.ndarray) -> np.ndarray | None:
@@ -115,7 +115,7 @@ def shape_symmetry(
     """
     active = sparse_masks(masks)
     n_shapes = active.shape[0]
-    rows, cols = entries(active)
+    rows, cols = compact_entries(active)
     largest = largest_lengths(norms)
     field = SymmetryField.of(deltas, norms, active, rows, cols, normal)
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
@@ -198,14 +198,24 @@ def _self_errors(
 ) -> np.ndarray:
     """(K,) ``eps_kk`` of eq. 9 (infinite where ``b_k & p(b_k)`` is empty), over the active (k, n) whose
     mirror vertex is active in k too; ``outside`` is ``own_k + mirrored_k``. Corrections are summed for the
-    ``eligible`` shapes only (the others are never self-symmetric)."""
+    ``eligible`` shapes only (the others are never self-symmetric). The entries are probed a run of whole
+    shapes at a time (about `PROBE_CHUNK` entries), so each shape's sum is that of one run."""
     n_shapes = outside.size
-    image_entry = field.image_entries(rows, cols, mirror)
-    found = image_entry >= 0
-    diagonal = np.bincount(rows[found], minlength=n_shapes)  # |b_k & p(b_k)|
-    both = np.flatnonzero(found & eligible[rows])
-    correction = field.correction(both, image_entry[both])
-    total = outside + np.bincount(rows[both], weights=correction, minlength=n_shapes)
+    indptr = field.active.indptr
+    diagonal = np.zeros(n_shapes, dtype=np.int64)  # |b_k & p(b_k)|
+    corrections = np.zeros(n_shapes)
+    marks = np.searchsorted(indptr, np.arange(PROBE_CHUNK, rows.size, PROBE_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
+        start, stop = int(indptr[first_shape]), int(indptr[stop_shape])
+        run_rows = rows[start:stop]
+        image_entry = field.image_entries(run_rows, cols[start:stop], mirror)
+        found = image_entry >= 0
+        diagonal += np.bincount(run_rows[found], minlength=n_shapes)
+        both = np.flatnonzero(found & eligible[run_rows])
+        correction = field.correction(both + start, image_entry[both])
+        corrections += np.bincount(run_rows[both], weights=correction, minlength=n_shapes)
+    total = outside + corrections
     return np.divide(total, diagonal, out=np.full(n_shapes, np.inf), where=diagonal > 0)
 
 

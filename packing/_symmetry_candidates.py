@@ -35,9 +35,11 @@ def vertex_cells(
     shapes = np.flatnonzero(candidates & (counts > 0))
     if neutral is None or shapes.size == 0:
         return np.arange(n_vertices) * most // n_vertices
-    points = np.take(neutral, cols, axis=0)
-    low = np.minimum.reduceat(points, active.indptr[shapes], axis=0)
-    high = np.maximum.reduceat(points, active.indptr[shapes], axis=0)
+    low, high = np.empty((shapes.size, 3)), np.empty((shapes.size, 3))
+    for axis in range(3):  # one coordinate of the active entries at a time
+        coordinate = np.take(neutral[:, axis], cols)
+        low[:, axis] = np.minimum.reduceat(coordinate, active.indptr[shapes])
+        high[:, axis] = np.maximum.reduceat(coordinate, active.indptr[shapes])
     side = float(np.median(np.linalg.norm(high - low, axis=1))) / CELLS_PER_SHAPE
     origin, top = bounding_box(neutral)
     span = float(np.linalg.norm(top - origin))
@@ -97,11 +99,9 @@ def candidate_pairs(
     n_shapes = candidates.size
     n_cells = int(cell.max()) + 1
     mirrored_rows, mirrored_cols, source = mirrored
-    shape_sums, shape_counts, shape_present = _cell_sums(
-        rows, cell[cols], field.moved, candidates, n_shapes, n_cells
-    )
+    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field.moved, candidates, n_cells)
     image_sums, image_counts, image_present = _cell_sums(
-        mirrored_rows, cell[mirrored_cols], field.moved, candidates, n_shapes, n_cells, source
+        mirrored_rows, mirrored_cols, cell, field.moved, candidates, n_cells, source
     )
     image_sums = image_sums @ field.reflection  # R is linear: the sum of the reflections
     shape_norms = np.linalg.norm(shape_sums, axis=1)
@@ -131,49 +131,54 @@ def candidate_pairs(
         np.add.at(gaps, pair, gap)
         np.add.at(shared, pair, np.minimum(shape_counts[a], image_counts[p]))
 
-    # The bounds of the pairs present in some cell together.
-    present = np.flatnonzero(shared)
-    k, m = present // n_shapes, present % n_shapes
-    shared = shared[present].astype(np.float64)
-    numerator = shape_total[k] + image_total[m] + gaps[present]
-    del gaps
+    # The bounds of the pairs present in some cell together, a block of shapes k at a time.
     smallest = np.zeros(n_shapes)
     starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
     starts = starts[starts < rows.size]
     smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
     n_active = np.bincount(rows, minlength=n_shapes)
     n_image = np.bincount(mirrored_rows, minlength=n_shapes)
-    outside = (n_active[k] - shared) * smallest[k] + (n_image[m] - shared) * smallest[m]
-    limit = tol * np.minimum(largest[k], largest[m]) * shared * (1.0 + BOUND_SLACK)
-    scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
-    kept = present[(numerator < limit + scale) & (outside < limit + scale) & (k != m)]
-    mutual = np.isin(kept % n_shapes * n_shapes + kept // n_shapes, kept, assume_unique=True)
-    kept = kept[mutual]
-    return kept // n_shapes, kept % n_shapes
+    kept = []
+    per_block = max(1, COMBO_CHUNK // n_shapes) * n_shapes
+    for low in range(0, shared.size, per_block):
+        present = low + np.flatnonzero(shared[low : low + per_block])
+        k, m = present // n_shapes, present % n_shapes
+        count = shared[present].astype(np.float64)
+        numerator = shape_total[k] + image_total[m] + gaps[present]
+        outside = (n_active[k] - count) * smallest[k] + (n_image[m] - count) * smallest[m]
+        limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
+        scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
+        kept.append(present[(numerator < limit + scale) & (outside < limit + scale) & (k != m)])
+    both = np.concatenate(kept)
+    both = both[np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)]
+    return both // n_shapes, both % n_shapes
 
 
 def _cell_sums(
     rows: np.ndarray,
-    cells: np.ndarray,
+    cols: np.ndarray,
+    cell: np.ndarray,
     vectors: np.ndarray,
     selected: np.ndarray,
-    n_shapes: int,
     n_cells: int,
     source: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Summed vectors and counts of the entries of the ``selected`` shapes per (cell, shape).
 
-    Entry i's vector is ``vectors[source[i]]`` (``vectors[i]`` without ``source``). Returns the sums
-    ``(P, 3)``, counts ``(P,)`` and keys ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in
-    ascending key order.
+    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the vector ``vectors[source[i]]``
+    (``vectors[i]`` without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
+    ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order. Every entry is
+    summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
     """
-    inside = np.flatnonzero(selected[rows])
-    key = np.take(cells, inside) * n_shapes + np.take(rows, inside)
+    n_shapes = selected.size
+    key = np.take(cell, cols)
+    key *= n_shapes
+    key += rows
     counts = np.bincount(key, minlength=n_cells * n_shapes)
     present = np.flatnonzero(counts)
-    read = inside if source is None else np.take(source, inside)
+    present = present[selected[present % n_shapes]]
     sums = np.empty((present.size, 3))
-    for axis in range(3):  # one coordinate at a time: no (entries, 3) copy
-        column = np.take(vectors[:, axis], read)
+    for axis in range(3):
+        column = vectors[:, axis] if source is None else np.take(vectors[:, axis], source)
         sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
     return sums, counts[present], present

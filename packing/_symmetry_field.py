@@ -12,6 +12,8 @@ from packing._binary import active_lengths
 
 #: Cells of the (shapes, N) lookup table `SymmetryField.image_entries` fills at once (bounds its memory).
 TABLE_CELLS = 1 << 22
+#: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
+ENTRY_CHUNK = 1 << 18
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,7 @@ class SymmetryField:
         """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
         unit normal ``normal``."""
         n_vertices = active.shape[1]
-        moved = np.take(deltas.reshape(-1, 3), rows * n_vertices + cols, axis=0)
+        moved = np.take(deltas.reshape(-1, 3), rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
         lengths = active_lengths(norms, active)
         return cls(active, moved, moved @ reflection, lengths, reflection)
@@ -99,6 +101,20 @@ class SymmetryField:
         return found
 
 
+def index_type(active: sp.csr_matrix) -> type[np.signedinteger]:
+    """The smallest integer type (int32 or int64) that holds every shape, vertex and entry index."""
+    largest = max(active.shape[0], active.shape[1], active.indices.size)
+    return np.int32 if largest < np.iinfo(np.int32).max else np.int64
+
+
+def compact_entries(active: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column index of every active entry, row-major, in `index_type` (the columns are the
+    matrix's own index array when it has that type)."""
+    kind = index_type(active)
+    rows = np.repeat(np.arange(active.shape[0], dtype=kind), np.diff(active.indptr))
+    return rows, active.indices.astype(kind, copy=False)
+
+
 def mirrored_entries(
     active: sp.csr_matrix, rows: np.ndarray, cols: np.ndarray, mirror: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,7 +122,8 @@ def mirrored_entries(
 
     Grouped by shape m; within a shape by descending image vertex ``mirror(n)``, then ascending n (a
     fixed order, that of the sparse-product formulation this replaces, so the sums over them and with
-    them the errors of eq. 9 are bit for bit those of earlier releases).
+    them the errors of eq. 9 are bit for bit those of earlier releases). Made a run of whole shapes at a
+    time (about `ENTRY_CHUNK` entries), so the temporaries stay small beside the result.
 
     Returns
     -------
@@ -115,17 +132,32 @@ def mirrored_entries(
     source : int array
         Position of the active entry ``(m, mirror(n))`` among the active entries.
     """
-    n_vertices = active.shape[1]
+    n_shapes, n_vertices = active.shape
+    indptr = active.indptr.astype(np.int64)
     vertices = np.flatnonzero(mirror >= 0)
     preimages = vertices[np.argsort(mirror[vertices], kind="stable")]  # by image, then ascending
     n_preimages = np.bincount(mirror[vertices], minlength=n_vertices)
     first_preimage = np.cumsum(n_preimages) - n_preimages
-    backwards = active.indptr[rows] + active.indptr[rows + 1] - 1 - np.arange(rows.size)  # rows reversed
-    images = cols[backwards]
-    counts = n_preimages[images]
-    offsets = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
-    source = np.repeat(backwards, counts)
-    return rows[source], preimages[np.repeat(first_preimage[images], counts) + offsets], source
+    total = int(n_preimages[cols].sum())
+    kind = index_type(active)
+    mirrored_rows, mirrored_cols, source = (np.empty(total, dtype=kind) for _ in range(3))
+    written = 0
+    marks = np.searchsorted(indptr, np.arange(ENTRY_CHUNK, rows.size, ENTRY_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
+        start, stop = indptr[first_shape], indptr[stop_shape]
+        run = rows[start:stop]
+        backwards = indptr[run] + indptr[run + 1] - 1 - np.arange(start, stop)  # each shape reversed
+        images = cols[backwards]
+        counts = n_preimages[images]
+        size = int(counts.sum())
+        offsets = np.arange(size) - np.repeat(np.cumsum(counts) - counts, counts)
+        block = slice(written, written + size)
+        source[block] = np.repeat(backwards, counts)
+        mirrored_rows[block] = rows[source[block]]
+        mirrored_cols[block] = preimages[np.repeat(first_preimage[images], counts) + offsets]
+        written += size
+    return mirrored_rows, mirrored_cols, source
 
 
 def row_sums(rows: np.ndarray, values: np.ndarray, n_rows: int) -> np.ndarray:
