@@ -6,7 +6,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing._binary import largest_lengths, sparse_masks
-from packing._symmetry_candidates import candidate_pairs, vertex_cells
+from packing._symmetry_candidates import candidate_pairs, image_cell_sums, vertex_cells
 from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
 
 
@@ -127,8 +127,9 @@ def shape_symmetry(
     # Pairs among the rest: only those that per-cell bounds cannot rule out are evaluated exactly.
     candidates = eligible & ~self_symmetric
     cells = vertex_cells(neutral, active, cols, candidates)
-    first, second = candidate_pairs(field, rows, cols, mirrored, candidates, largest, tol, cells)
-    del mirrored  # (nnz,) arrays no longer needed while the pairs are probed
+    image = image_cell_sums(field, mirrored, candidates, cells)
+    del mirrored  # (nnz,) arrays no longer needed once summed per cell
+    first, second = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
     overlap, summed = _pair_sums(field, cols, mirror, first, second)
     with np.errstate(divide="ignore", invalid="ignore"):
         error = np.where(overlap > 0, (own[first] + image_own[second] + summed) / overlap, np.inf)

@@ -3,6 +3,8 @@ the displacements rule out the pairs that cannot pass eq. 10 before any vertex i
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -53,11 +55,40 @@ def vertex_cells(
         side *= 1.5
 
 
+def image_cell_sums(
+    field: SymmetryField,
+    mirrored: tuple[np.ndarray, np.ndarray, np.ndarray],
+    candidates: np.ndarray,
+    cell: np.ndarray,
+) -> CellSums:
+    """The summed reflected displacements ``P_mc`` and active counts ``p_mc`` of the mirrored shapes per
+    (cell, shape), and each shape's count of mirrored entries ``|p(b_m)|``: all that `candidate_pairs`
+    reads of the mirrored entries (`packing._symmetry_field.mirrored_entries`), so that these can be let
+    go before its (K, K) sums are made."""
+    mirrored_rows, mirrored_cols, source = mirrored
+    sums, counts, present = _cell_sums(
+        mirrored_rows, mirrored_cols, cell, field.moved, candidates, int(cell.max()) + 1, source
+    )
+    n_image = np.bincount(mirrored_rows, minlength=candidates.size)
+    return CellSums(sums @ field.reflection, counts, present, n_image)  # R is linear: sum of reflections
+
+
+@dataclass(frozen=True)
+class CellSums:
+    """Summed vectors and counts of some shapes' entries per (cell, shape) present (`_cell_sums`), and
+    each shape's total count of entries."""
+
+    sums: np.ndarray
+    counts: np.ndarray
+    present: np.ndarray
+    totals: np.ndarray
+
+
 def candidate_pairs(
     field: SymmetryField,
     rows: np.ndarray,
     cols: np.ndarray,
-    mirrored: tuple[np.ndarray, np.ndarray, np.ndarray],
+    image: CellSums,
     candidates: np.ndarray,
     largest: np.ndarray,
     tol: float,
@@ -80,8 +111,8 @@ def candidate_pairs(
     field : SymmetryField
     rows, cols : (nnz,) int arrays
         The active entries.
-    mirrored : tuple of three (M,) int arrays
-        The mirrored entries (`packing._symmetry_field.mirrored_entries`).
+    image : CellSums
+        The mirrored shapes' sums (`image_cell_sums`).
     candidates : (K,) bool array
         Shapes that may be paired.
     largest : (K,) array
@@ -98,12 +129,8 @@ def candidate_pairs(
     """
     n_shapes = candidates.size
     n_cells = int(cell.max()) + 1
-    mirrored_rows, mirrored_cols, source = mirrored
     shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field.moved, candidates, n_cells)
-    image_sums, image_counts, image_present = _cell_sums(
-        mirrored_rows, mirrored_cols, cell, field.moved, candidates, n_cells, source
-    )
-    image_sums = image_sums @ field.reflection  # R is linear: the sum of the reflections
+    image_sums, image_counts, image_present = image.sums, image.counts, image.present
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
     shape_total = np.bincount(shape_present % n_shapes, weights=shape_norms, minlength=n_shapes)
@@ -137,7 +164,7 @@ def candidate_pairs(
     starts = starts[starts < rows.size]
     smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
     n_active = np.bincount(rows, minlength=n_shapes)
-    n_image = np.bincount(mirrored_rows, minlength=n_shapes)
+    n_image = image.totals
     kept = []
     per_block = max(1, COMBO_CHUNK // n_shapes) * n_shapes
     for low in range(0, shared.size, per_block):
@@ -171,7 +198,7 @@ def _cell_sums(
     summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
     """
     n_shapes = selected.size
-    key = np.take(cell, cols)
+    key = np.take(cell, cols).astype(np.int32 if n_cells * n_shapes < np.iinfo(np.int32).max else np.int64)
     key *= n_shapes
     key += rows
     counts = np.bincount(key, minlength=n_cells * n_shapes)

@@ -186,7 +186,8 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     largest = norms.max(axis=1)
     mirrored = symmetry_field.mirrored_entries(active, rows, cols, mirror)
     cells = candidates.vertex_cells(rig.neutral, active, cols, eligible)
-    first, second = candidates.candidate_pairs(field, rows, cols, mirrored, eligible, largest, 0.4, cells)
+    image = candidates.image_cell_sums(field, mirrored, eligible, cells)
+    first, second = candidates.candidate_pairs(field, rows, cols, image, eligible, largest, 0.4, cells)
     kept = set(zip(first.tolist(), second.tolist(), strict=True))
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
