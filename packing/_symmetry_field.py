@@ -11,7 +11,7 @@ import scipy.sparse as sp
 from packing._binary import active_lengths
 
 #: Cells of the (shapes, N) lookup table `SymmetryField.image_entries` fills at once (bounds its memory).
-TABLE_CELLS = 1 << 22
+TABLE_CELLS = 1 << 21
 #: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
 ENTRY_CHUNK = 1 << 18
 
@@ -30,6 +30,9 @@ class SymmetryField:
         Their lengths.
     reflection : (3, 3) array
         ``R``, the reflection through the symmetry plane.
+    table : (S N,) int array
+        All zero between calls of `image_entries`, which fills it for S shapes at a time (S N at most
+        `TABLE_CELLS`); made once, so its pages are touched once.
     """
 
     active: sp.csr_matrix
@@ -37,6 +40,7 @@ class SymmetryField:
     reflected: np.ndarray
     lengths: np.ndarray
     reflection: np.ndarray
+    table: np.ndarray
 
     @classmethod
     def of(
@@ -54,7 +58,9 @@ class SymmetryField:
         moved = np.take(deltas.reshape(-1, 3), rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
         lengths = active_lengths(norms, active)
-        return cls(active, moved, moved @ reflection, lengths, reflection)
+        n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
+        table = np.zeros(n_table, dtype=index_type(active))
+        return cls(active, moved, moved @ reflection, lengths, reflection, table)
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
@@ -71,9 +77,9 @@ class SymmetryField:
         """Position of the active entry ``(m, mirror(n))`` for each shape m and vertex n; -1 where the
         vertex has no mirror or ``b_m^{mirror(n)}`` is not set.
 
-        ``shapes`` must be non-decreasing. The entries of a run of shapes are written into a (shapes, N)
-        table of at most `TABLE_CELLS` cells, read for the queries of those shapes, and erased again, so
-        the work is O(queries + active entries of the queried shapes) and the memory O(`TABLE_CELLS`).
+        ``shapes`` must be non-decreasing. The entries of a run of shapes are written into `table`, read
+        for the queries of those shapes, and erased again, so the work is O(queries + active entries of
+        the queried shapes) and the memory O(`TABLE_CELLS`).
         """
         indptr, indices = self.active.indptr, self.active.indices
         n_vertices = self.active.shape[1]
@@ -82,9 +88,8 @@ class SymmetryField:
         if shapes.size == 0:
             return found
         queried = shapes[np.concatenate([[True], shapes[1:] != shapes[:-1]])]  # (non-decreasing)
-        per_table = max(1, TABLE_CELLS // max(n_vertices, 1))
-        index_type = np.int32 if indices.size < np.iinfo(np.int32).max else np.int64
-        table = np.zeros(min(per_table, queried.size) * n_vertices, dtype=index_type)
+        table = self.table
+        per_table = table.size // n_vertices
         for start in range(0, queried.size, per_table):
             block = queried[start : start + per_table]
             counts = indptr[block + 1] - indptr[block]
