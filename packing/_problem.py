@@ -27,6 +27,11 @@ class Deferred:
         return self._value
 
 
+def _computed(value: Any) -> Any:
+    """The value of a `Deferred`, or ``value`` itself."""
+    return value.value() if isinstance(value, Deferred) else value
+
+
 class _DeferredField:
     """A dataclass field that may be set to a `Deferred`; the value is computed on first read and kept (the
     instance dictionary holds it under another name, so a frozen dataclass can still fill it in)."""
@@ -96,6 +101,12 @@ class PackingProblem:
     meta: Mapping[str, Any] = field(default_factory=dict)
     tie_break: np.ndarray | None = None
     apart: tuple[tuple[int, int], ...] = ()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The instance dictionary with every deferred value computed (a `Deferred` holds a function, which
+        does not pickle)."""
+        state = dict(self.__dict__)
+        return {name: _computed(value) for name, value in state.items()}
 
     @property
     def n_items(self) -> int:

@@ -5,6 +5,7 @@ that only masks the used items."""
 from __future__ import annotations
 
 import functools
+import pickle
 from dataclasses import replace
 
 import numpy as np
@@ -68,6 +69,15 @@ def test_a_restriction_reads_nothing_it_is_not_asked_for():
     assert (again.incidence != fresh.incidence).nnz == 0
     assert [c.tolist() for c in again.cliques] == [c.tolist() for c in fresh.cliques]
     assert again.n_vertex_rows == fresh.n_vertex_rows and again.n_cliques == len(fresh.cliques) > 0
+
+
+def test_a_restricted_problem_pickles_with_its_values():
+    full = _analysis("female").problem
+    restricted = full.restrict(range(0, full.n_items, 3)).restrict(range(0, 50, 2))
+    copy = pickle.loads(pickle.dumps(restricted))
+    assert (copy.incidence != restricted.incidence).nnz == 0
+    assert [c.tolist() for c in copy.cliques] == [c.tolist() for c in restricted.cliques]
+    assert copy.clique_arrays[1].tolist() == restricted.clique_arrays[1].tolist()
 
 
 def numpy_greedy_sequence(analysis: packing.Analysis) -> list[tuple[str, ...]]:
