@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import lengths_matrix, rig_masks, sparse_masks
+from packing._binary import displacement_norms, empty_mask, masks_from_norms, sparse_masks
 from packing._importance import (
     ImportanceTerms,
     importance_terms,
@@ -253,10 +253,9 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         clock = now
 
     target = target_neutral_of(rig, target_neutral)
-    norms, empty, masks = rig_masks(rig, settings.mu, settings.noise_floor)
+    norms, empty, masks = _binary_blendshapes(rig, settings)
     require_nonempty(rig, empty)
     active = sparse_masks(masks)
-    norms = lengths_matrix(norms, active)  # all the later steps read; frees K N floats
     lap("binary")
     if settings.importance and target is None:
         warn_missing_target(settings.alpha)
@@ -294,6 +293,36 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("presolve")
     timings["total"] = sum(timings.values())
     return Analysis(rig, settings, target, masks, empty, terms, symmetry, problem, item_shapes, timings)
+
+
+#: Displacements whose lengths `_binary_blendshapes` holds at once (bounds its (K, N) float temporaries).
+BINARY_BLOCK = 1 << 22
+
+
+def _binary_blendshapes(rig: Rig, params: PackingParams) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """`packing._binary.rig_masks` a block of shapes at a time (about `BINARY_BLOCK` vertices): the same
+    empty shapes and masks (eq. 2 reads each shape's own lengths only), and the lengths of the active
+    entries only (`packing._binary.lengths_matrix`), without ever holding K N lengths.
+
+    Returns
+    -------
+    (K, N) CSR lengths of the active entries, (K,) bool empty shapes, (K, N) bool masks.
+    """
+    n_shapes, n_vertices = rig.n_shapes, rig.n_vertices
+    masks = np.zeros((n_shapes, n_vertices), dtype=bool)
+    empty = np.zeros(n_shapes, dtype=bool)
+    lengths = []
+    scale = rig.diagonal()
+    per_block = max(1, BINARY_BLOCK // max(n_vertices, 1))
+    for start in range(0, n_shapes, per_block):
+        block = slice(start, min(start + per_block, n_shapes))
+        norms = displacement_norms(rig.deltas[block])
+        empty[block] = empty_mask(norms, params.noise_floor, scale)
+        masks[block] = masks_from_norms(norms, params.mu, empty[block])
+        lengths.append(norms[masks[block]])  # row-major: the order of the active entries
+    active = sparse_masks(masks)
+    matrix = sp.csr_matrix((np.concatenate(lengths), active.indices, active.indptr), shape=masks.shape)
+    return matrix, empty, masks
 
 
 def build_problem(

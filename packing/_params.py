@@ -50,7 +50,7 @@ class PackingParams:
     pair_overlap : float in [0, 1]
         The "small overlap between symmetric pairs" of sec. 4.4.1: a mirror pair whose shapes share more
         than this share of the smaller shape's active vertices *away from the symmetry axis* (outside the
-        band of `packing._symmetry.AXIS_BAND`) is not a pair: it spreads over both facial halves, like
+        band of `packing._shape_symmetry.AXIS_BAND`) is not a pair: it spreads over both facial halves, like
         jawLeft/jawRight, and the two would cancel in one expression. Default 0.15: on generated and
         Face Units rigs, true pairs overlap off the axis on at most 6%, spread shapes on at least 32%.
     motion_cos : float in [-1, 1]

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from typing import Any
 
@@ -11,6 +11,45 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing._presolve import ConflictSets, maximal_conflict_sets
+
+
+class Deferred:
+    """A value computed on first read, once: what `PackingProblem.restrict` gives what it derives lazily."""
+
+    def __init__(self, compute: Callable[[], Any]) -> None:
+        self._compute: Callable[[], Any] | None = compute
+        self._value: Any = None
+
+    def value(self) -> Any:
+        """The value, computed on the first call (the function is then let go, with what it held)."""
+        if self._compute is not None:
+            self._value, self._compute = self._compute(), None
+        return self._value
+
+
+def _computed(value: Any) -> Any:
+    """The value of a `Deferred`, or ``value`` itself."""
+    return value.value() if isinstance(value, Deferred) else value
+
+
+class _DeferredField:
+    """A dataclass field that may be set to a `Deferred`; the value is computed on first read and kept (the
+    instance dictionary holds it under another name, so a frozen dataclass can still fill it in)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name, self.slot = name, f"_{name}_value"
+
+    def __get__(self, instance: Any, owner: type | None = None) -> Any:
+        if instance is None:
+            raise AttributeError(self.name)  # (no default value for the dataclass)
+        value = instance.__dict__[self.slot]
+        if isinstance(value, Deferred):
+            value = value.value()
+            instance.__dict__[self.slot] = value
+        return value
+
+    def __set__(self, instance: Any, value: Any) -> None:
+        instance.__dict__[self.slot] = value
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,13 +94,19 @@ class PackingProblem:
     shape_names: tuple[str, ...]
     items: tuple[tuple[int, ...], ...]
     weights: np.ndarray
-    incidence: sp.csr_matrix
-    cliques: tuple[np.ndarray, ...]
+    incidence: sp.csr_matrix = _DeferredField()  # type: ignore[assignment]
+    cliques: tuple[np.ndarray, ...] = _DeferredField()  # type: ignore[assignment]
     cap: int | None = None
     n_vertex_rows: int = 0
     meta: Mapping[str, Any] = field(default_factory=dict)
     tie_break: np.ndarray | None = None
     apart: tuple[tuple[int, int], ...] = ()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The instance dictionary with every deferred value computed (a `Deferred` holds a function, which
+        does not pickle)."""
+        state = dict(self.__dict__)
+        return {name: _computed(value) for name, value in state.items()}
 
     @property
     def n_items(self) -> int:
@@ -126,36 +171,54 @@ class PackingProblem:
 
         Notes
         -----
-        O(M + nnz) for the M members of the conflict sets and the nnz incidence entries kept, in a
-        fixed number of numpy calls; the kept items' vertices are copied, not visited. A chain of
-        restrictions (the expression sequence) gives exactly the problem that one restriction of the
+        Lazy: ``incidence`` (the kept rows of the matrix this problem's rows come from), ``cliques``, the
+        conflict sets behind `clique_arrays` and ``conflict_bits`` are derived on first read, so a solver
+        that reads only some of them (greedy reads the conflict sets, weights and counts) pays for those
+        only. Eager work is O(I + the dropped items' vertices) in a fixed number of numpy calls. A chain
+        of restrictions (the expression sequence) gives exactly the problem that one restriction of the
         first would.
         """
         keep_index = _item_index(keep, self.n_items)
         kept = np.zeros(self.n_items, dtype=bool)
         kept[keep_index] = True
-        incidence, dropped_vertices = _split_rows(self.incidence, kept)
-        cover = self._vertex_cover - np.bincount(dropped_vertices, minlength=incidence.shape[1])
-        sets = self._conflict_sets.restrict(kept)
+        matrix, rows = self._incidence_rows
+        dropped_vertices = _row_vertices(matrix, rows[~kept])
+        cover = self._vertex_cover - np.bincount(dropped_vertices, minlength=matrix.shape[1])
+        rows = rows[keep_index]
+        parent = self._deferred_conflict_sets()
+        sets = Deferred(lambda: parent.value().restrict(kept))
         weights = self.weights[keep_index]
         weights.flags.writeable = False
-        shape_counts = self.item_shape_counts[keep_index]
-        shape_counts.flags.writeable = False
-        restricted = replace(
+        derived: dict[str, Any] = {
+            "_conflict_sets": sets,
+            "_vertex_cover": cover,
+            "_incidence_rows": (matrix, rows),
+        }
+        for name in ("item_shape_counts", "item_active_counts"):
+            counts = getattr(self, name)[keep_index]
+            counts.flags.writeable = False
+            derived[name] = counts
+        if "conflict_bits" in self.__dict__:
+            derived["conflict_bits"] = _selected_bits(self.conflict_bits, keep_index, self.n_items)
+        restricted = _raw_replace(
             self,
             items=tuple(map(self.items.__getitem__, keep_index.tolist())),
             weights=weights,
-            incidence=incidence,
-            cliques=sets.as_tuple(),
+            incidence=Deferred(lambda: _select_rows(matrix, rows)),
+            cliques=Deferred(lambda: sets.value().as_tuple()),
             n_vertex_rows=int(np.count_nonzero(cover)),
             meta={**_restricted_meta(self.meta, keep_index), **(meta or {})},
             tie_break=None if self.tie_break is None else self.tie_break[keep_index],
             apart=_restricted_pairs(self.apart, kept),
         )
-        derived = {"_conflict_sets": sets, "_vertex_cover": cover, "item_shape_counts": shape_counts}
-        if "conflict_bits" in self.__dict__:
-            derived["conflict_bits"] = _selected_bits(self.conflict_bits, keep_index, self.n_items)
         return _with_structure(restricted, **derived)
+
+    @property
+    def n_cliques(self) -> int:
+        """Number of conflict sets, ``len(cliques)``, without building the tuple of a restricted problem."""
+        if isinstance(self.__dict__.get("_cliques_value"), Deferred):
+            return len(self._conflict_sets)
+        return len(self.cliques)
 
     def permuted(self, order: Iterable[int]) -> PackingProblem:
         """The same problem with its items in another order: item ``i`` of the result is item ``order[i]``.
@@ -235,15 +298,32 @@ class PackingProblem:
         if weights.shape != (self.n_items,) or not np.isfinite(weights).all():
             raise ValueError(f"reweighted: need {self.n_items} finite weights, got shape {weights.shape}")
         weights.flags.writeable = False
-        reweighted = replace(
+        reweighted = _raw_replace(
             self, weights=weights, tie_break=tie_break if tie_break is not None else self.tie_break
         )
         return _with_structure(reweighted, **_structure_of(self))
 
-    @cached_property
+    @property
     def _conflict_sets(self) -> ConflictSets:
-        """`cliques` in flat form, for `restrict`."""
-        return ConflictSets.from_cliques(self.cliques)
+        """`cliques` in flat form, for `restrict` (derived from the tuple, or by a restriction)."""
+        return self._deferred_conflict_sets().value()
+
+    def _deferred_conflict_sets(self) -> Deferred:
+        """`_conflict_sets` as a `Deferred` that holds what it needs but not this problem's other data."""
+        value = self.__dict__.get("_conflict_sets")
+        if not isinstance(value, Deferred):
+            if value is None:
+                cliques = self.cliques
+                value = Deferred(lambda: ConflictSets.from_cliques(cliques))
+            else:
+                value = Deferred(lambda sets=value: sets)
+            self.__dict__["_conflict_sets"] = value
+        return value
+
+    @cached_property
+    def _incidence_rows(self) -> tuple[sp.csr_matrix, np.ndarray]:
+        """The matrix this problem's incidence rows are taken from, and which of its rows."""
+        return self.incidence, np.arange(self.n_items)
 
     @cached_property
     def _vertex_cover(self) -> np.ndarray:
@@ -253,13 +333,35 @@ class PackingProblem:
         )
 
 
+#: The fields a restriction may leave `Deferred`.
+_DEFERRED = ("incidence", "cliques")
+
+
 def with_meta(problem: PackingProblem, **meta: Any) -> PackingProblem:
     """``problem`` with entries added to its meta (structure caches kept: no presolve is redone)."""
-    return _with_structure(replace(problem, meta={**problem.meta, **meta}), **_structure_of(problem))
+    return _with_structure(_raw_replace(problem, meta={**problem.meta, **meta}), **_structure_of(problem))
 
 
 #: Cached values of a problem that depend on its items and incidence only, not on its weights.
-_STRUCTURE = ("_conflict_sets", "_vertex_cover", "item_shape_counts", "item_active_counts", "conflict_bits")
+_STRUCTURE = (
+    "_conflict_sets",
+    "_vertex_cover",
+    "_incidence_rows",
+    "item_shape_counts",
+    "item_active_counts",
+    "conflict_bits",
+)
+
+
+def _raw_replace(problem: PackingProblem, **changes: Any) -> PackingProblem:
+    """``problem`` with some fields changed and the others as they are: deferred ones are not computed
+    (`dataclasses.replace` would read, and so compute, every field). No cached value is carried."""
+    slots = {f.name: f"_{f.name}_value" if f.name in _DEFERRED else f.name for f in fields(PackingProblem)}
+    changed = object.__new__(PackingProblem)
+    changed.__dict__.update({slot: problem.__dict__[slot] for slot in slots.values()})
+    for name, value in changes.items():
+        object.__setattr__(changed, name, value)
+    return changed
 
 
 def _with_structure(problem: PackingProblem, **cached: Any) -> PackingProblem:
@@ -307,29 +409,35 @@ def _item_index(keep: Iterable[int], n_items: int) -> np.ndarray:
     return index
 
 
-def _split_rows(matrix: sp.csr_matrix, kept: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
-    """The rows of a CSR bool matrix where ``kept`` is True (canonical flag kept), and the columns of the
-    True entries of the other rows. The kept rows are copied a run of consecutive rows at a time."""
+def _select_rows(matrix: sp.csr_matrix, rows: np.ndarray) -> sp.csr_matrix:
+    """The rows ``rows`` (ascending) of a CSR bool matrix, canonical flag kept. The rows are copied a run
+    of consecutive rows at a time."""
     indptr, indices, data = matrix.indptr, matrix.indices, matrix.data
-    dropped = (~kept).nonzero()[0]
-    starts, stops = indptr[dropped].tolist(), indptr[dropped + 1].tolist()
-    kept_runs = list(zip([0, *stops], [*starts, indices.size], strict=True))
-    selected_indptr = np.zeros(kept.size - dropped.size + 1, dtype=indptr.dtype)
-    (indptr[1:] - indptr[:-1])[kept].cumsum(out=selected_indptr[1:])
+    breaks = (np.flatnonzero(np.diff(rows) != 1) + 1).tolist()
+    bounds = zip([0, *breaks], [*breaks, rows.size], strict=True)
+    spans = [(int(indptr[rows[a]]), int(indptr[rows[b - 1] + 1])) for a, b in bounds if b > a]
+    selected_indptr = np.zeros(rows.size + 1, dtype=indptr.dtype)
+    (indptr[rows + 1] - indptr[rows]).cumsum(out=selected_indptr[1:])
     selected = sp.csr_matrix(
         (
-            np.concatenate([data[a:b] for a, b in kept_runs]),
-            np.concatenate([indices[a:b] for a, b in kept_runs]),
+            np.concatenate([data[a:b] for a, b in spans] or [data[:0]]),
+            np.concatenate([indices[a:b] for a, b in spans] or [indices[:0]]),
             selected_indptr,
         ),
-        shape=(selected_indptr.size - 1, matrix.shape[1]),
+        shape=(rows.size, matrix.shape[1]),
     )
     if matrix.has_canonical_format:
         selected.has_canonical_format = True
-    dropped_runs = list(zip(starts, stops, strict=True))
-    return selected, _active_vertices(
-        np.concatenate([indices[a:b] for a, b in dropped_runs] or [indices[:0]]),
-        np.concatenate([data[a:b] for a, b in dropped_runs] or [data[:0]]),
+    return selected
+
+
+def _row_vertices(matrix: sp.csr_matrix, rows: np.ndarray) -> np.ndarray:
+    """Column indices of the True entries of the rows ``rows`` of a CSR bool matrix."""
+    indptr, indices, data = matrix.indptr, matrix.indices, matrix.data
+    spans = list(zip(indptr[rows].tolist(), indptr[rows + 1].tolist(), strict=True))
+    return _active_vertices(
+        np.concatenate([indices[a:b] for a, b in spans] or [indices[:0]]),
+        np.concatenate([data[a:b] for a, b in spans] or [data[:0]]),
     )
 
 

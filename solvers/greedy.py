@@ -41,13 +41,7 @@ def _scores(problem: PackingProblem, counts: np.ndarray) -> np.ndarray:
     weights = problem.weights if problem.tie_break is None else problem.weights - problem.tie_break
     per_shape = weights / counts
     lambda_max = max(1.0, float(per_shape.max(initial=0.0)))
-    return (lambda_max - per_shape) * _active_counts(problem)
-
-
-def _active_counts(problem: PackingProblem) -> np.ndarray:
-    incidence = problem.incidence
-    exact_rows = incidence.has_canonical_format and incidence.data.all()  # no duplicates, no stored zeros
-    return np.diff(incidence.indptr) if exact_rows else problem.item_active_counts
+    return (lambda_max - per_shape) * problem.item_active_counts
 
 
 def greedy_order(problem: PackingProblem, counts: np.ndarray | None = None) -> np.ndarray:
@@ -59,7 +53,7 @@ def greedy_order(problem: PackingProblem, counts: np.ndarray | None = None) -> n
     """
     counts = problem.item_shape_counts if counts is None else counts
     tie_break = np.zeros(problem.n_items) if problem.tie_break is None else problem.tie_break
-    keys = (np.arange(problem.n_items), -tie_break, _active_counts(problem), _scores(problem, counts))
+    keys = (np.arange(problem.n_items), -tie_break, problem.item_active_counts, _scores(problem, counts))
     return np.lexsort(keys)
 
 

@@ -19,8 +19,12 @@ from __future__ import annotations
 import functools
 import subprocess
 import sys
+import time
+import tracemalloc
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -29,6 +33,7 @@ import packing
 import rigs
 import solvers
 from tests.benchmarks.timing import best_time
+from tests.packing.test_packing_lazy_restriction import numpy_greedy_sequence
 
 #: Seconds (and megabytes) of the issue, per preset.
 TARGETS = {
@@ -164,3 +169,87 @@ def test_bench_film_scale(benchmark, speed_target, tmp_path, preset):
             speed_target(f"{name} of {preset} [s]", figures[name], limit)
     if peak is not None:
         speed_target(f"peak memory of {preset} [MB]", peak, TARGETS[preset]["peak_mb"])
+
+
+#: Film scale at twice the shapes (N = 20k, K = 2,000), for the analysis transient and the greedy sequence.
+FILM_2000 = replace(
+    rigs.PRESETS["film"],
+    name="film-2000",
+    n_shapes=2000,
+    description="The film preset with 2,000 shapes.",
+)
+#: Largest transient of the analysis (its traced peak above what it started with) per byte of the rig's
+#: deltas, and largest CPU time of the greedy sequence per CPU time of a greedy over the whole problem.
+TRANSIENT_SHARE = 0.3
+GREEDY_RATIO = 1.2
+
+
+def best_cpu_time(function: Callable[[], Any], repeats: int) -> tuple[float, Any]:
+    """Like `best_time`, in CPU seconds of this process (a loaded machine then slows both sides of a
+    ratio alike)."""
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.process_time()
+        result = function()
+        times.append(time.process_time() - start)
+    return min(times), result
+
+
+@functools.cache
+def _analysed(preset: str | rigs.PresetSpec) -> tuple[rigs.Rig, packing.Analysis]:
+    rig, target = _rig(preset)
+    return rig, packing.analyse(rig, target)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", ["film", FILM_2000], ids=["film", "film-2000"])
+def test_bench_film_analysis_transient(benchmark, speed_target, preset):
+    """The analysis holds no (K, N) float array: its traced peak above its start stays below
+    `TRANSIENT_SHARE` of the deltas (their K N 3 floats), the step that peaks named."""
+    if benchmark.disabled:
+        pytest.skip("the film-scale measurements run only with --benchmark-enable")
+    rig, target = _rig(preset)
+    packing.analyse(rig, target)  # (modules and caches loaded before tracing)
+    tracemalloc.start()
+    try:
+        start = tracemalloc.get_traced_memory()[0]
+        analysis = benchmark.pedantic(packing.analyse, args=(rig, target), rounds=1, iterations=1)
+        peak = tracemalloc.get_traced_memory()[1] - start
+    finally:
+        tracemalloc.stop()
+    share = peak / rig.deltas.nbytes
+    benchmark.extra_info.update(
+        preset=rig.meta.get("preset", str(preset)),
+        n_shapes=rig.n_shapes,
+        transient_mb=round(peak / 2**20),
+        deltas_mb=round(rig.deltas.nbytes / 2**20),
+        share=round(share, 3),
+        seconds={step: round(value, 4) for step, value in analysis.timings.items()},
+    )
+    speed_target(f"analysis transient of {rig.n_shapes} shapes [x deltas]", share, TRANSIENT_SHARE)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", ["film", FILM_2000], ids=["film", "film-2000"])
+def test_bench_film_greedy_against_numpy_greedy(benchmark, speed_target, preset):
+    """The greedy sequence (Algorithm 1 over lazily restricted problems) against a greedy over the whole
+    problem that only masks the used items, timed in the same run (CPU seconds, best of `REPEATS`)."""
+    if benchmark.disabled:
+        pytest.skip("the film-scale timings run only with --benchmark-enable")
+    rig, analysis = _analysed(preset)
+    greedy = solvers.get("greedy")
+    sequence_time, expressions = best_cpu_time(
+        lambda: packing.sequence(rig, greedy, analysis=analysis), REPEATS
+    )
+    reference_time, reference = best_cpu_time(lambda: numpy_greedy_sequence(analysis), REPEATS)
+    assert [sorted(e.shapes) for e in expressions] == [sorted(shapes) for shapes in reference]
+    benchmark.pedantic(packing.sequence, args=(rig, greedy), kwargs={"analysis": analysis}, rounds=1)
+    ratio = sequence_time / reference_time
+    benchmark.extra_info.update(
+        n_shapes=rig.n_shapes,
+        expressions=len(expressions),
+        sequence_cpu=round(sequence_time, 4),
+        numpy_greedy_cpu=round(reference_time, 4),
+        ratio=round(ratio, 3),
+    )
+    speed_target(f"greedy sequence of {rig.n_shapes} shapes [x numpy greedy]", ratio, GREEDY_RATIO)

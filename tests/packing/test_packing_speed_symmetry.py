@@ -1,16 +1,28 @@
 """The fast shape-symmetry search (spatial-hash bounds, probing only the candidate pairs) against an
-exhaustive evaluation of eqs. 9-10 over every pair of shapes, on random face rigs and generated presets."""
+exhaustive evaluation of eqs. 9-10 over every pair of shapes, straight from the dense (K, N) definition, on
+random face rigs, generated presets, a rig of the film layout and the Face Units rig."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import packing._symmetry as symmetry
+import packing._shape_symmetry as symmetry
+import packing._symmetry_candidates as candidates
+import packing._symmetry_field as symmetry_field
 import rigs
-from packing._binary import displacement_norms, empty_mask, lengths_matrix, masks_from_norms, sparse_masks
+from packing._binary import (
+    displacement_norms,
+    empty_mask,
+    entries,
+    lengths_matrix,
+    masks_from_norms,
+    sparse_masks,
+)
 
 
 def exhaustive_shape_symmetry(deltas, norms, masks, mirror, normal, eligible, tol, max_overlap, axis):
@@ -34,7 +46,7 @@ def exhaustive_shape_symmetry(deltas, norms, masks, mirror, normal, eligible, to
     threshold = tol * np.minimum(largest[:, None], largest[None, :])
     passing = np.triu(score < threshold, k=1) & candidates[:, None] & candidates[None, :]
     first, second = np.nonzero(passing)
-    matched = symmetry._match(first, second, score[first, second])
+    matched = symmetry.match_pairs(first, second, score[first, second])
     if not matched:
         return [], self_symmetric, []
     share = symmetry._off_axis_overlap(sparse_masks(masks), np.array([pair[:2] for pair in matched]), axis)
@@ -106,11 +118,14 @@ def test_fast_search_equals_the_exhaustive_one_on_random_faces(kit, seed, n_bump
     assert_same(fast, reference, float(norms.max()))
 
 
-@pytest.mark.parametrize("preset", ["tiny", "arkit52", "male"])
-def test_fast_search_equals_the_exhaustive_one_on_presets(preset):
-    rig = rigs.generate(preset)
+#: The film layout (the Female face with many shapes) at a size the exhaustive reference can afford.
+FILM_LAYOUT = replace(rigs.PRESETS["film"], name="film-small", n_vertices=2000, n_shapes=160)
+
+
+def assert_equals_the_exhaustive_search(rig: rigs.Rig) -> None:
     norms, masks, mirror, normal, eligible, axis = inputs(rig)
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 0.15, axis)
+    assert reference[0]  # (a rig without pairs would prove little)
     for lengths in (norms, lengths_matrix(norms, sparse_masks(masks))):  # dense or active-only lengths
         fast = symmetry.shape_symmetry(
             rig.deltas, lengths, sparse_masks(masks), mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral
@@ -118,19 +133,47 @@ def test_fast_search_equals_the_exhaustive_one_on_presets(preset):
         assert_same(fast, reference, float(norms.max()))
 
 
+@pytest.mark.parametrize("preset", ["tiny", "arkit52", "male", FILM_LAYOUT])
+def test_fast_search_equals_the_exhaustive_one_on_presets(preset):
+    assert_equals_the_exhaustive_search(rigs.generate(preset))
+
+
+def test_fast_search_equals_the_exhaustive_one_on_face_units(faceunits):
+    assert_equals_the_exhaustive_search(faceunits)
+
+
 def test_chunked_and_coarsened_search_finds_the_same_pairs(monkeypatch):
-    """Tiny chunks and a grid coarsened to fit a tiny budget visit every branch of the search."""
+    """Tiny chunks, lookup tables of a few shapes and a grid coarsened to fit a tiny budget visit every
+    branch of the search."""
     rig = rigs.generate("female")
     norms, masks, mirror, normal, eligible, axis = inputs(rig)
     arguments = (rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral)
     default = symmetry.shape_symmetry(*arguments)
-    monkeypatch.setattr(symmetry, "_PROBE_CHUNK", 1000)
-    monkeypatch.setattr(symmetry, "_COMBO_CHUNK", 500)
-    monkeypatch.setattr(symmetry, "MAX_CELL_SUMS", 5 * rig.n_shapes)
+    monkeypatch.setattr(symmetry, "PROBE_CHUNK", 1000)
+    monkeypatch.setattr(candidates, "COMBO_CHUNK", 500)
+    monkeypatch.setattr(candidates, "MAX_CELL_SUMS", 5 * rig.n_shapes)
+    monkeypatch.setattr(symmetry_field, "TABLE_CELLS", 3 * rig.n_vertices)
     chunked = symmetry.shape_symmetry(*arguments)
     assert [pair[:2] for pair in chunked[0]] == [pair[:2] for pair in default[0]]
     assert [pair[2] for pair in chunked[0]] == [pair[2] for pair in default[0]]  # the same sums, bit for bit
     assert np.array_equal(chunked[1], default[1]) and chunked[2] == default[2]
+
+
+def test_image_entries_find_every_mirrored_active_entry():
+    """The lookup of ``(m, mirror(n))`` among the active entries equals a dense (K, N) table's answer."""
+    rig = rigs.generate("arkit52")
+    norms, masks, mirror, normal, _, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    slot = np.full(masks.shape, -1)
+    slot[rows, cols] = np.arange(rows.size)
+    rng = np.random.default_rng(0)
+    shapes = np.sort(rng.integers(0, rig.n_shapes, 5000))
+    vertices = rng.integers(0, rig.n_vertices, shapes.size)
+    expected = np.where(mirror[vertices] >= 0, slot[shapes, mirror[vertices]], -1)
+    assert (expected >= 0).any() and (expected < 0).any()
+    assert np.array_equal(field.image_entries(shapes, vertices, mirror), expected)
 
 
 def test_candidate_bounds_keep_every_pair_below_the_threshold():
@@ -138,14 +181,15 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     rig = rigs.generate("digidouble")
     norms, masks, mirror, normal, eligible, axis = inputs(rig)
     active = sparse_masks(masks)
-    rows, cols = symmetry.entries(active)
-    field = symmetry._Field.of(rig.deltas, norms, active, rows, cols, normal)
+    rows, cols = entries(active)
+    field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
     largest = norms.max(axis=1)
-    threshold = 0.4 * np.minimum(largest[:, None], largest[None, :])
-    mirrored = symmetry._mirrored_entries(active, rows, cols, mirror)
-    cells = symmetry._cells(rig.neutral, active, rows, cols, eligible)
-    first, second = symmetry._candidate_pairs(field, rows, cols, mirrored, eligible, threshold, cells)
+    mirrored = symmetry_field.mirrored_entries(active, rows, cols, mirror)
+    cells = candidates.vertex_cells(rig.neutral, active, cols, eligible)
+    image = candidates.image_cell_sums(field, mirrored, eligible, cells)
+    first, second = candidates.candidate_pairs(field, rows, cols, image, eligible, largest, 0.4, cells)
     kept = set(zip(first.tolist(), second.tolist(), strict=True))
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
+    assert all((b, a) in kept for a, b in kept)  # both directions of eq. 10
     assert len(kept) < 0.2 * rig.n_shapes**2  # and it does rule out most pairs

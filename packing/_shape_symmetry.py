@@ -1,0 +1,277 @@
+"""Shape symmetry: mirror pairs and self-symmetric shapes (Carrigan et al. 2020, eqs. 9-10, sec. 4.4.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing._binary import largest_lengths, sparse_masks
+from packing._symmetry_candidates import candidate_pairs, image_cell_sums, vertex_cells
+from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
+
+
+def reflection_normal(neutral: np.ndarray, mirror: np.ndarray) -> np.ndarray | None:
+    """Unit normal of the symmetry plane implied by a mirror map (principal direction of the chords).
+
+    None when no vertex is matched to a different vertex.
+    """
+    source = np.flatnonzero(mirror >= 0)
+    chords = neutral[source] - neutral[mirror[source]]
+    chords = chords[np.einsum("ij,ij->i", chords, chords) > 0]
+    if chords.shape[0] == 0:
+        return None
+    _, _, directions = np.linalg.svd(chords, full_matrices=False)
+    return directions[0]
+
+
+def axis_distances(neutral: np.ndarray, mirror: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """(N,) distance of each vertex from the symmetry plane: normal ``normal`` through the median of the
+    midpoints between matched vertices and their mirrors."""
+    source = np.flatnonzero(mirror >= 0)
+    heights = neutral @ normal
+    offset = np.median(0.5 * (heights[source] + heights[mirror[source]])) if source.size else 0.0
+    return np.abs(heights - offset)
+
+
+def shape_symmetry(
+    deltas: np.ndarray,
+    norms: np.ndarray | sp.spmatrix,
+    masks: np.ndarray,
+    mirror: np.ndarray,
+    normal: np.ndarray,
+    eligible: np.ndarray,
+    tol: float = 0.4,
+    max_overlap: float = 0.15,
+    axis_distance: np.ndarray | None = None,
+    neutral: np.ndarray | None = None,
+) -> tuple[list[tuple[int, int, float]], np.ndarray, list[tuple[int, int, float]]]:
+    """Mirror pairs and self-symmetric shapes (Carrigan et al. 2020, eqs. 9-10 and the overlap check).
+
+    With ``P_m^n = R dv_m^{mirror(n)}`` the reflected displacement and ``p(b_m)^n = b_m^{mirror(n)}``
+    the mirrored binary mask,
+
+        eps_km = sum_n |b_k^n dv_k^n - p(b_m)^n P_m^n| / sum_n (b_k^n & p(b_m)^n)    (eq. 9)
+
+    (the paper writes ``b_m^n p(dv_m^n)``; the mask has to be mirrored with the displacement). A shape
+    is self-symmetric when ``eps_kk`` passes eq. 10; such shapes are excluded. Two shapes are a pair
+    when both ``eps_km`` and ``eps_mk`` are below ``tol * min(max_n |dv_k^n|, max_n |dv_m^n|)``
+    (eq. 10); the pairs with the lowest error ``max(eps_km, eps_mk)`` are taken first and each shape
+    joins at most one pair. Each pair so taken is then checked for overlapping active vertices
+    (sec. 4.4.1, "we take the pair with the lowest error and check for possible overlapping ... We allow
+    small overlap between symmetric pairs ... at the axis of symmetry"). The overlap that counts is the
+    one away from the axis: shared active vertices farther from the symmetry plane than `AXIS_BAND` times
+    the farthest active vertex of the pair. A pair whose off-axis overlap exceeds ``max_overlap`` of the
+    smaller shape's active vertices spreads over both facial halves (jawLeft/jawRight, mouthLeft/mouthRight:
+    mirror images moving the same vertices in opposite directions, whose sum nearly cancels) and is *not*
+    combined; both shapes stay unpaired. On generated and Face Units rigs, pairs meeting at the axis have
+    an off-axis overlap of at most 0.06 and shapes spread over both halves at least 0.32.
+
+    Parameters
+    ----------
+    deltas : (K, N, 3) array
+    norms : (K, N) array or sparse matrix
+        Displacement lengths (at least of the active entries, see `packing._binary.lengths_matrix`).
+    masks : (K, N) bool array or sparse matrix
+        Binary blendshapes (eq. 2).
+    mirror : (N,) int array
+        Mirror vertex of each vertex, -1 for none (`rigs.mirror_map`).
+    normal : (3,) array
+        Unit normal of the symmetry plane.
+    eligible : (K,) bool array
+        Shapes that may be paired (non-empty ones).
+    tol : float
+        Factor of eq. 10 (paper: 0.4).
+    max_overlap : float in [0, 1]
+        Largest share of the smaller shape's active vertices that the two shapes of a pair may share away
+        from the symmetry axis.
+    axis_distance : (N,) array, optional
+        Distance of each vertex from the symmetry plane; without it every shared vertex counts.
+    neutral : (N, 3) array, optional
+        Vertex positions, for the spatial hash that finds the candidate pairs; without them vertices are
+        hashed by index (the result is the same, only the search is slower on meshes whose vertex order
+        is not spatially coherent).
+
+    Returns
+    -------
+    pairs : list of (k, m, error)
+        Accepted pairs, ``k < m``, by increasing error.
+    self_symmetric : (K,) bool array
+    overlapping : list of (k, m, share)
+        Lowest-error matches refused by the overlap check, with their shared share of active vertices.
+
+    Notes
+    -----
+    Splitting ``|a - p| = |a| + |p| + (|a - p| - |a| - |p|)`` makes the numerator a per-shape sum plus
+    a correction over the vertices where both masks are set. Candidate pairs come from a spatial hash of
+    the vertices (`packing._symmetry_candidates.candidate_pairs`): per cell, the summed displacement of
+    each shape and of each mirrored shape bound every numerator from below by the triangle inequality, and
+    the active counts bound every denominator from above, so the pairs that cannot pass eq. 10 are ruled
+    out from per-cell sums without reading a vertex twice. Displacement vectors are then read only for the
+    vertices of the few pairs left (`_pair_sums`), never for all K^2 N combinations; the errors of the
+    pairs kept are exactly those of eq. 9. Pairs whose mirrored masks do not intersect have an infinite
+    error. No (K, N) array is made: O(nnz + C K + P) time and O(nnz + K^2 + `TABLE_CELLS`) memory for the
+    nnz active entries, C cells and the P active vertices of the candidate pairs (`TABLE_CELLS` of
+    `packing._symmetry_field`).
+    """
+    active = sparse_masks(masks)
+    n_shapes = active.shape[0]
+    rows, cols = compact_entries(active)
+    largest = largest_lengths(norms)
+    field = SymmetryField.of(deltas, norms, active, rows, cols, normal)
+    own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
+    mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
+    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|
+    self_error = _self_errors(field, rows, cols, mirror, eligible, own + image_own)
+    self_symmetric = eligible & (self_error < tol * largest)
+
+    # Pairs among the rest: only those that per-cell bounds cannot rule out are evaluated exactly.
+    candidates = eligible & ~self_symmetric
+    cells = vertex_cells(neutral, active, cols, candidates)
+    image = image_cell_sums(field, mirrored, candidates, cells)
+    del mirrored  # (nnz,) arrays no longer needed once summed per cell
+    first, second = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
+    overlap, summed = _pair_sums(field, cols, mirror, first, second)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(overlap > 0, (own[first] + image_own[second] + summed) / overlap, np.inf)
+    first, second, score = _mutual_scores(first, second, error, n_shapes)
+    passing = score < tol * np.minimum(largest[first], largest[second])
+    matched = match_pairs(first[passing], second[passing], score[passing])
+    if not matched:
+        return [], self_symmetric, []
+    share = _off_axis_overlap(active, np.array([pair[:2] for pair in matched]), axis_distance)
+    kept = share <= max_overlap
+    pairs = [pair for pair, keep in zip(matched, kept, strict=True) if keep]
+    overlapping = [
+        (a, b, float(f)) for (a, b, _), f, keep in zip(matched, share, kept, strict=True) if not keep
+    ]
+    return pairs, self_symmetric, overlapping
+
+
+def _mutual_scores(
+    first: np.ndarray, second: np.ndarray, error: np.ndarray, n_shapes: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs ``k < m`` of a symmetric set of ordered pairs with their score ``max(eps_km, eps_mk)``.
+
+    ``(first, second)`` are row-major and hold ``(m, k)`` for each ``(k, m)``, with ``error`` the eq. 9
+    error of each.
+    """
+    key = first * n_shapes + second
+    transposed = np.searchsorted(key, second * n_shapes + first)
+    upper = first < second
+    score = np.maximum(error[upper], error[transposed[upper]])
+    return first[upper], second[upper], score
+
+
+#: Shared active vertices closer to the symmetry plane than this share of a pair's farthest active vertex
+#: are the overlap "at the axis of symmetry" that sec. 4.4.1 allows.
+AXIS_BAND = 0.25
+
+
+def _off_axis_overlap(
+    active: sp.csr_matrix, pairs: np.ndarray, axis_distance: np.ndarray | None
+) -> np.ndarray:
+    """Per pair (k, m): shared active vertices outside the axis band, over the smaller shape's active count.
+
+    O(sum of the pairs' active vertices): one sparse row product per pair.
+    """
+    k, m = pairs[:, 0], pairs[:, 1]
+    shared = active[k].multiply(active[m]).tocsr()
+    if axis_distance is not None:
+        union = (active[k] + active[m]).tocsr()
+        reach = sp.csr_matrix((axis_distance[union.indices], union.indices, union.indptr), shape=union.shape)
+        band = AXIS_BAND * reach.max(axis=1).toarray().ravel()
+        rows = np.repeat(np.arange(shared.shape[0]), np.diff(shared.indptr))
+        off_axis = axis_distance[shared.indices] > band[rows]
+        counts = np.bincount(rows[off_axis], minlength=shared.shape[0])
+    else:
+        counts = np.diff(shared.indptr)
+    n_active = np.diff(active.indptr)
+    return counts / np.maximum(np.minimum(n_active[k], n_active[m]), 1)
+
+
+def _self_errors(
+    field: SymmetryField,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    eligible: np.ndarray,
+    outside: np.ndarray,
+) -> np.ndarray:
+    """(K,) ``eps_kk`` of eq. 9 (infinite where ``b_k & p(b_k)`` is empty), over the active (k, n) whose
+    mirror vertex is active in k too; ``outside`` is ``own_k + mirrored_k``. Corrections are summed for the
+    ``eligible`` shapes only (the others are never self-symmetric). The entries are probed a run of whole
+    shapes at a time (about `PROBE_CHUNK` entries), so each shape's sum is that of one run."""
+    n_shapes = outside.size
+    indptr = field.active.indptr
+    diagonal = np.zeros(n_shapes, dtype=np.int64)  # |b_k & p(b_k)|
+    corrections = np.zeros(n_shapes)
+    marks = np.searchsorted(indptr, np.arange(PROBE_CHUNK, rows.size, PROBE_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
+        start, stop = int(indptr[first_shape]), int(indptr[stop_shape])
+        run_rows = rows[start:stop]
+        image_entry = field.image_entries(run_rows, cols[start:stop], mirror)
+        found = image_entry >= 0
+        diagonal += np.bincount(run_rows[found], minlength=n_shapes)
+        both = np.flatnonzero(found & eligible[run_rows])
+        correction = field.correction(both + start, image_entry[both])
+        corrections += np.bincount(run_rows[both], weights=correction, minlength=n_shapes)
+    total = outside + corrections
+    return np.divide(total, diagonal, out=np.full(n_shapes, np.inf), where=diagonal > 0)
+
+
+#: Active vertices probed at once by `_pair_sums` (bounds its temporary arrays).
+PROBE_CHUNK = 1 << 18
+
+
+def _pair_sums(
+    field: SymmetryField,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    first: np.ndarray,
+    second: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """For the pairs (k, m): ``|b_k & p(b_m)|`` and the summed correction over those vertices (eq. 9).
+
+    Every active vertex n of k is probed for ``b_m^{mirror(n)}``, in chunks of about `PROBE_CHUNK`, the
+    pairs taken by m (`SymmetryField.image_entries` reads the entries of one run of shapes at a time).
+    Each pair's sum runs over its vertices in ascending order, however the pairs are chunked.
+    """
+    indptr = field.active.indptr
+    by_image = np.lexsort((first, second))
+    first, second = first[by_image], second[by_image]
+    counts = indptr[first + 1] - indptr[first]
+    overlap = np.zeros(first.size)
+    summed = np.zeros(first.size)
+    marks = np.searchsorted(np.cumsum(counts), np.arange(PROBE_CHUNK, counts.sum(), PROBE_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [first.size]])).tolist()
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        block = counts[start:stop]
+        owner = np.repeat(np.arange(block.size), block)
+        entry = np.repeat(indptr[first[start:stop]], block) + (
+            np.arange(owner.size) - np.repeat(np.cumsum(block) - block, block)
+        )
+        image_entry = field.image_entries(np.repeat(second[start:stop], block), cols[entry], mirror)
+        shared = image_entry >= 0
+        owner, entry, image_entry = owner[shared], entry[shared], image_entry[shared]
+        overlap[start:stop] = np.bincount(owner, minlength=block.size)
+        summed[start:stop] = np.bincount(
+            owner, weights=field.correction(entry, image_entry), minlength=block.size
+        )
+    original = np.empty_like(by_image)
+    original[by_image] = np.arange(by_image.size)
+    return overlap[original], summed[original]
+
+
+def match_pairs(first: np.ndarray, second: np.ndarray, score: np.ndarray) -> list[tuple[int, int, float]]:
+    """Greedy matching by increasing score (ties by indices): each shape joins at most one pair."""
+    order = np.lexsort((second, first, score))
+    taken: set[int] = set()
+    pairs = []
+    for index in order:  # loops over candidate pairs (a few per shape), not vertices
+        a, b = int(first[index]), int(second[index])
+        if a in taken or b in taken:
+            continue
+        taken.update((a, b))
+        pairs.append((a, b, float(score[index])))
+    return pairs

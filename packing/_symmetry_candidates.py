@@ -1,0 +1,211 @@
+"""Candidate mirror pairs by spatial hashing (Carrigan et al. 2020, eqs. 9-10, sec. 4.4.1): per-cell sums of
+the displacements rule out the pairs that cannot pass eq. 10 before any vertex is compared."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing._symmetry_field import SymmetryField
+from rigs import bounding_box
+
+#: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
+CELLS_PER_SHAPE = 4
+#: Largest number of (cell, shape) sums the spatial hash keeps (`vertex_cells` coarsens the grid to stay
+#: below).
+MAX_CELL_SUMS = 2_000_000
+#: (cell, shape, shape) combinations `candidate_pairs` visits at once (bounds its temporary arrays).
+COMBO_CHUNK = 1 << 18
+#: Relative slack of the bounds in `candidate_pairs`, far above their rounding error: a pair is ruled out
+#: only when its bound clears the threshold by this much.
+BOUND_SLACK = 1e-9
+
+
+def vertex_cells(
+    neutral: np.ndarray | None,
+    active: sp.csr_matrix,
+    cols: np.ndarray,
+    candidates: np.ndarray,
+) -> np.ndarray:
+    """(N,) cell of each vertex: a grid over the neutral whose side is the median extent of the candidate
+    shapes' active vertices over `CELLS_PER_SHAPE`; without a neutral, runs of consecutive vertices."""
+    n_shapes, n_vertices = active.shape
+    most = max(1, min(n_vertices, MAX_CELL_SUMS // max(n_shapes, 1)))
+    counts = np.diff(active.indptr)
+    shapes = np.flatnonzero(candidates & (counts > 0))
+    if neutral is None or shapes.size == 0:
+        return np.arange(n_vertices) * most // n_vertices
+    low, high = np.empty((shapes.size, 3)), np.empty((shapes.size, 3))
+    for axis in range(3):  # one coordinate of the active entries at a time
+        coordinate = np.take(neutral[:, axis], cols)
+        low[:, axis] = np.minimum.reduceat(coordinate, active.indptr[shapes])
+        high[:, axis] = np.maximum.reduceat(coordinate, active.indptr[shapes])
+    side = float(np.median(np.linalg.norm(high - low, axis=1))) / CELLS_PER_SHAPE
+    origin, top = bounding_box(neutral)
+    span = float(np.linalg.norm(top - origin))
+    side = max(side, span * 1e-6, np.finfo(float).tiny)
+    while True:
+        grid = np.floor((neutral - origin) / side).astype(np.int64)
+        width = bounding_box(grid)[1] + 1
+        _, cell = np.unique((grid[:, 0] * width[1] + grid[:, 1]) * width[2] + grid[:, 2], return_inverse=True)
+        if cell.max() < most:
+            return cell
+        side *= 1.5
+
+
+def image_cell_sums(
+    field: SymmetryField,
+    mirrored: tuple[np.ndarray, np.ndarray, np.ndarray],
+    candidates: np.ndarray,
+    cell: np.ndarray,
+) -> CellSums:
+    """The summed reflected displacements ``P_mc`` and active counts ``p_mc`` of the mirrored shapes per
+    (cell, shape), and each shape's count of mirrored entries ``|p(b_m)|``: all that `candidate_pairs`
+    reads of the mirrored entries (`packing._symmetry_field.mirrored_entries`), so that these can be let
+    go before its (K, K) sums are made."""
+    mirrored_rows, mirrored_cols, source = mirrored
+    sums, counts, present = _cell_sums(
+        mirrored_rows, mirrored_cols, cell, field.moved, candidates, int(cell.max()) + 1, source
+    )
+    n_image = np.bincount(mirrored_rows, minlength=candidates.size)
+    return CellSums(sums @ field.reflection, counts, present, n_image)  # R is linear: sum of reflections
+
+
+@dataclass(frozen=True)
+class CellSums:
+    """Summed vectors and counts of some shapes' entries per (cell, shape) present (`_cell_sums`), and
+    each shape's total count of entries."""
+
+    sums: np.ndarray
+    counts: np.ndarray
+    present: np.ndarray
+    totals: np.ndarray
+
+
+def candidate_pairs(
+    field: SymmetryField,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    image: CellSums,
+    candidates: np.ndarray,
+    largest: np.ndarray,
+    tol: float,
+    cell: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ordered pairs (k, m), row-major, that may pass eq. 10 in both directions; a superset of those that do.
+
+    With ``x_n = b_k^n dv_k^n - p(b_m)^n P_m^n`` the numerator of eq. 9 is ``sum_n |x_n|``, and for any
+    partition of the vertices into cells c it is at least ``sum_c |sum_{n in c} x_n| = sum_c |A_kc - P_mc|``
+    (triangle inequality), where ``A_kc`` and ``P_mc`` are the summed displacements of shape k and of the
+    mirrored shape m in cell c. Its denominator ``|b_k & p(b_m)|`` is at most ``U_km = sum_c min(a_kc,
+    p_mc)`` over the active counts per cell. Every active length of shape k is at least its smallest,
+    ``l_k``, which gives a second bound ``((|b_k| - U) l_k + (|p(b_m)| - U) l_m) / U``. A pair is kept when
+    both bounds are below the threshold ``tol * min(largest_k, largest_m)`` of eq. 10. Only the (cell, k,
+    m) where both shapes are present are visited: ``sum_c |A_kc - P_mc| = sum_c |A_kc| + sum_c |P_mc| +
+    sum over those of (|A - P| - |A| - |P|)``.
+
+    Parameters
+    ----------
+    field : SymmetryField
+    rows, cols : (nnz,) int arrays
+        The active entries.
+    image : CellSums
+        The mirrored shapes' sums (`image_cell_sums`).
+    candidates : (K,) bool array
+        Shapes that may be paired.
+    largest : (K,) array
+        ``max_n |dv_k^n|`` of each shape.
+    tol : float
+        Factor of eq. 10.
+    cell : (N,) int array
+        Cell of each vertex (`vertex_cells`).
+
+    Notes
+    -----
+    The bounds are summed into two (K, K) arrays (a float and an int32 one) in runs of about `COMBO_CHUNK`
+    combinations: O(K^2 + C) memory and O(combinations) time for the C present (cell, shape).
+    """
+    n_shapes = candidates.size
+    n_cells = int(cell.max()) + 1
+    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field.moved, candidates, n_cells)
+    image_sums, image_counts, image_present = image.sums, image.counts, image.present
+    shape_norms = np.linalg.norm(shape_sums, axis=1)
+    image_norms = np.linalg.norm(image_sums, axis=1)
+    shape_total = np.bincount(shape_present % n_shapes, weights=shape_norms, minlength=n_shapes)
+    image_total = np.bincount(image_present % n_shapes, weights=image_norms, minlength=n_shapes)
+
+    # Every (cell, k, m) with k present in the cell and m's mirror image present in it, a run of cells at a
+    # time (about `COMBO_CHUNK` of them), added into the (K, K) gap and shared-count bounds.
+    per_cell_a = np.bincount(shape_present // n_shapes, minlength=n_cells)
+    per_cell_p = np.bincount(image_present // n_shapes, minlength=n_cells)
+    first_a, first_p = np.cumsum(per_cell_a) - per_cell_a, np.cumsum(per_cell_p) - per_cell_p
+    combos = per_cell_a * per_cell_p
+    gaps = np.zeros(n_shapes * n_shapes)
+    shared = np.zeros(n_shapes * n_shapes, dtype=np.int32)
+    marks = np.searchsorted(np.cumsum(combos), np.arange(COMBO_CHUNK, combos.sum(), COMBO_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [n_cells]])).tolist()
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        run = combos[start:stop]
+        cell_of = np.repeat(np.arange(start, stop), run)
+        local = np.arange(int(run.sum())) - np.repeat(np.cumsum(run) - run, run)
+        a = first_a[cell_of] + local // per_cell_p[cell_of]
+        p = first_p[cell_of] + local % per_cell_p[cell_of]
+        pair = (shape_present[a] % n_shapes) * n_shapes + image_present[p] % n_shapes
+        difference = np.take(shape_sums, a, axis=0) - np.take(image_sums, p, axis=0)
+        gap = np.sqrt(np.einsum("ij,ij->i", difference, difference)) - shape_norms[a] - image_norms[p]
+        np.add.at(gaps, pair, gap)
+        np.add.at(shared, pair, np.minimum(shape_counts[a], image_counts[p]))
+
+    # The bounds of the pairs present in some cell together, a block of shapes k at a time.
+    smallest = np.zeros(n_shapes)
+    starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
+    starts = starts[starts < rows.size]
+    smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
+    n_active = np.bincount(rows, minlength=n_shapes)
+    n_image = image.totals
+    kept = []
+    per_block = max(1, COMBO_CHUNK // n_shapes) * n_shapes
+    for low in range(0, shared.size, per_block):
+        present = low + np.flatnonzero(shared[low : low + per_block])
+        k, m = present // n_shapes, present % n_shapes
+        count = shared[present].astype(np.float64)
+        numerator = shape_total[k] + image_total[m] + gaps[present]
+        outside = (n_active[k] - count) * smallest[k] + (n_image[m] - count) * smallest[m]
+        limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
+        scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
+        kept.append(present[(numerator < limit + scale) & (outside < limit + scale) & (k != m)])
+    both = np.concatenate(kept)
+    both = both[np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)]
+    return both // n_shapes, both % n_shapes
+
+
+def _cell_sums(
+    rows: np.ndarray,
+    cols: np.ndarray,
+    cell: np.ndarray,
+    vectors: np.ndarray,
+    selected: np.ndarray,
+    n_cells: int,
+    source: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Summed vectors and counts of the entries of the ``selected`` shapes per (cell, shape).
+
+    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the vector ``vectors[source[i]]``
+    (``vectors[i]`` without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
+    ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order. Every entry is
+    summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
+    """
+    n_shapes = selected.size
+    key = np.take(cell, cols).astype(np.int32 if n_cells * n_shapes < np.iinfo(np.int32).max else np.int64)
+    key *= n_shapes
+    key += rows
+    counts = np.bincount(key, minlength=n_cells * n_shapes)
+    present = np.flatnonzero(counts)
+    present = present[selected[present % n_shapes]]
+    sums = np.empty((present.size, 3))
+    for axis in range(3):
+        column = vectors[:, axis] if source is None else np.take(vectors[:, axis], source)
+        sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
+    return sums, counts[present], present

@@ -1,0 +1,174 @@
+"""The active displacements of a rig as eq. 9 reads them (Carrigan et al. 2020, sec. 4.4.1), and where each
+active entry ``(k, n)`` is among them, without a K x N table."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from packing._binary import active_lengths
+
+#: Cells of the (shapes, N) lookup table `SymmetryField.image_entries` fills at once (bounds its memory).
+TABLE_CELLS = 1 << 21
+#: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
+ENTRY_CHUNK = 1 << 18
+
+
+@dataclass(frozen=True)
+class SymmetryField:
+    """The active displacements, compact, with the sparsity of the binary blendshapes (eq. 2).
+
+    Attributes
+    ----------
+    active : (K, N) CSR bool matrix with sorted indices
+        The binary blendshapes; the active entries are numbered in its (row-major) storage order.
+    moved, reflected : (nnz, 3) arrays
+        Displacements ``dv_k^n`` of the active entries and their reflections ``R dv_k^n``.
+    lengths : (nnz,) array
+        Their lengths.
+    reflection : (3, 3) array
+        ``R``, the reflection through the symmetry plane.
+    table : (S N,) int array
+        All zero between calls of `image_entries`, which fills it for S shapes at a time (S N at most
+        `TABLE_CELLS`); made once, so its pages are touched once.
+    """
+
+    active: sp.csr_matrix
+    moved: np.ndarray
+    reflected: np.ndarray
+    lengths: np.ndarray
+    reflection: np.ndarray
+    table: np.ndarray
+
+    @classmethod
+    def of(
+        cls,
+        deltas: np.ndarray,
+        norms: np.ndarray | sp.spmatrix,
+        active: sp.csr_matrix,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        normal: np.ndarray,
+    ) -> SymmetryField:
+        """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
+        unit normal ``normal``."""
+        n_vertices = active.shape[1]
+        moved = np.take(deltas.reshape(-1, 3), rows.astype(np.int64) * n_vertices + cols, axis=0)
+        reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
+        lengths = active_lengths(norms, active)
+        n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
+        table = np.zeros(n_table, dtype=index_type(active))
+        return cls(active, moved, moved @ reflection, lengths, reflection, table)
+
+    def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
+        """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
+        (positions among the active entries)."""
+        difference = np.take(self.moved, entry, axis=0)  # (``take`` gathers rows twice as fast as indexing)
+        difference -= np.take(self.reflected, image_entry, axis=0)
+        distance = np.einsum("ij,ij->i", difference, difference)
+        np.sqrt(distance, out=distance)
+        distance -= np.take(self.lengths, entry)
+        distance -= np.take(self.lengths, image_entry)
+        return distance
+
+    def image_entries(self, shapes: np.ndarray, vertices: np.ndarray, mirror: np.ndarray) -> np.ndarray:
+        """Position of the active entry ``(m, mirror(n))`` for each shape m and vertex n; -1 where the
+        vertex has no mirror or ``b_m^{mirror(n)}`` is not set.
+
+        ``shapes`` must be non-decreasing. The entries of a run of shapes are written into `table`, read
+        for the queries of those shapes, and erased again, so the work is O(queries + active entries of
+        the queried shapes) and the memory O(`TABLE_CELLS`).
+        """
+        indptr, indices = self.active.indptr, self.active.indices
+        n_vertices = self.active.shape[1]
+        image = np.take(mirror, vertices)
+        found = np.full(shapes.size, -1, dtype=np.int64)
+        if shapes.size == 0:
+            return found
+        queried = shapes[np.concatenate([[True], shapes[1:] != shapes[:-1]])]  # (non-decreasing)
+        table = self.table
+        per_table = table.size // n_vertices
+        for start in range(0, queried.size, per_table):
+            block = queried[start : start + per_table]
+            counts = indptr[block + 1] - indptr[block]
+            entry = np.repeat(indptr[block] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+            written = np.repeat(np.arange(block.size) * n_vertices, counts) + indices[entry]
+            table[written] = entry + 1
+            low, high = np.searchsorted(shapes, [block[0], block[-1] + 1])
+            local = np.searchsorted(block, shapes[low:high]) * n_vertices
+            images = image[low:high]
+            hit = np.take(table, local + images, mode="clip") - 1
+            hit[images < 0] = -1  # (those read a wrong cell)
+            found[low:high] = hit
+            table[written] = 0
+        return found
+
+
+def index_type(active: sp.csr_matrix) -> type[np.signedinteger]:
+    """The smallest integer type (int32 or int64) that holds every shape, vertex and entry index."""
+    largest = max(active.shape[0], active.shape[1], active.indices.size)
+    return np.int32 if largest < np.iinfo(np.int32).max else np.int64
+
+
+def compact_entries(active: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column index of every active entry, row-major, in `index_type` (the columns are the
+    matrix's own index array when it has that type)."""
+    kind = index_type(active)
+    rows = np.repeat(np.arange(active.shape[0], dtype=kind), np.diff(active.indptr))
+    return rows, active.indices.astype(kind, copy=False)
+
+
+def mirrored_entries(
+    active: sp.csr_matrix, rows: np.ndarray, cols: np.ndarray, mirror: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The entries ``(m, n)`` of the mirrored masks, ``p(b_m)^n = b_m^{mirror(n)}``.
+
+    Grouped by shape m; within a shape by descending image vertex ``mirror(n)``, then ascending n (a
+    fixed order, that of the sparse-product formulation this replaces, so the sums over them and with
+    them the errors of eq. 9 are bit for bit those of earlier releases). Made a run of whole shapes at a
+    time (about `ENTRY_CHUNK` entries), so the temporaries stay small beside the result.
+
+    Returns
+    -------
+    rows, cols : int arrays
+        ``m`` and ``n`` of every entry.
+    source : int array
+        Position of the active entry ``(m, mirror(n))`` among the active entries.
+    """
+    n_shapes, n_vertices = active.shape
+    indptr = active.indptr.astype(np.int64)
+    vertices = np.flatnonzero(mirror >= 0)
+    preimages = vertices[np.argsort(mirror[vertices], kind="stable")]  # by image, then ascending
+    n_preimages = np.bincount(mirror[vertices], minlength=n_vertices)
+    first_preimage = np.cumsum(n_preimages) - n_preimages
+    total = int(n_preimages[cols].sum())
+    kind = index_type(active)
+    mirrored_rows, mirrored_cols, source = (np.empty(total, dtype=kind) for _ in range(3))
+    written = 0
+    marks = np.searchsorted(indptr, np.arange(ENTRY_CHUNK, rows.size, ENTRY_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
+        start, stop = indptr[first_shape], indptr[stop_shape]
+        run = rows[start:stop]
+        backwards = indptr[run] + indptr[run + 1] - 1 - np.arange(start, stop)  # each shape reversed
+        images = cols[backwards]
+        counts = n_preimages[images]
+        size = int(counts.sum())
+        offsets = np.arange(size) - np.repeat(np.cumsum(counts) - counts, counts)
+        block = slice(written, written + size)
+        source[block] = np.repeat(backwards, counts)
+        mirrored_rows[block] = rows[source[block]]
+        mirrored_cols[block] = preimages[np.repeat(first_preimage[images], counts) + offsets]
+        written += size
+    return mirrored_rows, mirrored_cols, source
+
+
+def row_sums(rows: np.ndarray, values: np.ndarray, n_rows: int) -> np.ndarray:
+    """(n_rows,) sums of ``values`` grouped by ascending ``rows`` (``np.add.reduceat``, as scipy sums)."""
+    sums = np.zeros(n_rows)
+    if rows.size:
+        starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+        sums[rows[starts]] = np.add.reduceat(values, starts)
+    return sums
