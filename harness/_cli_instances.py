@@ -118,13 +118,9 @@ def export(
                     "max_per_expression": cap},
             jmax=jmax, seed=seed,
         )  # fmt: skip
-    except (ValueError, FileNotFoundError, NotADirectoryError, PermissionError) as error:
+    except (HarnessError, FileNotFoundError, NotADirectoryError, PermissionError) as error:
         lines = [line for line in str(error).strip().splitlines() if line.strip()]
         raise UserError(lines[0] if lines else type(error).__name__) from None
-    except RuntimeError as error:  # an installed solver that cannot run here (its availability says why)
-        if type(error).__name__ != "SolverUnavailableError":
-            raise
-        raise UserError(str(error).strip().splitlines()[0]) from None
     from rich.markup import escape
 
     document, files, warnings = written

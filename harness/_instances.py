@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 from harness._instances_source import Sequence
 from harness._outdir import ChangedFileWarning, claim
+from registry import HarnessError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -198,7 +199,7 @@ def recorded_sequence(
 
     Raises
     ------
-    RuntimeError
+    registry.HarnessError
         When the solver reports an error in some expression (naming it).
     packing.CheckError
         When the sequence fails the independent check.
@@ -218,7 +219,7 @@ def recorded_sequence(
     )
     failed = next((e for e in expressions if e.termination is packing.Termination.ERROR), None)
     if failed is not None:
-        raise RuntimeError(f"reference solver {solver.name} failed in expression {failed.index}")
+        raise HarnessError(f"reference solver {solver.name} failed in expression {failed.index}")
     packing.check(
         rig,
         expressions,

@@ -66,7 +66,7 @@ def reference(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, A
     ------
     packing.CheckError
         When the reference sequence fails the independent check.
-    RuntimeError
+    registry.HarnessError
         When the reference solver reports an error.
     """
     key = (
