@@ -15,6 +15,8 @@ import re
 import time
 from typing import TYPE_CHECKING, Any
 
+from registry import HarnessError
+
 if TYPE_CHECKING:
     from packing import PackingProblem, Solution
     from solvers import Availability, Capabilities, LoadedSolver
@@ -23,8 +25,9 @@ if TYPE_CHECKING:
 _LOADED: dict[str, LoadedSolver] = {}
 
 
-class SolverFailure(ValueError):
-    """A solver failed on an expression of the packing (one line: solver, expression, reason)."""
+class SolverFailure(HarnessError):
+    """A solver failed on an expression of the packing (one line: solver, expression, reason): the
+    packing the user asked for cannot be made with that solver."""
 
 
 def load_in_worker(label: str) -> tuple[str, Capabilities]:
