@@ -247,14 +247,10 @@ def _non_utf8_name(place: Place) -> tuple[list[object], str]:
     return pack(rig, place), "jaw"
 
 
-@case(
-    "obj/mtllib-outside",
-    gap="an mtllib path leaving the rig's folder is kept in the session OBJs without a note",
-    safe=lambda place: not any((place.folder / "out").rglob("passwd*")),
-)
+@case("obj/mtllib-outside", noted=True, safe=lambda place: not any((place.folder / "out").rglob("passwd*")))
 def _mtllib_outside(place: Place) -> tuple[list[object], str]:
     rig = edit_neutral(place, lambda text: "mtllib ../../../../../../../etc/passwd\n" + text)
-    return pack(rig, place), "neutral.obj"
+    return pack(rig, place), "neutral.obj:1: material library '../../../../../../../etc/passwd' lies outside"
 
 
 @case("obj/preset-misspelled")
