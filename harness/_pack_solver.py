@@ -26,8 +26,7 @@ _LOADED: dict[str, LoadedSolver] = {}
 
 
 class SolverFailure(HarnessError):
-    """A solver failed on an expression of the packing (one line: solver, expression, reason): the
-    packing the user asked for cannot be made with that solver."""
+    """A solver failed on an expression of the packing (one line: solver, expression, reason)."""
 
 
 def load_in_worker(label: str) -> tuple[str, Capabilities]:
