@@ -84,6 +84,13 @@ def constraint_params(
     import packing
 
     given = packing.read_constraints(constraints) if constraints is not None else {}
+    both = {frozenset(pair) for pair in given.get("together", ())} & {
+        frozenset(pair) for pair in given.get("apart", ())
+    }
+    if both:
+        raise HarnessError(
+            f"{constraints}: {','.join(sorted(min(both, key=sorted)))} is both a together and an apart pair"
+        )
     pairs = {}
     for kind, texts in (("together", together), ("apart", apart)):
         parsed = []

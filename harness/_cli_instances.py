@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
-from harness._cli_types import DURATION, terminal
+from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
 from registry import HarnessError
 
 #: Options that set the packing of a rig argument; a run directory has them in its run.json.
@@ -54,14 +54,14 @@ def instances() -> None:
     "kept; only files harness wrote are ever replaced or removed).",
 )
 @click.option(
-    "--mu", type=click.FloatRange(0, 1, min_open=True), default=0.3, show_default=True,
+    "--mu", type=FiniteFloatRange(0, 1, min_open=True), default=0.3, show_default=True,
     help="Binary blendshape threshold, eq. 2.",
 )  # fmt: skip
 @click.option(
-    "--alpha", type=click.FloatRange(0, 1), default=0.5, show_default=True, help="Importance mix, eq. 4."
+    "--alpha", type=FiniteFloatRange(0, 1), default=0.5, show_default=True, help="Importance mix, eq. 4."
 )
 @click.option(
-    "--beta", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Uniqueness weight, eq. 4."
+    "--beta", type=FiniteFloatRange(min=0), default=0.0, show_default=True, help="Uniqueness weight, eq. 4."
 )
 @click.option(
     "--symmetry/--no-symmetry",
@@ -88,7 +88,7 @@ def instances() -> None:
     "instances.solu. With a run directory it replaces the run's. [default: none, or the run's]",
 )
 @click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    "--seed", type=SOLVER_SEED, default=0, show_default=True,
     help="Solver seed (and generator seed for a preset rig).",
 )  # fmt: skip
 @click.pass_context

@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from harness._cli_constraints import constraint_options, constraint_params
-from harness._cli_types import DURATION, terminal
+from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
 from harness._pack import EXPRESSIONS_FILE, parse_rejections
 from harness._pack import pack as pack_rig
 from harness._pack_constraints import parse_exclusions
@@ -64,12 +64,12 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
 )
 @click.option(
     "--mu",
-    type=click.FloatRange(0, 1, min_open=True),
+    type=FiniteFloatRange(0, 1, min_open=True),
     default=0.3,
     help="Binary blendshape threshold, eq. 2.",
 )
-@click.option("--alpha", type=click.FloatRange(0, 1), default=0.5, help="Importance mix, eq. 4.")
-@click.option("--beta", type=click.FloatRange(min=0), default=0.0, help="Uniqueness weight, eq. 4.")
+@click.option("--alpha", type=FiniteFloatRange(0, 1), default=0.5, help="Importance mix, eq. 4.")
+@click.option("--beta", type=FiniteFloatRange(min=0), default=0.0, help="Uniqueness weight, eq. 4.")
 @click.option("--symmetry/--no-symmetry", default=True, help="Force symmetry pairs together (sec. 4.4).")
 @click.option(
     "--importance/--no-importance", default=True, help="Importance weights (eq. 4); off = every weight 1."
@@ -91,7 +91,7 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
     "[default: none]",
 )
 @click.option(
-    "--seed", type=click.IntRange(min=0), default=0, help="Solver seed (and generator seed for a preset rig)."
+    "--seed", type=SOLVER_SEED, default=0, help="Solver seed (and generator seed for a preset rig)."
 )
 @click.option("--refine", is_flag=True, help="Accept or reject each proposed shape at a prompt (sec. 4.5.3).")
 @click.option("--reject", help="Rejections without prompts: EXPR:NAME,... (1-based expression numbers).")

@@ -155,12 +155,23 @@ def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
 @click.argument("source")
 @click.argument("destination", type=click.Path(path_type=Path))
 def convert(source: str, destination: Path) -> None:
-    """Read the rig SOURCE (any format rigs reads) and write it as DESTINATION (format by extension)."""
+    """Read the rig SOURCE (any format rigs reads) and write it as DESTINATION (format by extension), a
+    path that does not exist yet or an empty folder (a file or folder already there is never overwritten)."""
     import rigs as rigs_package
 
+    _check_new_destination(destination)
     rig = resolve_rig(source)
     rigs_package.save(rig, destination)
     terminal().print(f"wrote {destination}: {_one_line(rig)}")
+
+
+def _check_new_destination(destination: Path) -> None:
+    """Refuse a destination that holds something already: writing the rig there would overwrite files
+    harness did not write (the source itself, when converting a rig onto its own path)."""
+    if destination.is_symlink() or (destination.exists() and not destination.is_dir()):
+        raise HarnessError(f"{destination}: exists already; choose a new path for the converted rig")
+    if destination.is_dir() and any(destination.iterdir()):
+        raise HarnessError(f"{destination}: a folder that is not empty; choose a new or empty folder")
 
 
 @rigs.command("list")

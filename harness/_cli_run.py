@@ -27,6 +27,7 @@ from harness._cli_types import (
     PLUGINS,
     POSITIVE_INTS,
     SEEDS,
+    SOLVER_SEED,
     SWITCH,
     CommaList,
     Command,
@@ -198,7 +199,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--solver-seed",
-    type=click.IntRange(min=0),
+    type=SOLVER_SEED,
     help="Solver seed of repetition 0; repetition r uses this + r. [default: 0]",
 )
 @click.option(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Generic, TypeVar
 
@@ -15,6 +16,11 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 NONE_WORDS = ("none", "off", "no")
+
+#: Largest solver seed: the solvers take a 32-bit signed seed (CP-SAT, HiGHS, the heuristics' generators).
+SEED_MAX = 2**31 - 1
+#: Most seeds a `SeedList` expands to (each one a grid axis value: thousands of runs already).
+SEEDS_MAX = 10_000
 
 #: A command's callback, as click's option decorators take and return it.
 Command = TypeVar("Command", bound=Callable[..., object])
@@ -76,6 +82,20 @@ def seed_number(text: str) -> int:
     return int(text)
 
 
+class FiniteFloatRange(click.FloatRange):
+    """A `click.FloatRange` that also refuses ``nan`` and ``inf`` (which a range check lets through)."""
+
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        number = float(super().convert(value, param, ctx))
+        if not math.isfinite(number):
+            self.fail(f"expected a finite number, got {value!r}", param, ctx)
+        return number
+
+
+#: A solver seed option's type.
+SOLVER_SEED = click.IntRange(0, SEED_MAX)
+
+
 class SeedList(click.ParamType):
     """``0-4`` or ``0,3,7`` (ranges inclusive, mixed as ``0-2,9``) -> the seeds, in order, without repeats."""
 
@@ -96,6 +116,8 @@ class SeedList(click.ParamType):
                 self.fail(f"{part!r} is not a seed or a range of seeds like 0-4 (in {value!r})", param, ctx)
             if high < low:
                 self.fail(f"{part!r}: a range goes up (in {value!r})", param, ctx)
+            if high - low + len(seeds) >= SEEDS_MAX:
+                self.fail(f"{value!r} makes more than {SEEDS_MAX} seeds", param, ctx)
             seeds += range(low, high + 1)
         return tuple(dict.fromkeys(seeds))
 

@@ -302,8 +302,10 @@ class DaskExecutor:
             ) from error
         try:
             self._client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as error:
-            raise HarnessError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from error
+        except (OSError, TimeoutError, ValueError) as error:  # (ValueError: a malformed address)
+            raise HarnessError(
+                f"--scheduler {scheduler}: cannot reach the Dask scheduler: {error}"
+            ) from error
         self.timeout = timeout
         self._futures: list[Future] = []
 

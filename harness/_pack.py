@@ -64,6 +64,7 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
+from harness import _plugins as plugins
 from harness._durations import format_duration
 from harness._outdir import ChangedFileWarning, OutputFolder, claim
 from harness._pack_constraints import session_constraints
@@ -230,6 +231,7 @@ def pack(
             "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
+    plugins.check_settings([solver_name], [], solver_option="--solver")
     started = monotonic()
     with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
         full_rig = resolve_rig(rig_argument, seed=seed)

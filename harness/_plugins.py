@@ -128,7 +128,10 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
         for expanded in known if name == ALL else [name]:
             if expanded not in names:
                 names.append(expanded)
-    unknown = [name for name in names if split_label(name)[0] not in known]
+    try:
+        unknown = [name for name in names if split_label(name)[0] not in known]
+    except HarnessError as error:
+        raise HarnessError(f"{option} {error}") from None
     if unknown:
         raise HarnessError(
             f"unknown {what} {', '.join(map(repr, unknown))} for {option}; valid: {', '.join(known)} or {ALL}"
@@ -138,24 +141,29 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
     return tuple(names)
 
 
-def check_settings(solver_labels: Iterable[str], transfer_labels: Iterable[str]) -> None:
+def check_settings(
+    solver_labels: Iterable[str], transfer_labels: Iterable[str], *, solver_option: str = "--solvers"
+) -> None:
     """Every label's settings make its plugin (a solver's class or a transfer method), before any cell runs.
 
     Raises
     ------
     ValueError
-        Naming the option, the label and what the plugin said.
+        Naming the option (``solver_option`` for a solver), the label and what the plugin said.
     """
-    import solvers
-
     for label in solver_labels:
-        name, settings = split_label(label)
+        try:
+            name, settings = split_label(label)
+        except HarnessError as error:
+            raise HarnessError(f"{solver_option} {error}") from None
         if not settings:
             continue
+        import solvers
+
         try:
             solvers.solver_class(name)(**dict(settings))
         except (TypeError, ValueError) as error:
-            raise HarnessError(f"--solvers {label}: {error}") from None
+            raise HarnessError(f"{solver_option} {label}: {error}") from None
     for label in transfer_labels:
         if split_label(label)[1]:
             try:

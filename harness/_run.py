@@ -164,15 +164,18 @@ def read_run(out: str | Path) -> dict[str, Any]:
     FileNotFoundError
         When ``out`` holds no run.
     RunDirectoryError
-        When ``run.json`` is not readable JSON.
+        When ``run.json`` is not readable JSON, or not an object with a ``config`` object.
     """
     path = Path(out) / RUN_FILE
     if not path.is_file():
         raise FileNotFoundError(f"{out}: no {RUN_FILE} here, so no harness run to read")
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as error:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as error:
         raise RunDirectoryError(f"{path}: not a readable run file ({error})") from None
+    if not isinstance(info, dict) or not isinstance(info.get("config"), dict):
+        raise RunDirectoryError(f"{path}: not a run file (expected an object with a 'config' object)")
+    return info
 
 
 def validate_config(config: RunConfig) -> RunConfig:

@@ -222,6 +222,8 @@ def _read_manifest(folder: Path) -> dict:
     ):
         if key in manifest and not isinstance(manifest[key], kind):
             raise RigError(f"{path}: '{key}' must be {what}, got {manifest[key]!r:.60}")
+    if "" in manifest.get("regions", {}):
+        raise RigError(f"{path}: a region has an empty name")
     return manifest
 
 
@@ -314,10 +316,9 @@ def _shape_paths(
         if name in paths:
             raise RigError(f"{origin}: duplicate blendshape name {name!r}")
         paths[name] = named_path(folder, f"{name}.obj", str(origin))
+        if not os.path.lexists(paths[name]):  # (at once: a list of a million names stops at the first)
+            raise RigError(f"{paths[name]}: blendshape listed in {MANIFEST} but the file is missing")
     _check_case(list(paths), str(origin))
-    missing = [path for path in paths.values() if not os.path.lexists(path)]
-    if missing:
-        raise RigError(f"{missing[0]}: blendshape listed in {MANIFEST} but the file is missing")
     chosen = {os.path.realpath(path) for path in paths.values()} | {neutral_real}
     unlisted = [path.name for path in entries if os.path.realpath(path) not in chosen]
     if unlisted:

@@ -4,16 +4,17 @@ write the same mesh (texture coordinates, normals, groups, materials) at the pos
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
 from rigs._arrow_lines import vertex_lines
 from rigs._obj import numbered_lines, parse_obj
 from rigs._obj_folder import polygon_lines
-from rigs._rig import Rig, RigError
+from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import UnreadableFile, read_text
 
 
@@ -195,6 +196,8 @@ def parse_surface(text: str, source: str) -> ObjSurface:
         lines.pop()
     rows, tails = [], []
     for index, line in enumerate(lines):
+        if line[:6] == "mtllib":
+            _check_libraries(line, f"{source}:{index + 1}")
         if line[:1] != "v" and not line[:1].isspace():  # (its first word is not "v")
             continue
         parts = line.split(None, 4)
@@ -207,6 +210,21 @@ def parse_surface(text: str, source: str) -> ObjSurface:
     if not rows:
         raise RigError(f"{source}: no vertices ('v' lines)")
     return ObjSurface(tuple(lines), np.asarray(rows, dtype=np.int64), tuple(tails), source)
+
+
+def _check_libraries(line: str, where: str) -> None:
+    """Warn of a material library of the ``mtllib`` ``line`` that lies outside the OBJ's folder (an absolute
+    path or one that climbs out): the files written from the surface keep the reference as written, and an
+    application opening them would read that file."""
+    for name in line.split()[1:]:
+        path = PurePosixPath(name.replace("\\", "/"))
+        if path.is_absolute() or ".." in path.parts or ":" in name:
+            warnings.warn(
+                f"{where}: material library {name!r} lies outside the OBJ's folder; files written from it "
+                "keep the reference as written",
+                RigWarning,
+                stacklevel=4,
+            )
 
 
 def read_surface(path: str | Path, *, root: str | Path | None = None) -> ObjSurface:

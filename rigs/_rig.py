@@ -240,6 +240,8 @@ class Rig:
 
         regions: dict[str, np.ndarray] = {}
         for region_name, indices in dict(self.regions).items():
+            if not str(region_name):
+                raise RigError(f"{source}: a region has an empty name")
             indices = _as_array(indices, f"region {region_name!r}", source)
             if indices.dtype == bool:
                 if indices.shape != (n_vertices,):
