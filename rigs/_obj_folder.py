@@ -309,16 +309,19 @@ def _shape_paths(
         _check_case(list(paths), str(folder))
         return paths
     origin = folder / MANIFEST
-    paths = {}
+    names: dict[str, None] = {}
     for name in listed:
         if not isinstance(name, str) or not name:
             raise RigError(f"{origin}: blendshape names must be non-empty strings, got {name!r:.60}")
-        if name in paths:
+        if name in names:
             raise RigError(f"{origin}: duplicate blendshape name {name!r}")
+        names[name] = None
+    _check_case(list(names), str(origin))
+    paths = {}
+    for name in names:
         paths[name] = named_path(folder, f"{name}.obj", str(origin))
         if not os.path.lexists(paths[name]):  # (at once: a list of a million names stops at the first)
             raise RigError(f"{paths[name]}: blendshape listed in {MANIFEST} but the file is missing")
-    _check_case(list(paths), str(origin))
     chosen = {os.path.realpath(path) for path in paths.values()} | {neutral_real}
     unlisted = [path.name for path in entries if os.path.realpath(path) not in chosen]
     if unlisted:
