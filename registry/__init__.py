@@ -4,11 +4,13 @@ Solvers (``harness.solvers``), transfer methods (``harness.transfers``) and ``ha
 (``harness.commands``) are each a `PluginRegistry`: names from installed metadata without importing a
 plugin, a plugin loaded on first use, a load failure or a missing attribute listed as unavailable with the
 reason, a name registered twice warned about, and an `Availability` for every plugin. Beside them, what
-every package shares: `HarnessError`, the error type of bad input, and the stop signals
-(`handle_stop_signals`). This package imports nothing else of the project, so every package may use it.
+every package shares: `HarnessError`, the error type of bad input, the stop signals
+(`handle_stop_signals`), and the running of a plugin kind's conformance checks (`run_checks`). This package
+imports nothing else of the project, so every package may use it.
 """
 
 from registry._availability import Availability, AvailabilityStatus, package_availability
+from registry._checks import parametrize_checks, run_checks
 from registry._errors import HarnessError
 from registry._registry import (
     PluginInfo,
@@ -39,7 +41,9 @@ __all__ = [
     "handle_stop_signals",
     "missing_attributes",
     "package_availability",
+    "parametrize_checks",
     "raised_without_signal",
+    "run_checks",
     "stop_signal",
     "stop_signals_deferred",
 ]

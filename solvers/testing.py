@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from packing import PackingProblem, Solution, Termination, problem_from_incidence
+from registry import parametrize_checks, run_checks
 from solvers._base import Availability, Capabilities, Result
 from solvers._loaded import LoadedSolver, load
 from solvers._problems import face_like_problem, random_problem
@@ -317,11 +318,7 @@ def parametrize_with_checks(solvers: Iterable[Any]):
         def test_my_solver(solver, check):
             check(solver)
     """
-    import pytest
-
-    cases = [(solver, check) for solver in solvers for check in CHECKS.values()]
-    ids = [f"{load(solver).name}-{name}" for solver in solvers for name in CHECKS]
-    return pytest.mark.parametrize(("solver", "check"), cases, ids=ids)
+    return parametrize_checks(CHECKS, solvers, "solver", lambda solver: load(solver).name)
 
 
 def check_solver(solver: Any, *, seed: int = 0) -> list[str]:
@@ -345,12 +342,7 @@ def check_solver(solver: Any, *, seed: int = 0) -> list[str]:
     RuntimeError
         When the solver reports itself unavailable here (the reason is in the message).
     """
-    for name, check in CHECKS.items():
-        try:
-            check(solver, seed)
-        except AssertionError as error:
-            raise AssertionError(f"check {name!r}: {error}") from None
-    return list(CHECKS)
+    return run_checks(CHECKS, solver, seed)
 
 
 def _fits(problem: PackingProblem, chosen: tuple[int, ...], item: int, overlap: float) -> bool:

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from registry import parametrize_checks, run_checks
 from transfer._base import Transfer
 
 #: Relative tolerance (to the largest template displacement) of the exactness checks: the methods solve
@@ -175,12 +176,7 @@ CHECKS: dict[str, Callable[..., None]] = {
 
 def parametrize_with_checks(methods: Iterable[Transfer]):
     """A ``pytest.mark.parametrize`` over every (method, check) pair, as scikit-learn's."""
-    import pytest
-
-    methods = list(methods)
-    cases = [(method, check) for method in methods for check in CHECKS.values()]
-    ids = [f"{method.name}-{name}" for method in methods for name in CHECKS]
-    return pytest.mark.parametrize(("method", "check"), cases, ids=ids)
+    return parametrize_checks(CHECKS, methods, "method", lambda method: method.name)
 
 
 def check_transfer(method: Transfer, *, seed: int = 0) -> list[str]:
@@ -195,9 +191,4 @@ def check_transfer(method: Transfer, *, seed: int = 0) -> list[str]:
     AssertionError
         On the first failed check, naming it.
     """
-    for name, check in CHECKS.items():
-        try:
-            check(method, seed)
-        except AssertionError as error:
-            raise AssertionError(f"check {name!r}: {error}") from None
-    return list(CHECKS)
+    return run_checks(CHECKS, method, seed)
