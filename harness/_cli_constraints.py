@@ -64,6 +64,9 @@ class ConstraintParams(TypedDict):
     together: tuple[tuple[str, str], ...]
     apart: tuple[tuple[str, str], ...]
     regions: str | None
+    #: The constraints file each of its pairs came from, so that a name the rig lacks is told naming it
+    #: (`harness._pack_constraints.session_constraints` takes it out before packing).
+    constraint_origins: dict[tuple[str, str], str]
 
 
 def constraint_params(
@@ -74,7 +77,7 @@ def constraint_params(
 ) -> ConstraintParams:
     """The packing parameters ``together``, ``apart`` and ``regions`` from the options of
     `constraint_options` (``A,B`` texts and file paths): the file's pairs first, then the options', each
-    pair once.
+    pair once; ``constraint_origins`` maps each pair of the file to its path.
 
     Raises
     ------
@@ -104,6 +107,7 @@ def constraint_params(
         "together": pairs["together"],
         "apart": pairs["apart"],
         "regions": None if regions is None else str(regions),
+        "constraint_origins": {pair: str(constraints) for kind in pairs for pair in given.get(kind, ())},
     }
 
 

@@ -57,15 +57,21 @@ def session_constraints(
 ) -> SessionConstraints:
     """Leave the ``exclude`` shapes out of ``rig`` and add the anatomical rules (with ``default``).
 
+    ``params`` may hold ``constraint_origins`` (`harness._cli_constraints.constraint_params`): the
+    constraints file of each pair read from one, named when the pair names a shape the rig lacks; it is
+    not a packing parameter and is left out of the session's.
+
     Raises
     ------
     ValueError
-        For a shape the rig lacks (with close matches), a left-out shape the artist also constrains, or a
-        session left without shapes.
+        For a shape the rig lacks (with close matches; naming the constraints file of a pair read from one),
+        a left-out shape the artist also constrains, or a session left without shapes.
     """
     import packing
     from packing._face_rules import match_rules, read_rules
 
+    params = dict(params)
+    _check_file_pairs(rig, params, params.pop("constraint_origins", {}))
     for name in exclude:
         rig.index(name)  # RigError names the rig, the shape and close matches
     together, apart = tuple(params.get("together", ())), tuple(params.get("apart", ()))
@@ -97,6 +103,21 @@ def session_constraints(
     return SessionConstraints(
         rig.subset(kept) if excluded else rig, dict(params), excluded, document, _notes(document, excluded)
     )
+
+
+def _check_file_pairs(rig: Rig, params: Mapping[str, Any], origins: Mapping[tuple[str, str], str]) -> None:
+    """Refuse a pair read from a constraints file (``origins``: pair -> file) that names a shape the rig
+    lacks, naming the file (the options' pairs are checked by `packing`, naming the option)."""
+    for kind in ("together", "apart"):
+        for pair in params.get(kind, ()):
+            origin = origins.get(tuple(pair))
+            if origin is None:
+                continue
+            for name in pair:
+                try:
+                    rig.index(name)
+                except ValueError as error:  # RigError names the rig, the shape and close matches
+                    raise HarnessError(f"{origin}: {kind} {','.join(pair)}: {error}") from None
 
 
 def _notes(document: Mapping[str, Any], excluded: Mapping[str, str]) -> list[str]:
