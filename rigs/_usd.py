@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from rigs._rig import Rig, RigError, RigWarning
-from rigs._safe import named_path, regular_file
+from rigs._safe import named_path, read_bytes, regular_file
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
 #: Length units by ``metersPerUnit`` (the stage metadata), and back.
@@ -172,7 +172,8 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
 def _check_layers(Sdf: Any, path: Path, source: str) -> None:
     """Every layer ``path`` composes is a regular file inside its folder (refused before opening it): the
     sublayers, references and payloads of every layer, and its value clips (``UsdUtils`` lists the files a
-    clip template names)."""
+    clip template names). Each layer's bytes are read through `rigs._safe`, so that they are the rig's
+    content (`rigs._inputs`)."""
     from pxr import UsdUtils
 
     folder = path.parent
@@ -182,6 +183,7 @@ def _check_layers(Sdf: Any, path: Path, source: str) -> None:
         if current in seen:
             continue
         seen.add(current)
+        read_bytes(current, root=folder)
         with _readable(str(current)):
             sublayers, references, payloads = UsdUtils.ExtractExternalReferences(str(current))
         origin = f"{source} layer {current.name}"
