@@ -1,18 +1,14 @@
 """Wavefront OBJ text: one mesh's positions, polygons and face groups.
 
-A file is read in one of two ways that give the same mesh. A plain file (ASCII, spaces and line feeds as
-its only whitespace, no line continuation, no indented line, no ``v`` or ``f`` keyword alone or glued to
-a comment) whose ``v`` lines are all ``v x y z`` is read in one go: numpy finds its lines by their first
-two characters and Arrow reads the vertex lines (`rigs._arrow_lines`). Any other file is read line by
-line, which also names the line at fault in an error.
-
-Numbers are read strictly: ASCII decimal notation (sign, digits, point, exponent), ``inf`` or ``nan``
-(refused later as not finite); never ``1_0`` or non-ASCII digits, which Python's ``float`` would take.
+A file is read in blocks of about `BLOCK_BYTES` (cut after a line end, never inside a continued line), each
+in one go with numpy and Arrow when it is plain, else line by line, naming the line at fault
+(`rigs._obj_block`). Only a block's text and what it holds are in memory at once besides the file's bytes
+and what is read from it, so a read takes a small multiple of the file's size, whatever its lines.
 """
 
 from __future__ import annotations
 
-import re
+import hashlib
 from array import array
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -20,27 +16,22 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs._arrow_lines import read_vertex_lines
-from rigs._obj_faces import faces_of_lines, plain_corners
-from rigs._rig import LARGEST_COORDINATE, RigError
-from rigs._safe import UnreadableFile, read_bytes
+from rigs._obj_block import DECIMAL, BlockPart, is_plain, line_block, numbered_lines, plain_block
+from rigs._obj_faces import INDEX_KINDS, Polygons
+from rigs._rig import RigError
+from rigs._safe import UnreadableFile, read_bytes, size_text
 
-_FACE_LINE = re.compile(r"^f[ \t]([^\n]*)", re.MULTILINE)
-#: A coordinate as written by any exporter: ASCII decimal notation, or inf/nan (refused as not finite).
-DECIMAL = re.compile(
-    r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf(?:inity)?|nan)", re.IGNORECASE | re.ASCII
-)
+__all__ = ["DECIMAL", "ObjMesh", "decimal_step", "numbered_lines", "parse_obj", "read_obj"]
+
+#: Bytes of text read as one block.
+BLOCK_BYTES = 2**20
 #: Decimal places `decimal_step` takes for rounding: coordinates with fewer are a design grid (integers,
 #: halves), not rounded; more than 9 is below any noise floor.
 _ROUNDING_DECIMALS = range(3, 10)
 #: Coordinates sampled per file by `decimal_step`.
 _STEP_SAMPLE = 3000
-#: Group names one ``g`` line may give.
-_MAX_GROUPS = 256
-#: Characters that send a file to the line-by-line reader: line continuations, and whitespace other than
-#: spaces and line ends (``str.split`` splits at it, so a keyword could hide behind it).
-_UNPLAIN_CHARACTERS = (b"\\", b"\t", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\x1f")
-_LINE_FEED, _SPACE, _HASH = ord("\n"), ord(" "), ord("#")
+#: Trailing characters looked at to tell whether a line is continued past a block's end.
+_CONTINUATION_LOOK = 4096
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,23 +42,24 @@ class ObjMesh:
     ----------
     vertices : (N, 3) float array
         One row per ``v`` line, in file order (texture and normal seams do not split vertices).
-    faces : tuple of int arrays
+    faces : Polygons
         The polygons as 0-based vertex indices, in file order.
     groups : dict str -> int array
         Face indices of each ``g`` group (a face in several groups is listed in each).
-    face_lines : tuple of str
-        The corners of each ``f`` line as written, for a fast identical-connectivity check.
-    face_section : bytes
-        The file from its first ``f`` line on (UTF-8, line ends normalised; set by a full read of a file
-        whose faces follow all its vertices), so that blendshape files written with the same face section
-        are recognised without splitting it.
+    face_digest : bytes
+        A digest of the corners of the ``f`` lines as written, for a fast identical-connectivity check
+        (empty without ``f`` lines).
+    face_section : bytes or memoryview
+        The file from its first ``f`` line on (set by a full read of a file whose faces follow all its
+        vertices and whose lines end in line feeds), so that blendshape files written with the same face
+        section are recognised without reading it.
     """
 
     vertices: np.ndarray
-    faces: tuple[np.ndarray, ...]
+    faces: Polygons = field(default_factory=Polygons.empty)
     groups: dict[str, np.ndarray] = field(default_factory=dict)
-    face_lines: tuple[str, ...] = ()
-    face_section: bytes = b""
+    face_digest: bytes = b""
+    face_section: bytes | memoryview = b""
 
     def group_vertices(self, name: str) -> np.ndarray:
         """Sorted vertex indices used by the faces of group ``name``."""
@@ -81,10 +73,11 @@ def parse_obj(
     """Read OBJ text: ``v`` positions and ``f`` polygons; everything else is skipped.
 
     Accepted: comments (``#`` to end of line), CRLF or CR line ends, ``\\`` line continuations,
-    ``v x y z [w]`` and ``v x y z r g b`` (only the first three values are read, so a line of millions of
-    values costs no more than its text), scientific notation, face corners
-    ``v``, ``v/vt``, ``v/vt/vn`` and ``v//vn``, negative (relative) indices, and the keywords
-    ``vt vn vp o g s usemtl mtllib l p`` (only ``g`` is recorded).
+    ``v x y z [w]`` and ``v x y z r g b`` (only the first three values are kept), scientific notation, face
+    corners ``v``, ``v/vt``, ``v/vt/vn`` and ``v//vn``, negative (relative) indices, and the keywords
+    ``vt vn vp o g s usemtl mtllib l p`` (only ``g`` is recorded; ``vt`` and ``vn`` lines are counted, and
+    with ``with_faces`` texture coordinates are checked and every index of a corner is checked against its
+    list).
 
     Parameters
     ----------
@@ -93,27 +86,32 @@ def parse_obj(
     source : str
         Name used in error messages (the file path).
     with_faces : bool
-        When False, faces are not decoded (``faces`` is empty) but ``face_lines`` is still kept.
+        When False, faces are not decoded (``faces`` is empty) but ``face_digest`` is still made.
     faces_of : ObjMesh, optional
-        A fully read mesh (the neutral) whose face lines are reused when this file ends with the same
-        face section and has no face line before it (``with_faces=False`` only).
+        A fully read mesh (the neutral) whose face digest is reused when this file ends with its face
+        section and has no face line before it (``with_faces=False`` only).
 
     Raises
     ------
     RigError
-        ``source:line: problem`` for a malformed vertex (a coordinate that is not an ASCII decimal number)
-        or face, an index of 0 or out of range (also past 64 bits), a face with more corners than the
-        mesh has vertices, a non-finite coordinate or one beyond `rigs._rig.LARGEST_COORDINATE`, a ``g``
-        line naming more than 256 groups, or a file without vertices.
+        ``source:line: problem`` for a malformed vertex (other than 3, 4 or 6 values, a coordinate that is
+        not an ASCII decimal number), texture coordinate or face, an index of 0 or outside its list (also
+        past 64 bits), a face with more corners than the mesh has vertices, a non-finite coordinate or one
+        beyond `rigs._rig.LARGEST_COORDINATE`, a ``g`` line naming more than 256 groups, or a file without
+        vertices.
     """
-    data = text.encode("utf-8", errors="surrogatepass") if isinstance(text, str) else text
-    if b"\r" in data:
-        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    if data.isascii():
-        fast = _plain_mesh(data, source, with_faces=with_faces, faces_of=None if with_faces else faces_of)
-        if fast is not None:
-            return fast
-    return _line_by_line(data.decode("utf-8", errors="replace"), source, with_faces=with_faces)
+    data = text.encode("utf-8", errors="surrogatepass") if isinstance(text, str) else bytes(text)
+    tail = faces_of.face_section if faces_of is not None and not with_faces else b""
+    if tail and len(data) > len(tail) and data.endswith(tail):
+        head = data[: len(data) - len(tail)]
+        if head.endswith(b"\n") and not head[-_CONTINUATION_LOOK:-1].rstrip(b" \t\r").endswith(b"\\"):
+            reader = _Reader(source, with_faces=False)
+            reader.read(head)
+            if not reader.face_count:
+                return ObjMesh(reader.vertices(), face_digest=faces_of.face_digest)  # type: ignore[union-attr]
+    reader = _Reader(source, with_faces=with_faces)
+    reader.read(data)
+    return reader.mesh(data)
 
 
 def read_obj(
@@ -136,239 +134,201 @@ def read_obj(
     Raises
     ------
     RigError
-        When the file is missing or cannot be read (not a regular file, outside ``root``), or is malformed.
+        When the file is missing or cannot be read (not a regular file, outside ``root``), is malformed,
+        or is too large to read in the memory available.
     """
     path = Path(path)
     try:
         data = read_bytes(path, root=None if root is None else Path(root))
+        return parse_obj(data, str(path), with_faces=with_faces, faces_of=faces_of)
     except UnreadableFile as error:
         raise RigError(f"{path}: cannot read OBJ file ({error.reason})") from None
-    return parse_obj(data, str(path), with_faces=with_faces, faces_of=faces_of)
+    except MemoryError:
+        raise RigError(
+            f"{path}: too large to read in the memory available ({size_text(path.stat().st_size)})"
+        ) from None
 
 
-# -- the plain file in one go --------------------------------------------------------------------------------
-def _plain_characters(data: bytes) -> bool:
-    """Whether ASCII ``data`` has no line continuation and no whitespace but spaces and line feeds."""
-    return not any(character in data for character in _UNPLAIN_CHARACTERS)
+def _blocks(data: bytes) -> Iterator[bytes]:
+    """``data`` in blocks of about `BLOCK_BYTES`, each cut after a line end (LF, CRLF or CR) that does not
+    continue its line with ``\\``, with CRLF and CR line ends turned into LF."""
+    carriage = b"\r" in data
+    start = 0
+    while start < len(data):
+        stop = _cut(data, start + BLOCK_BYTES, carriage)
+        block = data[start:stop]
+        if carriage:
+            block = block.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        yield block
+        start = stop
 
 
-@dataclass(frozen=True)
-class _Lines:
-    """The lines of plain text: where each starts and stops (past its line feed), and which are ``v``, ``f``
-    and possible ``g`` lines (by their first two characters)."""
-
-    starts: np.ndarray
-    stops: np.ndarray
-    vertex: np.ndarray
-    face: np.ndarray
-    group: np.ndarray
-
-    @classmethod
-    def of(cls, text: bytes) -> _Lines | None:
-        """The lines of ``text`` (plain characters), or None when a line is indented or holds a ``v`` or
-        ``f`` keyword alone or glued to a comment (the line-by-line reader's to judge)."""
-        data = np.frombuffer(text + b"\n\n", dtype=np.uint8)
-        ends = np.flatnonzero(data[: len(text)] == _LINE_FEED)
-        starts = np.concatenate([[0], ends + 1])
-        if starts[-1] == len(text):
-            starts = starts[:-1]
-        stops = np.append(ends + 1, len(text))[: len(starts)]
-        first, second = data[starts], data[starts + 1]
-        keyword = (first == ord("v")) | (first == ord("f"))
-        if (first == _SPACE).any() or (keyword & ((second == _LINE_FEED) | (second == _HASH))).any():
-            return None
-        spaced = second == _SPACE
-        vertex = np.flatnonzero((first == ord("v")) & spaced)
-        face = np.flatnonzero((first == ord("f")) & spaced)
-        return cls(starts, stops, vertex, face, np.flatnonzero(first == ord("g")))
-
-    def text_of(self, text: bytes, rows: np.ndarray) -> bytes:
-        """The lines ``rows`` (ascending) of ``text``, each ending in a line feed, joined."""
-        if not len(rows):
-            return b""
-        breaks = np.flatnonzero(np.diff(rows) != 1) + 1
-        firsts, lasts = rows[np.r_[0, breaks]], rows[np.r_[breaks - 1, len(rows) - 1]]
-        starts, stops = self.starts[firsts].tolist(), self.stops[lasts].tolist()
-        block = b"".join(text[start:stop] for start, stop in zip(starts, stops, strict=True))
-        return block if block.endswith(b"\n") else block + b"\n"
+def _cut(data: bytes, at: int, carriage: bool) -> int:
+    """Where a block ending at or after ``at`` stops: just past a line end whose line is not continued."""
+    while at < len(data):
+        end = data.find(b"\n", at)
+        if carriage:
+            lone = data.find(b"\r", at, len(data) if end < 0 else end)
+            if lone >= 0 and lone != end - 1:  # (a CR line end, not the CR of a CRLF)
+                end = lone
+        if end < 0:
+            break
+        if not data[max(at, end - _CONTINUATION_LOOK) : end].rstrip(b" \t\r").endswith(b"\\"):
+            return end + 1
+        at = end + 1
+    return len(data)
 
 
-def _plain_mesh(text: bytes, source: str, *, with_faces: bool, faces_of: ObjMesh | None) -> ObjMesh | None:
-    """The mesh of a plain file read in one go (the module docstring says which), or None to leave the
-    file, and naming the line at fault, to the line-by-line reader.
+class _Reader:
+    """The mesh of a file's blocks, read in order: positions and polygons gathered block by block, with
+    what is checked once the whole file is known (indices past the end of their list, the largest face)."""
 
-    When the file ends with the face section of ``faces_of`` (the neutral) and has no face line before
-    it, only the text before that section is looked at and the neutral's face lines are the file's.
+    def __init__(self, source: str, *, with_faces: bool) -> None:
+        self.source = source
+        self.with_faces = with_faces
+        self.counts = [0, 0, 0]  # v, vt, vn lines so far
+        self.face_count = 0
+        # (arrays grown in place: a large one is moved by the system's realloc, never held twice)
+        self.coordinates = array("d")
+        self.sizes = array("q")
+        self.corners = array("q")
+        self.digest = hashlib.blake2b(digest_size=32)
+        #: (index, line number) of the largest index written of each kind, and of the largest face.
+        self.furthest: list[tuple[int, int]] = [(0, 0)] * 4
+        self.group_names: list[str] = []
+        self.group_start = 0
+        self.group_runs: list[tuple[int, int, list[str]]] = []
+        self.first_face: tuple[int, int] | None = None  # (byte offset, vertices before it)
 
-    Raises
-    ------
-    RigError
-        For a face or ``g`` line the line-by-line reader would refuse (see `rigs._obj_faces.faces_of_lines`).
-    """
-    tail = faces_of.face_section if faces_of is not None else b""
-    if tail and text.endswith(tail):
-        head = text[: len(text) - len(tail)]  # (the tail is the neutral's, read already)
-        lines = _Lines.of(head) if _plain_characters(head) else None
-        if lines is not None and not len(lines.face):
-            vertices = _plain_vertex_block(lines.text_of(head, lines.vertex))
-            return None if vertices is None else ObjMesh(vertices, (), face_lines=faces_of.face_lines)
-    if not _plain_characters(text):
-        return None
-    lines = _Lines.of(text)
-    if lines is None:
-        return None
-    vertices = _plain_vertex_block(lines.text_of(text, lines.vertex))
-    if vertices is None:
-        return None
-    face_block = lines.text_of(text, lines.face)
-    face_lines = [line[2:] for line in face_block.decode().split("\n")[:-1]]
-    if b"#" in face_block or b"f  " in face_block or b" \n" in face_block:
-        face_lines = [line.split("#", 1)[0].strip() for line in face_lines]
-    groups = _groups(text, lines, source)
-    if not with_faces or not face_lines:
-        return ObjMesh(vertices, (), groups, tuple(face_lines))
-    defined_before = np.searchsorted(lines.vertex, lines.face)
-    corners = plain_corners(face_block)
-    faces = faces_of_lines(face_lines, lines.face + 1, defined_before, len(vertices), source, corners)
-    vertices_first = defined_before[0] == len(vertices)
-    face_section = text[lines.starts[lines.face[0]] :] if vertices_first else b""
-    return ObjMesh(vertices, faces, groups, tuple(face_lines), face_section)
+    def read(self, data: bytes) -> None:
+        """Read every block of ``data``."""
+        line, offset = 1, 0
+        for block in _blocks(data):
+            part = (
+                plain_block(block, line, self.source, with_faces=self.with_faces) if is_plain(block) else None
+            )
+            if part is None:
+                part = _line_block(block, line, self.source, self.with_faces, self.counts[0])
+            self._add(part, block, offset)
+            line += block.count(b"\n")
+            offset += len(block)
 
+    def _add(self, part: BlockPart, block: bytes, offset: int) -> None:
+        if part.first_face >= 0 and self.first_face is None:
+            self.first_face = (offset + part.first_face, self.counts[0] + int(part.defined[0, 0]))
+        if part.corners is not None:
+            self._add_faces(part)
+        self.digest.update(part.face_text)
+        for faces_before, names in part.groups:
+            self._close_group(self.face_count + faces_before)
+            self.group_names = names
+        self.face_count += len(part.face_rows)
+        if len(part.vertices):
+            self.coordinates.frombytes(part.vertices.tobytes())
+        self.counts = [
+            self.counts[0] + len(part.vertices),
+            self.counts[1] + part.textures,
+            self.counts[2] + part.normals,
+        ]
 
-def _spans(lines: _Lines, rows: np.ndarray) -> zip:
-    """(start, stop) of each line of ``rows``."""
-    return zip(lines.starts[rows].tolist(), lines.stops[rows].tolist(), strict=True)
-
-
-def _groups(text: bytes, lines: _Lines, source: str) -> dict[str, np.ndarray]:
-    """The face indices of each ``g`` group (as the line-by-line reader records them)."""
-    rows, names = [], []
-    for row, (start, stop) in zip(lines.group.tolist(), _spans(lines, lines.group), strict=True):
-        words = text[start:stop].decode().split("#", 1)[0].split(None, _MAX_GROUPS + 2)
-        if words[:1] != ["g"]:
-            continue
-        if len(words) > _MAX_GROUPS + 1:
-            raise RigError(f"{source}:{row + 1}: 'g' line names more than {_MAX_GROUPS} groups")
-        rows.append(row)
-        names.append(words[1:] or ["default"])
-    if not rows:
-        return {}
-    owner = np.searchsorted(rows, lines.face, side="right") - 1  # (ascending: faces follow in order)
-    bounds = np.searchsorted(owner, np.arange(len(rows) + 1)).tolist()
-    found: dict[str, list[np.ndarray]] = {}
-    for index, group_names in enumerate(names):
-        if bounds[index] < bounds[index + 1]:
-            members = np.arange(bounds[index], bounds[index + 1], dtype=np.int64)
-            for name in dict.fromkeys(group_names):  # (a name given twice lists each face twice)
-                found.setdefault(name, []).append(np.repeat(members, group_names.count(name)))
-    return {name: np.concatenate(parts) for name, parts in found.items()}
-
-
-def _plain_vertex_block(block: bytes | str) -> np.ndarray | None:
-    """(N, 3) positions of a vertex block of plain ``v x y z`` lines read in one go (`read_vertex_lines`,
-    outside the interpreter lock, so that several files are read at once); None for any other line, no
-    line, or a non-finite or too large coordinate, left to the line-by-line reader, which names the line."""
-    vertices = read_vertex_lines(block) if block else None
-    if vertices is None or not (np.abs(vertices) <= LARGEST_COORDINATE).all():  # (False for NaN)
-        return None
-    return vertices
-
-
-# -- line by line --------------------------------------------------------------------------------------------
-def numbered_lines(text: str) -> Iterator[tuple[int, str]]:
-    """Logical lines with the number of their first physical line; ``\\`` at a line end continues it."""
-    lines = text.split("\n")
-    if "\\" not in text:
-        yield from enumerate(lines, 1)
-        return
-    pending: list[str] = []
-    first = 0
-    for number, line in enumerate(lines, 1):
-        stripped = line.rstrip(" \t")
-        if stripped.endswith("\\"):
-            first = first if pending else number
-            pending.append(stripped[:-1])
-        elif pending:
-            yield first, " ".join([*pending, line])
-            pending = []
-        else:
-            yield number, line
-    if pending:
-        yield first, " ".join(pending)
-
-
-def _line_by_line(text: str, source: str, *, with_faces: bool) -> ObjMesh:
-    """`parse_obj` one logical line at a time (any file; errors name the line)."""
-    coordinates = array("d")
-    vertex_line_numbers = array("q")
-    face_lines: list[str] = []
-    face_line_numbers = array("q")
-    face_vertex_counts = array("q")
-    group_faces: dict[str, list[int]] = {}
-    current_groups: list[str] = []
-    for number, written in numbered_lines(text):
-        line = written.split("#", 1)[0] if "#" in written else written
-        parts = line.split(None, 1)  # (never splits a whole long line: only its keyword off)
-        if not parts:
-            continue
-        keyword = parts[0]
-        if keyword == "v":
-            values = parts[1].split(None, 3)[:3] if len(parts) > 1 else []
-            if len(values) < 3:
-                raise RigError(f"{source}:{number}: vertex needs x y z, got {line.strip()[:80]!r}")
-            wrong = [value for value in values if not DECIMAL.fullmatch(value)]
-            if wrong:
+    def _add_faces(self, part: BlockPart) -> None:
+        """Resolve the block's corners (relative indices against what is defined before each face) and keep
+        its vertex indices; a relative index before the list is refused here, one past the end at the end."""
+        corners = part.corners
+        assert corners is not None
+        largest = int(np.argmax(corners.sizes))
+        if corners.sizes[largest] > self.furthest[3][0]:
+            self.furthest[3] = (int(corners.sizes[largest]), int(part.face_rows[largest]))
+        face_of_corner = np.repeat(np.arange(len(corners.sizes)), corners.sizes)
+        for kind, written in enumerate(corners.indices):
+            before = self.counts[kind] + part.defined[kind][face_of_corner]
+            relative = written < 0
+            if (relative & (written + before < 0)).any():
+                corner = int(np.flatnonzero(relative & (written + before < 0))[0])
+                face = int(face_of_corner[corner])
                 raise RigError(
-                    f"{source}:{number}: vertex has a non-numeric coordinate: {line.strip()[:80]!r} "
-                    f"({wrong[0][:40]!r} is not a number in ASCII decimal notation)"
+                    f"{self.source}:{part.face_rows[face]}: face indexes a {INDEX_KINDS[kind]} outside "
+                    f"1..{before[corner]} (relative to those defined before it): "
+                    f"{part.face_line(face)[:82]!r}"
                 )
-            coordinates.extend([float(value) for value in values])
-            vertex_line_numbers.append(number)
-        elif keyword == "f":
-            for name in current_groups:
-                group_faces.setdefault(name, []).append(len(face_lines))
-            face_lines.append(parts[1].strip() if len(parts) > 1 else "")
-            face_line_numbers.append(number)
-            face_vertex_counts.append(len(vertex_line_numbers))
-        elif keyword == "g":
-            current_groups = line.split(None, _MAX_GROUPS + 1)[1:] or ["default"]
-            if len(current_groups) > _MAX_GROUPS:
-                raise RigError(f"{source}:{number}: 'g' line names more than {_MAX_GROUPS} groups")
+            corner = int(np.argmax(written))
+            if written[corner] > self.furthest[kind][0]:
+                self.furthest[kind] = (int(written[corner]), int(part.face_rows[face_of_corner[corner]]))
+            if kind == 0:
+                resolved = np.where(relative, written + before, written - 1)
+                self.corners.frombytes(resolved.astype(np.int64).tobytes())
+        self.sizes.frombytes(corners.sizes.astype(np.int64).tobytes())
 
-    vertices = _vertices(coordinates, vertex_line_numbers, source)
-    faces: tuple[np.ndarray, ...] = ()
-    if with_faces and face_lines:
-        faces = faces_of_lines(face_lines, face_line_numbers, face_vertex_counts, len(vertices), source)
-    groups = {name: np.asarray(indices, dtype=np.int64) for name, indices in group_faces.items()}
-    vertices_first = bool(face_lines) and face_vertex_counts[0] == len(vertices)
-    first_face = _FACE_LINE.search(text) if with_faces and vertices_first else None
-    return ObjMesh(
-        vertices=vertices,
-        faces=faces,
-        groups=groups,
-        face_lines=tuple(face_lines),
-        face_section=text[first_face.start() :].encode() if first_face else b"",
+    def _close_group(self, face: int) -> None:
+        """The faces up to ``face`` belong to the current groups."""
+        if face > self.group_start and self.group_names:
+            self.group_runs.append((self.group_start, face, self.group_names))
+        self.group_start = face
+
+    def vertices(self) -> np.ndarray:
+        """(N, 3) positions of the file's ``v`` lines."""
+        if not self.counts[0]:
+            raise RigError(f"{self.source}: no vertices ('v' lines)")
+        return np.frombuffer(self.coordinates, dtype=np.float64).reshape(-1, 3)
+
+    def mesh(self, data: bytes) -> ObjMesh:
+        """The mesh read from ``data`` (once every block is read)."""
+        vertices = self.vertices()
+        faces = self._polygons(data)
+        self._close_group(self.face_count)
+        found: dict[str, list[np.ndarray]] = {}
+        for start, stop, names in self.group_runs:
+            for name in dict.fromkeys(names):  # (a name given twice lists each face twice)
+                found.setdefault(name, []).append(np.repeat(np.arange(start, stop), names.count(name)))
+        groups = {name: np.concatenate(parts) for name, parts in found.items()}
+        section: bytes | memoryview = b""
+        if self.first_face is not None and self.first_face[1] == len(vertices) and b"\r" not in data:
+            section = memoryview(data)[self.first_face[0] :]  # (not a copy: the file's own bytes)
+        digest = self.digest.digest() if self.face_count else b""
+        return ObjMesh(vertices, faces, groups, digest, section)
+
+    def _polygons(self, data: bytes) -> Polygons:
+        """The polygons, once every index is known to lie in its list (``data``: the file, for messages)."""
+        if not self.with_faces or not self.face_count:
+            return Polygons.empty()
+        corners, line = self.furthest[3]
+        if corners > self.counts[0]:  # a polygon repeats a vertex (and would be costly)
+            raise RigError(
+                f"{self.source}:{line}: face has {corners} corners, more than the mesh's "
+                f"{self.counts[0]} vertices"
+            )
+        for kind in range(3):
+            index, line = self.furthest[kind]
+            if index > self.counts[kind]:
+                where = f"outside 1..{self.counts[kind]}" if self.counts[kind] else "but the file has none"
+                raise RigError(
+                    f"{self.source}:{line}: face indexes a {INDEX_KINDS[kind]} {where}: "
+                    f"{_line_text(data, line)[:82]!r}"
+                )
+        return Polygons(
+            np.frombuffer(self.sizes, dtype=np.int64), np.frombuffer(self.corners, dtype=np.int64)
+        )
+
+
+def _line_text(data: bytes, number: int) -> str:
+    """The text of physical line ``number`` of ``data`` (line ends normalised), for messages."""
+    for block in _blocks(data):
+        lines = block.split(b"\n")
+        if number <= len(lines) - 1:
+            return lines[number - 1].decode("utf-8", errors="replace").strip()
+        number -= len(lines) - 1
+    return ""
+
+
+def _line_block(block: bytes, line: int, source: str, with_faces: bool, vertices_before: int) -> BlockPart:
+    """`rigs._obj_block.line_block` of a block's bytes (UTF-8, undecodable bytes replaced)."""
+    return line_block(
+        block.decode("utf-8", errors="replace"),
+        line,
+        source,
+        with_faces=with_faces,
+        vertices_before=vertices_before,
     )
-
-
-def _vertices(coordinates: array, line_numbers: array, source: str) -> np.ndarray:
-    if not line_numbers:
-        raise RigError(f"{source}: no vertices ('v' lines)")
-    vertices = np.frombuffer(coordinates, dtype=np.float64).reshape(-1, 3).copy()
-    finite = np.isfinite(vertices).all(axis=1)
-    if not finite.all():
-        i = int(np.flatnonzero(~finite)[0])
-        raise RigError(
-            f"{source}:{line_numbers[i]}: vertex {i} has a non-finite coordinate {vertices[i].tolist()}"
-        )
-    huge = (np.abs(vertices) > LARGEST_COORDINATE).any(axis=1)
-    if huge.any():
-        i = int(np.flatnonzero(huge)[0])
-        raise RigError(
-            f"{source}:{line_numbers[i]}: vertex {i} has a coordinate beyond {LARGEST_COORDINATE:g} "
-            f"{vertices[i].tolist()} (its lengths would overflow)"
-        )
-    return vertices
 
 
 def decimal_step(vertices: np.ndarray) -> float:

@@ -8,6 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rigs._obj_faces import Polygons
+
 
 def triangulate(faces: Sequence[np.ndarray], vertices: np.ndarray) -> np.ndarray:
     """Triangles of polygons, in face order.
@@ -18,7 +20,7 @@ def triangulate(faces: Sequence[np.ndarray], vertices: np.ndarray) -> np.ndarray
 
     Parameters
     ----------
-    faces : sequence of int arrays
+    faces : sequence of int arrays, or Polygons
         Polygons as vertex indices.
     vertices : (N, 3) float array
         Positions used for the convexity tests.
@@ -34,9 +36,10 @@ def triangulate(faces: Sequence[np.ndarray], vertices: np.ndarray) -> np.ndarray
     """
     if len(faces) == 0:
         return np.zeros((0, 3), dtype=np.int64)
-    sizes = np.fromiter((len(face) for face in faces), dtype=np.int64, count=len(faces))
-    flat = np.concatenate(faces).astype(np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    polygons = Polygons.of(faces)
+    if polygons.size == 3:
+        return polygons.corners.astype(np.int64, copy=False).reshape(-1, 3)
+    sizes, flat, starts = polygons.sizes, polygons.corners.astype(np.int64), polygons.starts[:-1]
     pieces: list[np.ndarray] = []
     owners: list[np.ndarray] = []
     for size in np.unique(sizes):
@@ -217,4 +220,6 @@ def _cross2(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def faces_are_triangles(faces: Sequence[np.ndarray]) -> bool:
     """True when every polygon has three corners (the triangles are then the faces)."""
+    if isinstance(faces, Polygons):
+        return bool((faces.sizes == 3).all())
     return all(len(face) == 3 for face in faces)

@@ -117,13 +117,13 @@ def long_line() -> str:
 add(
     "obj/neutral-10MB-vertex-line",
     lambda folder: (obj_folder(folder, neutral=long_line() + VALID), {}),
-    r"neutral\.obj: 17 vertices, but|smile\.obj: 16 vertices, but the neutral neutral\.obj has 17",
+    r"neutral\.obj:1: vertex has more than 6 values",
     heavy=True,
 )
 add(
     "obj/shape-10MB-vertex-line",
     lambda folder: (obj_folder(folder, shapes={"smile": long_line() + VALID}), {}),
-    r"smile\.obj: 17 vertices, but the neutral neutral\.obj has 16",
+    r"smile\.obj:1: vertex has more than 6 values",
     heavy=True,
 )
 add(

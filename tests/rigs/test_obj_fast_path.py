@@ -1,15 +1,15 @@
 """The one fast path of the OBJ reader reads exactly what the line-by-line reader reads, or steps aside.
 
-A plain file whose vertex lines are all ``v x y z`` is read in one go (numpy finds the lines, Arrow reads
-the vertex lines); a blendshape file ending with its neutral's face section reuses the neutral's face lines.
-Whatever a file holds, the result (positions, face lines, faces, groups, or the error raised) must be the
-line-by-line reader's.
+A plain block of lines whose vertex lines are all ``v x y z`` is read in one go (numpy finds the lines,
+Arrow reads the vertex lines); a blendshape file ending with its neutral's face section reuses the neutral's
+face digest. Whatever a file holds, the result (positions, face digest, faces, groups, or the error raised)
+must be the line-by-line reader's.
 """
 
 from __future__ import annotations
 
 import contextlib
-from array import array
+import re
 from unittest import mock
 
 import numpy as np
@@ -18,8 +18,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
-from rigs._obj import _plain_vertex_block, parse_obj
-from rigs._obj_faces import _face_corners, plain_corners
+from rigs._obj import parse_obj
+from rigs._obj_block import plain_vertex_block
+from rigs._obj_faces import INDEX_KINDS, face_corners, plain_corners
 from rigs._obj_surface import parse_surface
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
@@ -38,10 +39,10 @@ NEUTRAL = parse_obj(NEUTRAL_TEXT, "neutral.obj")
 
 def _reading(fast: bool, read, kept):
     """``kept`` of what ``read()`` gives, or the error it raises; with ``fast=False`` the fast path
-    ``rigs._obj._plain_mesh`` steps aside, leaving the line-by-line reader."""
+    ``rigs._obj_block.plain_block`` steps aside, leaving the line-by-line reader."""
     with contextlib.ExitStack() as stack:
         if not fast:
-            stack.enter_context(mock.patch("rigs._obj._plain_mesh", return_value=None))
+            stack.enter_context(mock.patch("rigs._obj.plain_block", return_value=None))
         try:
             found = read()
         except RigError as error:
@@ -50,11 +51,11 @@ def _reading(fast: bool, read, kept):
 
 
 def _read(text: str, *, fast: bool):
-    """Positions and face lines of a blendshape file read against the neutral, or the error raised."""
+    """Positions and face digest of a blendshape file read against the neutral, or the error raised."""
     return _reading(
         fast,
         lambda: parse_obj(text, "shape.obj", with_faces=False, faces_of=NEUTRAL),
-        lambda mesh: (mesh.vertices.tolist(), list(mesh.face_lines)),
+        lambda mesh: (mesh.vertices.tolist(), mesh.face_digest),
     )
 
 
@@ -62,12 +63,12 @@ def _agree(text: str) -> None:
     assert _read(text, fast=True) == _read(text, fast=False)
 
 
-def test_a_shape_file_reads_its_positions_and_reuses_the_neutral_face_lines() -> None:
+def test_a_shape_file_reads_its_positions_and_reuses_the_neutral_face_digest() -> None:
     moved = GRID.copy()
     moved[[2, 9]] += [[0.0, 0.5, 0.25], [1e-3, 0.0, -2.0]]
     mesh = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
     assert np.array_equal(mesh.vertices, moved)
-    assert mesh.face_lines == NEUTRAL.face_lines
+    assert mesh.face_digest == NEUTRAL.face_digest != b""
 
 
 @pytest.mark.parametrize(
@@ -165,7 +166,7 @@ def _full_read(text: str, *, fast: bool):
     def kept(mesh):
         groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
         faces = [face.tolist() for face in mesh.faces]
-        return mesh.vertices.tolist(), faces, groups, mesh.face_lines, mesh.face_section
+        return mesh.vertices.tolist(), faces, groups, mesh.face_digest, mesh.face_section
 
     return _reading(fast, lambda: parse_obj(text, "mesh.obj"), kept)
 
@@ -185,53 +186,83 @@ def test_a_surface_keeps_what_a_vertex_line_holds_after_its_coordinates() -> Non
 
 
 def _corners_line_by_line(lines: list[str]):
-    """Face corners read one line at a time (the reading `_face_corners` must match), or the error."""
-    counts, corners = [], []
+    """Face corners read one token at a time (the reading `face_corners` must match), or the error."""
+    sizes, columns = [], ([], [], [])
     for number, line in enumerate(lines, 1):
         tokens = line.split()
         if len(tokens) < 3:
             return f"faces.obj:{number}: face needs at least 3 corners, got 'f {line[:80]}'"
-        try:
-            values = [int(token.partition("/")[0]) for token in tokens]
-        except ValueError:
-            return f"faces.obj:{number}: face has a malformed vertex index: 'f {line[:80]}'"
-        if any(not -(2**63) <= value < 2**63 for value in values):
-            return f"faces.obj:{number}: face indexes a vertex outside 1..9: 'f {line[:80]}'"
-        counts.append(len(tokens))
-        corners += values
-    return counts, corners
+        for token in tokens:
+            fields = token.split("/")
+            if len(fields) > 3 or fields[1:] == [""]:
+                return f"faces.obj:{number}: face has a malformed corner: 'f {line[:80]}'"
+            for kind, field in enumerate(fields + [""] * (3 - len(fields))):
+                if (field or kind == 0) and not re.fullmatch(r"[+-]?[0-9]+", field):
+                    return (
+                        f"faces.obj:{number}: face has a malformed {INDEX_KINDS[kind]} index: 'f {line[:80]}'"
+                    )
+                value = int(field) if field else 0
+                far = (field and value == 0) or abs(value) > 2**62
+                columns[kind].append(-(2**62) if far and value < 0 else 2**62 if far else value)
+        sizes.append(len(tokens))
+    return sizes, *columns
+
+
+def _found(read):
+    try:
+        corners = read()
+    except RigError as error:
+        return str(error)
+    return corners.sizes.tolist(), *(column.tolist() for column in corners.indices)
 
 
 _CORNERS = st.sampled_from(
-    ["1", "2", "-1", "12", "3/4", "3/4/5", "1//2", "/5", "x", "+3", "9" * 20, "-" + "9" * 19]
+    [
+        "1",
+        "2",
+        "-1",
+        "12",
+        "0",
+        "3/4",
+        "3/4/5",
+        "1//2",
+        "/5",
+        "1/",
+        "1/2/3/4",
+        "x",
+        "+3",
+        "9" * 20,
+        "-" + "9" * 19,
+    ]
 )
+_FACE_LINES = st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6)
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6))
+@given(_FACE_LINES)
 def test_face_corners_read_as_line_by_line(lines) -> None:
-    try:
-        counts, corners = _face_corners(lines, array("q", range(1, len(lines) + 1)), 9, "faces.obj")
-        found = (counts.tolist(), corners.tolist())
-    except RigError as error:
-        found = str(error)
-    assert found == _corners_line_by_line(lines)
+    assert _found(
+        lambda: face_corners(lines, range(1, len(lines) + 1), "faces.obj")
+    ) == _corners_line_by_line(lines)
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.lists(_CORNERS, min_size=1, max_size=5).map(" ".join), min_size=1, max_size=6))
+@given(_FACE_LINES)
 def test_face_corners_read_with_numpy_are_those_read_line_by_line_or_left_to_them(lines) -> None:
-    block = "".join(f"f {line}\n" for line in lines).encode()
-    fast = plain_corners(block)
+    fast = plain_corners("".join(f"f {line}\n" for line in lines).encode())
     if fast is None:
         return
-    counts, corners = _face_corners(lines, array("q", range(1, len(lines) + 1)), 9, "faces.obj")
-    assert fast[0].tolist() == counts.tolist() and fast[1].tolist() == corners.tolist()
+    assert _found(lambda: fast) == _corners_line_by_line(lines)
 
 
 def test_plain_face_corners_are_read_with_numpy() -> None:
-    counts, corners = plain_corners(b"f 1/1/1 2//2 3/3\nf -1 -2 +3 44\n")
-    assert counts.tolist() == [3, 4] and corners.tolist() == [1, 2, 3, -1, -2, 3, 44]
+    corners = plain_corners(b"f 1/1/1 2//2 3/3\nf -1 -2 +3 44\n")
+    assert corners.sizes.tolist() == [3, 4]
+    assert [column.tolist() for column in corners.indices] == [
+        [1, 2, 3, -1, -2, 3, 44],
+        [1, 0, 3, 0, 0, 0, 0],
+        [1, 2, 0, 0, 0, 0, 0],
+    ]
 
 
 _DECIMALS = st.one_of(
@@ -253,7 +284,7 @@ def test_coordinates_in_any_decimal_notation_read_as_the_line_by_line_reader_rea
 
 def test_a_plain_vertex_block_is_read_in_one_go_and_anything_else_is_left_to_the_line_readers() -> None:
     block = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in GRID.tolist())
-    assert np.array_equal(_plain_vertex_block(block), GRID)
+    assert np.array_equal(plain_vertex_block(block), GRID)
     for unusual in (
         "v 1 2 3 4\n",
         "v 1 2 3 # c\n",
@@ -263,7 +294,7 @@ def test_a_plain_vertex_block_is_read_in_one_go_and_anything_else_is_left_to_the
         "\n",
         "v 1 2 1e300\n",
     ):
-        assert _plain_vertex_block(block + unusual) is None, unusual
+        assert plain_vertex_block(block + unusual) is None, unusual
 
 
 def test_plain_files_never_reach_the_line_by_line_reader() -> None:
@@ -274,8 +305,8 @@ def test_plain_files_never_reach_the_line_by_line_reader() -> None:
         + "g left right\nf "
         + NEUTRAL_TEXT.split("f ", 1)[1]
     )
-    with mock.patch("rigs._obj._line_by_line", side_effect=AssertionError("line by line")):
+    with mock.patch("rigs._obj._line_block", side_effect=AssertionError("line by line")):
         neutral = parse_obj(grouped, "neutral.obj")
         shape = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
     assert list(neutral.groups) == ["left", "right"] and len(neutral.groups["left"]) == len(TRIANGLES)
-    assert np.array_equal(shape.vertices, moved) and shape.face_lines == NEUTRAL.face_lines
+    assert np.array_equal(shape.vertices, moved) and shape.face_digest == NEUTRAL.face_digest
