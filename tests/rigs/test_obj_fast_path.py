@@ -310,3 +310,19 @@ def test_plain_files_never_reach_the_line_by_line_reader() -> None:
         shape = parse_obj(_text(moved, "# shape\n"), "shape.obj", with_faces=False, faces_of=NEUTRAL)
     assert list(neutral.groups) == ["left", "right"] and len(neutral.groups["left"]) == len(TRIANGLES)
     assert np.array_equal(shape.vertices, moved) and shape.face_digest == NEUTRAL.face_digest
+
+
+@settings(max_examples=300, deadline=None)
+@given(_LINE_EDITS, st.sampled_from(["\n", "\r\n", "\r"]), st.integers(1, 300))
+def test_a_file_read_in_small_blocks_reads_as_in_one(edits, line_end, block_bytes) -> None:
+    """Blocks are cut after line ends: groups, relative indices and continued lines run on across them (a
+    file with several faults may be refused for another of them: the first block's)."""
+    text = ("g part\n" + _edited(edits)).replace("\n", line_end)
+    whole = _full_read(text, fast=True)
+    with mock.patch("rigs._obj.BLOCK_BYTES", block_bytes):
+        for fast in (True, False):
+            found = _full_read(text, fast=fast)
+            if isinstance(whole, str):
+                assert isinstance(found, str) and found.startswith("mesh.obj"), found
+            else:
+                assert found == whole
