@@ -190,7 +190,8 @@ class _Reader:
         self.face_count = 0
         # (arrays grown in place: a large one is moved by the system's realloc, never held twice)
         self.coordinates = array("d")
-        self.sizes = array("q")
+        self.sizes = array("q")  # (only once the polygons differ in size: see `uniform`)
+        self.uniform = 0  # the corners of every polygon so far, while all have as many
         self.corners = array("q")
         self.digest = hashlib.blake2b(digest_size=32)
         #: (index, line number) of the largest index written of each kind, and of the largest face.
@@ -257,6 +258,13 @@ class _Reader:
             if kind == 0:
                 resolved = np.where(relative, written + before, written - 1)
                 self.corners.frombytes(resolved.astype(np.int64).tobytes())
+        first = int(corners.sizes[0])
+        if self.uniform in (0, first) and (corners.sizes == first).all() and not self.sizes:
+            self.uniform = first
+            return
+        if self.uniform:  # (the first polygon of another size: every size is kept from now on)
+            self.sizes.frombytes(np.full(self.face_count, self.uniform, dtype=np.int64).tobytes())
+            self.uniform = 0
         self.sizes.frombytes(corners.sizes.astype(np.int64).tobytes())
 
     def _close_group(self, face: int) -> None:
@@ -305,9 +313,10 @@ class _Reader:
                     f"{self.source}:{line}: face indexes a {INDEX_KINDS[kind]} {where}: "
                     f"{_line_text(data, line)[:82]!r}"
                 )
-        return Polygons(
-            np.frombuffer(self.sizes, dtype=np.int64), np.frombuffer(self.corners, dtype=np.int64)
-        )
+        flat = np.frombuffer(self.corners, dtype=np.int64)
+        if self.uniform:  # (one size repeated, not an array of it)
+            return Polygons(np.broadcast_to(np.int64(self.uniform), (self.face_count,)), flat)
+        return Polygons(np.frombuffer(self.sizes, dtype=np.int64), flat)
 
 
 def _line_text(data: bytes, number: int) -> str:

@@ -34,7 +34,7 @@ class Polygons(Sequence[np.ndarray]):
     Attributes
     ----------
     sizes : (F,) int64 array
-        Corners of each polygon.
+        Corners of each polygon (a read-only broadcast of one size when all have as many).
     corners : (sum(sizes),) int64 array
         0-based vertex indices, polygon after polygon.
     """
@@ -58,7 +58,7 @@ class Polygons(Sequence[np.ndarray]):
     @cached_property
     def starts(self) -> np.ndarray:
         """(F + 1,) offset of each polygon's first corner in `corners`, and the total."""
-        return np.concatenate([[0], np.cumsum(self.sizes)])
+        return np.concatenate([[0], np.cumsum(self.sizes, dtype=np.int64)])
 
     @property
     def size(self) -> int | None:
