@@ -210,11 +210,12 @@ class _Reader:
             )
             if part is None:
                 part = _line_block(block, line, self.source, self.with_faces, self.counts[0])
-            self._add(part, block, offset)
+            self._add(part, offset)
             line += block.count(b"\n")
             offset += len(block)
 
-    def _add(self, part: BlockPart, block: bytes, offset: int) -> None:
+    def _add(self, part: BlockPart, offset: int) -> None:
+        """Take in the block read into ``part``, which starts ``offset`` bytes into the file."""
         if part.first_face >= 0 and self.first_face is None:
             self.first_face = (offset + part.first_face, self.counts[0] + int(part.defined[0, 0]))
         if part.corners is not None:
