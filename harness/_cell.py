@@ -462,9 +462,8 @@ class _ExpressionRows:
     """The ``expression`` rows of a sequence, made one expression at a time (``rows``).
 
     A row is the expression's `expression_record`, with what the cell computes from the sequence
-    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``) and ``weight`` (the objective
-    again, kept for readers of the column). With a ``journal``, each row is also appended to that file
-    (`harness._journal`) as soon as it is made.
+    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``). With a ``journal``, each row is
+    also appended to that file (`harness._journal`) as soon as it is made.
     """
 
     def __init__(self, base: Row, n_shapes: int, journal: str | None = None) -> None:
@@ -480,7 +479,6 @@ class _ExpressionRows:
             "kind": "expression",
             **record,
             "n_chosen": len(record["shapes"]),
-            "weight": record["objective"],
             "covered": len(self.covered),
             "coverage": len(self.covered) / self.n_shapes if self.n_shapes else 0.0,
         }

@@ -80,8 +80,8 @@ finished         string         ISO 8601 time the cell finished
 ================ ============== ==============================================================================
 
 ``kind == "expression"``, one per (cell, expression). Its columns record the attributes of the
-`packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``weight``, ``covered``
-and ``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
+`packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``covered`` and
+``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
 
 ================ ============== ==============================================================================
 expression       int64          1-based position in the sequence
@@ -89,7 +89,6 @@ shapes           list<string>   primary shapes of the expression (a symmetry pai
 n_chosen         int64          number of primary shapes
 extra_examples   list<string>   already-used shapes added by the sec. 6 second pass
 objective        float64        eq. 3a: importance (eq. 4) of the chosen shapes, without packing's tie-break
-weight           float64        the same value (kept for readers of the column)
 bound            float64, null  best proved bound (null for heuristics)
 status           string         ``optimal``, ``feasible`` or ``none`` (what the solution is)
 termination      string         ``optimal``, ``completed``, ``time_limit``, ``infeasible``, ``error``
@@ -223,7 +222,6 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
     "n_chosen",
     "extra_examples",
     "objective",
-    "weight",
     "bound",
     "termination",
     "presolve_time",
@@ -240,7 +238,6 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
 #: ``kind == "expression"`` columns the cell computes from the sequence (`harness._cell`).
 _SEQUENCE_COLUMNS: dict[str, pa.DataType] = {
     "n_chosen": pa.int64(),
-    "weight": pa.float64(),
     "covered": pa.int64(),
     "coverage": pa.float64(),
 }
