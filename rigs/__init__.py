@@ -13,8 +13,8 @@ if TYPE_CHECKING:
     from rigs._atomic import StagedFile, atomic_write, stage, staged_target, sync_folders
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
-    from rigs._formats import RigFormat, detect_format, formats, register_format
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
+    from rigs._formats import RigFormat, detect_format, formats, register_format
     from rigs._generate import PRESETS, PresetSpec, generate
     from rigs._inputs import RigInputs
     from rigs._io import load, load_with_inputs, save
