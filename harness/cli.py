@@ -1,6 +1,6 @@
 """The ``harness`` command line.
 
-Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``, ``show``.
+Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``.
 Other distributions add commands through the entry-point group ``harness.commands``: each entry point names a
 `click.Command` (or a ``typer.Typer`` app) and is imported only when its command runs or shows its own help.
 A built-in command's module is imported the same way: ``harness --help`` lists the built-ins from their
@@ -71,12 +71,6 @@ BUILTIN = {
         "name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per "
         "expression (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and "
         "materials), the pictures and the scan sheet session.html.",
-    ),
-    "show": Builtin(
-        "harness._cli_show",
-        "show",
-        "Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their "
-        "ratio to deformation transfer), the paper's claims held or not, problems.",
     ),
 }
 
