@@ -24,13 +24,11 @@ import enum
 import functools
 import os
 import socket
-import threading
 import time
 import types
 import typing
 import warnings
-from collections import OrderedDict
-from collections.abc import Callable, Hashable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -47,6 +45,7 @@ from harness._permute import permuted_solver
 from harness._rigspec import is_rig_file, resolve_rig
 from harness._settings import split_label
 from packing import Expression, Termination
+from registry import BoundedMemo
 
 if TYPE_CHECKING:
     from packing import Analysis
@@ -68,13 +67,13 @@ UNRECORDED_ATTRIBUTES = frozenset({"items", "solution", "backend", "version"})
 _COLUMN_NAMES = {"index": "expression"}
 _SCALAR_TYPES = (bool, int, float, str)
 
-_CACHE_SIZE = 4
-_cache_lock = threading.Lock()
-_rig_cache: OrderedDict[tuple[str, str, int, str], Rig] = OrderedDict()
+#: This process's last template and warped rigs, by (rig, digest, seed, warp).
+_RIGS: BoundedMemo[Rig] = BoundedMemo(4)
+#: Transfer errors by (rig, warp, method, examples, weights): solvers that agree share one computation.
+_TRANSFERS: BoundedMemo[Row] = BoundedMemo(512)
+#: Estimates (K, N, 3) of methods that ignore the training expressions, by (rig, warp, method).
+_ESTIMATES: BoundedMemo[np.ndarray] = BoundedMemo(2)
 _warmed_up: set[str] = set()
-_MEMO_SIZE = 512
-_transfer_memo: OrderedDict[tuple[Hashable, ...], Row] = OrderedDict()
-_estimate_memo: dict[tuple[str, str, int, str, str], np.ndarray] = {}
 #: Shapes with the largest transfer error recorded per transfer row.
 _WORST_SHAPES = 5
 
@@ -138,25 +137,11 @@ def verified_template(spec: CellSpec) -> Rig:
     return rig
 
 
-def _cached(key: tuple[str, str, int, str], build: Callable[[], Rig]) -> Rig:
-    """A rig from this process's cache of the last `_CACHE_SIZE` rigs, built on a miss."""
-    with _cache_lock:
-        if key in _rig_cache:
-            _rig_cache.move_to_end(key)
-            return _rig_cache[key]
-    value = build()
-    with _cache_lock:
-        _rig_cache[key] = value
-        while len(_rig_cache) > _CACHE_SIZE:
-            _rig_cache.popitem(last=False)
-    return value
-
-
 def _template(spec: CellSpec, given: Rig | None) -> Rig:
     """A cell's template rig, cached per process: ``given`` (its content as the harness read it), else read
     from ``spec.rig`` (`verified_template`)."""
     key = (*template_key(spec), NO_WARP)
-    return _cached(key, lambda: verified_template(spec) if given is None else given)
+    return _RIGS.get_or_build(key, lambda: verified_template(spec) if given is None else given)
 
 
 def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
@@ -173,7 +158,7 @@ def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
     source = _template(spec, template)
     if spec.warp == NO_WARP:
         return source, source
-    return source, _cached((*template_key(spec), spec.warp), lambda: rigs.warp(source, spec.warp))
+    return source, _RIGS.get_or_build((*template_key(spec), spec.warp), lambda: rigs.warp(source, spec.warp))
 
 
 def set_up(spec: CellSpec, template: Rig | None = None) -> None:
@@ -462,9 +447,8 @@ class _ExpressionRows:
     """The ``expression`` rows of a sequence, made one expression at a time (``rows``).
 
     A row is the expression's `expression_record`, with what the cell computes from the sequence
-    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``) and ``weight`` (the objective
-    again, kept for readers of the column). With a ``journal``, each row is also appended to that file
-    (`harness._journal`) as soon as it is made.
+    (``n_chosen``, the shapes ``covered`` so far and their ``coverage``). With a ``journal``, each row is
+    also appended to that file (`harness._journal`) as soon as it is made.
     """
 
     def __init__(self, base: Row, n_shapes: int, journal: str | None = None) -> None:
@@ -480,7 +464,6 @@ class _ExpressionRows:
             "kind": "expression",
             **record,
             "n_chosen": len(record["shapes"]),
-            "weight": record["objective"],
             "covered": len(self.covered),
             "coverage": len(self.covered) / self.n_shapes if self.n_shapes else 0.0,
         }
@@ -580,22 +563,16 @@ def _transfer_metrics(
     rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name)
     session = (spec.examples, spec.scan_seed if spec.examples == "scan" else None)
     key = (*rig_key, *session, weights.shape, weights.tobytes())
-    with _cache_lock:
-        known = _transfer_memo.get(key)
-        estimate = None if getattr(method, "uses_examples", True) else _estimate_memo.get(rig_key)
+    known = _TRANSFERS.get(key)
     if known is not None:
         return {**known, "transfer_reused": True, "transfer_time": time.perf_counter() - clock}
+    uses_examples = getattr(method, "uses_examples", True)
+    estimate = None if uses_examples else _ESTIMATES.get(rig_key)
+    reused = estimate is not None
     if estimate is None:
         estimate = estimate_first()
-        reused = False
-        if not getattr(method, "uses_examples", True):
-            with _cache_lock:
-                # Estimates are (K, N, 3) arrays: keep those of one rig (one per reference method).
-                for other in [other for other in _estimate_memo if other[:-1] != rig_key[:-1]]:
-                    del _estimate_memo[other]
-                _estimate_memo[rig_key] = estimate
-    else:
-        reused = True
+        if not uses_examples:
+            _ESTIMATES.put(rig_key, estimate)
     found = transfer.metrics(estimate, target.deltas, weights)
     worst = found.worst(_WORST_SHAPES)
     result = {
@@ -605,10 +582,7 @@ def _transfer_metrics(
         "worst_shapes": [template.names[k] for k in worst],
         "worst_rms": [float(found.per_shape[k]) for k in worst],
     }
-    with _cache_lock:
-        _transfer_memo[key] = result
-        while len(_transfer_memo) > _MEMO_SIZE:
-            _transfer_memo.popitem(last=False)
+    _TRANSFERS.put(key, result)
     return {**result, "transfer_reused": reused, "transfer_time": time.perf_counter() - clock}
 
 

@@ -39,8 +39,8 @@ from pathlib import Path
 import pandas as pd
 import pyarrow.parquet as pq
 
+from harness._grid import GROUP_COLUMNS
 from harness._outdir import OutputFolder
-from harness._overlap import GROUP_COLUMNS
 from harness._records import RECORD_SCHEMA, RECORDS_DIR, part_bytes, part_path, read_records, write_listed
 from packing import TIE_BREAK_SCALE
 

@@ -146,6 +146,28 @@ def _from_dict(cls: type[_Spec], data: Mapping[str, Any]) -> _Spec:
     return cls(**values)
 
 
+#: Cell columns that define a group of cells solving the same problems with different solvers: the
+#: sequences, agreement and certificates of solvers are compared within a group.
+GROUP_COLUMNS: tuple[str, ...] = (
+    "rig",
+    "rig_seed",
+    "warp",
+    "mu",
+    "alpha",
+    "beta",
+    "symmetry",
+    "importance",
+    "cap",
+    "distortion",
+    "examples",
+    "jmax",
+    "time_limit",
+    "repetition",
+    "mode",
+    "permutation",
+)
+
+
 @dataclass(frozen=True)
 class CellSpec:
     """One grid point: everything that determines the records of one cell.

@@ -9,7 +9,6 @@ Layout of a run directory ``OUT/``:
   its Parquet metadata and page checksums; ``--resume`` reads every part back (`check_parts`) and moves a
   truncated or corrupt one to ``OUT/broken-parts/`` to run its cell again. Files in ``records/`` not named
   like a part are no records and are never read, moved or removed.
-- ``OUT/overlap.parquet``: the paper's Table 3, computed from the records at the end of every run.
 - ``OUT/.harness-manifest.json``: the files the harness wrote here (`harness._outdir`); ``OUT/.lock``: held
   by the run writing the folder.
 
@@ -80,8 +79,8 @@ finished         string         ISO 8601 time the cell finished
 ================ ============== ==============================================================================
 
 ``kind == "expression"``, one per (cell, expression). Its columns record the attributes of the
-`packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``weight``, ``covered``
-and ``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
+`packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``covered`` and
+``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
 
 ================ ============== ==============================================================================
 expression       int64          1-based position in the sequence
@@ -89,7 +88,6 @@ shapes           list<string>   primary shapes of the expression (a symmetry pai
 n_chosen         int64          number of primary shapes
 extra_examples   list<string>   already-used shapes added by the sec. 6 second pass
 objective        float64        eq. 3a: importance (eq. 4) of the chosen shapes, without packing's tie-break
-weight           float64        the same value (kept for readers of the column)
 bound            float64, null  best proved bound (null for heuristics)
 status           string         ``optimal``, ``feasible`` or ``none`` (what the solution is)
 termination      string         ``optimal``, ``completed``, ``time_limit``, ``infeasible``, ``error``
@@ -223,7 +221,6 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
     "n_chosen",
     "extra_examples",
     "objective",
-    "weight",
     "bound",
     "termination",
     "presolve_time",
@@ -240,7 +237,6 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
 #: ``kind == "expression"`` columns the cell computes from the sequence (`harness._cell`).
 _SEQUENCE_COLUMNS: dict[str, pa.DataType] = {
     "n_chosen": pa.int64(),
-    "weight": pa.float64(),
     "covered": pa.int64(),
     "coverage": pa.float64(),
 }
@@ -327,7 +323,6 @@ SORT_COLUMNS: tuple[str, ...] = ("cell", "kind", "expression", "transfer", "j")
 
 RUN_FILE = "run.json"
 RECORDS_DIR = "records"
-OVERLAP_FILE = "overlap.parquet"
 #: Session kind of a run's files in the folder manifest (`harness._outdir`).
 RUN_KIND = "run"
 #: Where `check_parts` moves part files that do not read back whole.
@@ -550,12 +545,12 @@ def open_new(out: Path, force: bool) -> OutputFolder:
     Raises
     ------
     OutputFolderError
-        When the folder holds files the harness did not write where the run writes (``run.json``, the
-        overlap table, anything in ``records/``), or is not empty and not forced.
+        When the folder holds files the harness did not write where the run writes (``run.json``,
+        anything in ``records/``), or is not empty and not forced.
     """
     folder = claim(out, kind=RUN_KIND, force=force)
-    remove_partial_files(out, names=(RUN_FILE, OVERLAP_FILE, MANIFEST_NAME))
-    folder.check_free([RUN_FILE, OVERLAP_FILE])
+    remove_partial_files(out, names=(RUN_FILE, MANIFEST_NAME))
+    folder.check_free([RUN_FILE])
     records = out / RECORDS_DIR
     foreign = (
         sorted(path.name for path in records.iterdir() if not folder.owns(path.relative_to(out).as_posix()))
@@ -582,7 +577,7 @@ def remove_previous(folder: OutputFolder) -> None:
 def open_for_resume(out: Path) -> OutputFolder:
     """The manifest of a run folder being resumed, without its temporary files a killed writer left."""
     folder = claim(out, kind=RUN_KIND, force=True)
-    remove_partial_files(out, names=(RUN_FILE, OVERLAP_FILE, MANIFEST_NAME))
+    remove_partial_files(out, names=(RUN_FILE, MANIFEST_NAME))
     return folder
 
 

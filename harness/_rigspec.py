@@ -108,23 +108,24 @@ def _applies(warp: Warp, rig: Rig) -> bool:
     return True
 
 
-#: Rig files that hold the whole rig; any other rig file may read files beside it (the other OBJs of its
-#: folder, a glTF's buffers, a manifest's targets).
-SELF_CONTAINED_SUFFIXES = (".npz", ".glb", ".zip")
-
-
 def input_paths(text: str) -> list[Path]:
     """The files and folders a rig argument reads, which an output folder must stay apart from.
 
-    A preset reads nothing; a fetched rig reads its cache folder; a folder is read whole; a
-    self-contained file (``.npz``, ``.glb``, ``.zip``) is read alone; any other rig file (a neutral
-    ``.obj``, ``.gltf``, ``.json``) with its folder.
+    A preset reads nothing; a fetched rig reads its cache folder; a folder is read whole; a file its
+    format reads alone (`rigs.RigFormat.reads_alone`: ``.npz``, ``.glb``, ``.zip``) is read alone; any
+    other rig file (a neutral ``.obj``, ``.gltf``, ``.json``, a file of no known format) with its folder.
     """
+    import rigs
+
     if not is_rig_file(text):
         if text in FETCHED_RIGS and fetched_path(text) is not None:
             return [fetched_path(text).parent]
         return []
     path = Path(text)
-    if path.is_dir() or path.suffix.lower() in SELF_CONTAINED_SUFFIXES:
+    if path.is_dir():
         return [path]
-    return [path, path.parent]
+    try:
+        alone = rigs.detect_format(path).reads_alone(path)
+    except rigs.RigError:
+        alone = False
+    return [path] if alone else [path, path.parent]

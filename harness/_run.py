@@ -52,8 +52,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-import pyarrow as pa
-
 from harness import _environment as environment
 from harness import _plugins as plugins
 from harness._cell import Lost, Row, failure_rows
@@ -62,18 +60,13 @@ from harness._executors import Executor
 from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._outdir import OutputFolder, OutputFolderError, check_apart
-from harness._overlap import OVERLAP_COLUMNS, overlap_table
 from harness._records import (
-    OVERLAP_FILE,
-    RECORD_COLUMNS,
     RECORDS_DIR,
     RUN_FILE,
     open_for_resume,
     open_new,
-    parquet_bytes,
     part_bytes,
     part_files,
-    read_records,
     remove_previous,
     repair_parts,
     write_error,
@@ -84,8 +77,6 @@ from harness._rigspec import check_rig_files, input_paths
 from registry import HarnessError
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from rigs import RigInputs
 
 RUN_FORMAT = 2
@@ -497,7 +488,6 @@ def _run_locked(
                     info["crashes"].pop(spec.id, None)
                     _record(out, folder, spec, outcome, summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
-        write_overlap(out, folder)
         summary.seconds = time.perf_counter() - clock
     except KeyboardInterrupt:
         _mark(out, folder, info, "interrupted")
@@ -601,37 +591,3 @@ def _mark(
         write_run(out, info, folder)
     except OSError:
         pass  # e.g. the disk is full; run.json still says "running" and --resume works the same
-
-
-def write_overlap(out: Path, folder: OutputFolder) -> None:
-    """(Re)compute the Table 3 overlap from the records and write ``OUT/overlap.parquet`` atomically."""
-    try:
-        records = read_records(out)
-    except FileNotFoundError:
-        return
-    table = overlap_table(records)
-    schema = pa.schema(
-        [
-            (name, RECORD_COLUMNS.get(name, pa.string() if name.startswith("solver") else pa.int64()))
-            for name in OVERLAP_COLUMNS
-        ]
-    )
-    data = parquet_bytes(pa.Table.from_pandas(table, schema=schema, preserve_index=False))
-    write_listed(folder, OVERLAP_FILE, data)
-
-
-def read_overlap(out: str | Path) -> pd.DataFrame:
-    """The overlap table (`harness._overlap`) of a run as a DataFrame."""
-    import pandas as pd
-    import pyarrow.parquet as pq
-
-    path = Path(out) / OVERLAP_FILE
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{out}: no {OVERLAP_FILE} (the run has not finished; run harness run --resume)"
-        )
-    frame = pq.read_table(path).to_pandas(
-        types_mapper={pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}.get
-    )
-    # A run made before a group column existed has none: its cells all had that column's one value.
-    return frame.reindex(columns=[*OVERLAP_COLUMNS, *(c for c in frame.columns if c not in OVERLAP_COLUMNS)])

@@ -1,11 +1,10 @@
 """The ``harness`` command line.
 
-Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``, ``show``.
+Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``.
 Other distributions add commands through the entry-point group ``harness.commands``: each entry point names a
 `click.Command` (or a ``typer.Typer`` app) and is imported only when its command runs or shows its own help.
 A built-in command's module is imported the same way: ``harness --help`` lists the built-ins from their
-summaries here (`BUILTIN`) and a plugin command from its source when that says its help plainly
-(`harness._cli_summary`), else by importing it, so that it starts at once.
+summaries here (`BUILTIN`), so that it starts at once, and a plugin command by importing it.
 
 User errors (`registry.HarnessError`: unknown names, malformed files, an occupied output directory; and a
 missing file or folder, no permission, a full disk) end as one line on stderr saying what to do, with exit
@@ -18,7 +17,6 @@ program: a short traceback and where to report it, with exit code 70 (``EX_SOFTW
 from __future__ import annotations
 
 import errno
-import gc
 import importlib.metadata
 import os
 import signal
@@ -30,7 +28,6 @@ from typing import IO, NoReturn
 
 import click
 
-from harness._cli_summary import static_command
 from harness._cli_types import terminal
 from registry import HarnessError, handle_stop_signals, raised_without_signal, stop_signal
 
@@ -74,12 +71,6 @@ BUILTIN = {
         "name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per "
         "expression (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and "
         "materials), the pictures and the scan sheet session.html.",
-    ),
-    "show": Builtin(
-        "harness._cli_show",
-        "show",
-        "Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their "
-        "ratio to deformation transfer), the paper's claims held or not, problems.",
     ),
 }
 
@@ -151,18 +142,15 @@ class HarnessGroup(click.Group):
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         """The command list of ``harness --help``: built-ins by their summaries (not imported), plugins by
-        their own short help (read from their source when it says it plainly, else imported)."""
+        their own short help (imported)."""
         names = self.list_commands(ctx)
         limit = formatter.width - 6 - max(map(len, names), default=0)
         rows = []
-        plugins = _plugin_entry_points()
         for name in names:
             if name in BUILTIN:
                 rows.append((name, BUILTIN[name].short_help(limit)))
                 continue
-            command = static_command(plugins[name])
-            if command is None:
-                command = self.get_command(ctx, name)
+            command = self.get_command(ctx, name)
             if command is not None and not command.hidden:
                 rows.append((name, command.get_short_help_str(limit)))
         if rows:
@@ -272,19 +260,9 @@ def main(argv: list[str] | None = None) -> None:
     """Console-script entry point (``harness = harness.cli:main``); ``argv`` defaults to the process's.
     Warnings of the rig readers print as one plain line each (`_show_warning`).
 
-    The command ends the process (``SystemExit``). Run as the console script (no ``argv``), every object
-    is first moved out of the garbage collector's reach (``gc.freeze``): the interpreter's last
-    collections at exit would otherwise traverse everything NumPy, SciPy, Arrow and OR-Tools loaded, about
-    60 ms, a sixth of a whole ``harness pack`` of a small rig. Exit handlers still run; cyclic garbage
-    left at exit is neither collected nor finalized (the commands close their files and workers
-    themselves, and the process's end frees the memory). SIGINT and SIGTERM stop the command alike
+    The command ends the process (``SystemExit``). SIGINT and SIGTERM stop the command alike
     (`registry.handle_stop_signals`).
     """
     warnings.showwarning = _show_warning
-    try:
-        with handle_stop_signals():
-            cli.main(args=argv, prog_name="harness")
-    except SystemExit:
-        if argv is None:
-            gc.freeze()
-        raise
+    with handle_stop_signals():
+        cli.main(args=argv, prog_name="harness")

@@ -5,13 +5,14 @@ Solvers (``harness.solvers``), transfer methods (``harness.transfers``) and ``ha
 plugin, a plugin loaded on first use, a load failure or a missing attribute listed as unavailable with the
 reason, a name registered twice warned about, and an `Availability` for every plugin. Beside them, what
 every package shares: `HarnessError`, the error type of bad input, the stop signals
-(`handle_stop_signals`), and the running of a plugin kind's conformance checks (`run_checks`). This package
-imports nothing else of the project, so every package may use it.
+(`handle_stop_signals`), the running of a plugin kind's conformance checks (`run_checks`), and the one
+cache type (`BoundedMemo`). This package imports nothing else of the project, so every package may use it.
 """
 
 from registry._availability import Availability, AvailabilityStatus, package_availability
 from registry._checks import parametrize_checks, run_checks
 from registry._errors import HarnessError
+from registry._memo import BoundedMemo
 from registry._registry import (
     PluginInfo,
     PluginRegistry,
@@ -32,6 +33,7 @@ __all__ = [
     "STOP_SIGNALS",
     "Availability",
     "AvailabilityStatus",
+    "BoundedMemo",
     "HarnessError",
     "PluginInfo",
     "PluginRegistry",

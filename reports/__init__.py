@@ -1,13 +1,14 @@
-"""Reports of runs: timing, overlap and expression-count tables, coverage and RMS figures, expression contact
-sheets, a self-contained HTML page with its Markdown twin, run-to-run comparison for CI, and the history of CI
-runs' timings as ratios to each run's median exact solver (`read_history`, `append_history`, `run_figures`),
-and solver benchmark summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More
-performance profiles (`solve_outcomes`, `performance_profile`).
+"""Reports of runs: timing, agreement (the paper's Table 3) and expression-count tables, the paper's claims
+held or not (``harness show``), coverage and RMS figures, expression contact sheets, a self-contained HTML
+page with its Markdown twin, run-to-run comparison for CI, and the history of CI runs' timings as ratios to
+each run's median exact solver (`read_history`, `append_history`, `run_figures`), and solver benchmark
+summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More performance
+profiles (`solve_outcomes`, `performance_profile`).
 
-Everything here reads a run's records (`harness.read_records`); nothing is recomputed.
+Everything here reads a run's records (`harness.read_records`); solver results are never recomputed.
 
 Names are imported from their modules on first use (PEP 562), so that ``harness --help``, which lists the
-``report`` and ``compare`` commands, starts without importing pandas or matplotlib.
+``report``, ``compare`` and ``show`` commands, starts without importing pandas or matplotlib.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
+    from reports._agreement import AGREEMENT_COLUMNS, agreement_counts
+    from reports._claims import claims_table
     from reports._compare import Change, Comparison, compare, comparison_table, run_figures
     from reports._contact import contact_sheet
     from reports._figures import (
@@ -27,7 +30,7 @@ if TYPE_CHECKING:
         rms_figure,
     )
     from reports._history import HISTORY_COLUMNS, HistoryError, Spread, append_history, read_history
-    from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
+    from reports._paper import PAPER_AGREEMENT, PAPER_TIMINGS
     from reports._png import png_bytes
     from reports._report import build_report
     from reports._summary import (
@@ -45,9 +48,9 @@ if TYPE_CHECKING:
     from reports._tables import (
         BASELINE_SOLVER,
         REFERENCE_TRANSFERS,
+        agreement_table,
         cell_times,
         expression_count_table,
-        overlap_table,
         problem_table,
         rms_table,
         separation_table,
@@ -58,6 +61,8 @@ if TYPE_CHECKING:
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
+        "_agreement": ["AGREEMENT_COLUMNS", "agreement_counts"],
+        "_claims": ["claims_table"],
         "_compare": ["Change", "Comparison", "compare", "comparison_table", "run_figures"],
         "_contact": ["contact_sheet"],
         "_figures": [
@@ -68,7 +73,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "rms_figure",
         ],
         "_history": ["HISTORY_COLUMNS", "HistoryError", "Spread", "append_history", "read_history"],
-        "_paper": ["PAPER_OVERLAP", "PAPER_TIMINGS"],
+        "_paper": ["PAPER_AGREEMENT", "PAPER_TIMINGS"],
         "_png": ["png_bytes"],
         "_report": ["build_report"],
         "_summary": [
@@ -88,7 +93,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "REFERENCE_TRANSFERS",
             "cell_times",
             "expression_count_table",
-            "overlap_table",
+            "agreement_table",
             "problem_table",
             "rms_table",
             "separation_table",

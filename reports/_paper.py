@@ -16,7 +16,7 @@ PAPER_TIMINGS = pd.DataFrame(
 ).set_index("rig")
 
 #: Table 3: blendshapes chosen by greedy / optimal in the first 5, 10, 20 expressions, and how many by both.
-PAPER_OVERLAP = pd.DataFrame(
+PAPER_AGREEMENT = pd.DataFrame(
     [
         ("male", 5, 36, 38, 31),
         ("male", 10, 49, 49, 42),

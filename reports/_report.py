@@ -9,7 +9,8 @@ from pathlib import Path
 import pandas as pd
 
 import harness
-from harness import claims_table
+from reports._agreement import agreement_counts
+from reports._claims import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
 from reports._figures import coverage_figure, distribution_figure, history_figure, profile_figure, rms_figure
@@ -22,10 +23,10 @@ from reports._tables import (
     GROUP_COLUMNS,
     REFERENCE_TRANSFERS,
     SETTING_COLUMNS,
+    agreement_table,
     expression_count_table,
     expression_rows,
     ok_cells,
-    overlap_table,
     problem_table,
     rig_labels,
     rms_table,
@@ -114,7 +115,7 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
 def _claims_blocks(records: pd.DataFrame) -> list[str | pd.DataFrame]:
     return [
         "Each claim of Carrigan et al. 2020 (sec. 5.2) decided from this run's records by the rule in "
-        "harness._claims (ebfr transfer; optimal = the first exact solver of the run, cpsat preferred); "
+        "reports._claims (ebfr transfer; optimal = the first exact solver of the run, cpsat preferred); "
         "'not measured' names the cells the run lacks (harness run --variations claims adds them).",
         claims_table(records),
     ]
@@ -208,13 +209,6 @@ def _solver_section(run: dict, records: pd.DataFrame) -> Section:
     )
 
 
-def _overlap_block(run_dir: Path) -> pd.DataFrame | str:
-    try:
-        return overlap_table(harness.read_overlap(run_dir))
-    except FileNotFoundError as error:  # written when a run finishes; an interrupted run has none yet
-        return f"No overlap table: {error}."
-
-
 def _history_section(path: Path) -> Section:
     """The ratios of every CI run in the history file at ``path``, plotted over the runs."""
     history = read_history(path)
@@ -276,11 +270,11 @@ def report_sections(run_dir: Path, *, expressions: int = 5, history: Path | None
         ),
         _solver_section(run, records),
         Section(
-            "Overlap of chosen shapes (paper Table 3)",
+            "Agreement of chosen shapes (paper Table 3, its 'overlap')",
             [
                 "a/b (shared): distinct shapes chosen by solver a and by solver b in their first 5, 10 "
                 "and 20 expressions, and how many both chose; [x/y expr.] when a sequence is shorter.",
-                _overlap_block(run_dir),
+                agreement_table(agreement_counts(records)),
             ],
         ),
         Section(
@@ -348,7 +342,7 @@ def build_report(
     Parameters
     ----------
     run_dir : path
-        A run directory written by ``harness run`` (``run.json``, ``records/``, ``overlap.parquet``).
+        A run directory written by ``harness run`` (``run.json``, ``records/``).
     expressions : int
         How many leading expressions each contact-sheet row shows.
     history : path, optional

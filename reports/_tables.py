@@ -1,10 +1,8 @@
-"""Tables read from a run's records: timings (Table 2), overlap (Table 3), expression counts, problems,
-transfer errors against the references, how far apart the packings are, and the paper's claims.
+"""Tables read from a run's records: timings (Table 2), agreement of solvers (Table 3), expression counts,
+problems, transfer errors against the references, how far apart the packings are.
 
-The claims table is the harness's own (`harness._claims.claims_table`, also printed by ``harness show``).
-
-Every function takes the records DataFrame of `harness.read_records` (or the overlap table of
-`harness.read_overlap`) and only selects, groups and formats; nothing is recomputed.
+Every function takes the records DataFrame of `harness.read_records` (or the agreement counts of
+`reports._agreement.agreement_counts`) and only selects, groups and formats; nothing is recomputed.
 """
 
 from __future__ import annotations
@@ -16,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 import harness
-from reports._paper import PAPER_OVERLAP, PAPER_TIMINGS
+from reports._paper import PAPER_AGREEMENT, PAPER_TIMINGS
 
 #: The solver whose times every other solver's are divided by (measured in the same run).
 BASELINE_SOLVER = "naive-pulp-cbc"
@@ -231,24 +229,24 @@ def timing_table(records: pd.DataFrame) -> pd.DataFrame:
     return table.sort_values(["rig", "warp"], kind="stable").reset_index(drop=True)
 
 
-def overlap_table(overlap: pd.DataFrame) -> pd.DataFrame:
+def agreement_table(agreement: pd.DataFrame) -> pd.DataFrame:
     """Table 3 of Carrigan et al. 2020 per solver pair: ``a/b (shared)`` in the first 5, 10, 20 expressions.
 
     Parameters
     ----------
-    overlap : DataFrame
-        `harness.read_overlap`: one row per group, solver pair and ``first``. Repetitions choose the same
-        shapes, so only the first repetition of each group is shown.
+    agreement : DataFrame
+        `agreement_counts`: one row per group, solver pair and ``first``. Repetitions choose the same shapes,
+        so only the first repetition of each group is shown.
 
     Returns
     -------
     DataFrame with rig, warp, the varying settings, ``pair`` (``a/b``) and one column per ``first`` value;
     for the paper's four rigs a ``greedy/optimal`` row with the published figures follows.
     """
-    if overlap.empty:
+    if agreement.empty:
         return pd.DataFrame(columns=["rig", "warp", "pair"])
-    settings = varying_settings(overlap)
-    first_repetition = overlap[overlap["repetition"] == overlap["repetition"].min()].copy()
+    settings = varying_settings(agreement)
+    first_repetition = agreement[agreement["repetition"] == agreement["repetition"].min()].copy()
     first_repetition["cell"] = [
         f"{a}/{b} ({shared})" if ea == eb == first else f"{a}/{b} ({shared}) [{ea}/{eb} expr.]"
         for a, b, shared, ea, eb, first in first_repetition[
@@ -264,8 +262,8 @@ def overlap_table(overlap: pd.DataFrame) -> pd.DataFrame:
     table = table.reset_index()
     table["rig"] = table["rig"].map(rig_labels(table["rig"]))
     paper_rows = []
-    for rig in sorted(set(table["rig"]) & set(PAPER_OVERLAP.index.get_level_values("rig"))):
-        published = PAPER_OVERLAP.loc[rig]
+    for rig in sorted(set(table["rig"]) & set(PAPER_AGREEMENT.index.get_level_values("rig"))):
+        published = PAPER_AGREEMENT.loc[rig]
         row = {"rig": rig, "warp": "paper, Table 3", "pair": "greedy/optimal"}
         for first, values in published.iterrows():
             row[f"{first} ex."] = f"{values['greedy']}/{values['optimal']} ({values['shared']})"

@@ -24,6 +24,16 @@ class InputError(click.ClickException):
     exit_code = 2
 
 
+@click.command("show")
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+def show(out: Path) -> None:
+    """Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their
+    ratio to deformation transfer), the paper's claims held or not, problems."""
+    from reports._terminal import print_summary
+
+    print_summary(out)
+
+
 @click.command(
     "report",
     help=f"Write the report of the run in OUT to OUT/{REPORT_DIR}/index.html (self-contained) and report.md.",

@@ -1,5 +1,5 @@
 """Blendshape rigs: the `Rig` value, loaders and writers, the procedural generator, warps, mirror map and
-left/right names, the frontal camera of a face, atomic file writes.
+left/right names, the registry of rig formats, the frontal camera of a face, atomic file writes.
 
 Names are attached lazily (lazy_loader): ``import rigs`` costs nothing until a name is used, so that
 listing plugins and presets does not import SciPy's spatial or sparse modules.
@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
+    from rigs._formats import RigFormat, detect_format, formats, register_format
     from rigs._generate import PRESETS, PresetSpec, generate
     from rigs._inputs import RigInputs
     from rigs._io import load, load_with_inputs, save
@@ -31,6 +32,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_atomic": ["StagedFile", "atomic_write", "stage", "staged_target", "sync_folders"],
         "_camera": ["frontal_camera", "three_quarter_camera"],
         "_character": ["Character"],
+        "_formats": ["RigFormat", "detect_format", "formats", "register_format"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],
         "_generate": ["PRESETS", "PresetSpec", "generate"],
         "_io": ["load", "load_with_inputs", "save"],

@@ -1,15 +1,5 @@
-"""Loading and saving rigs: one front door over the native ``.npz`` and the interchange formats.
-
-Formats, told apart by the path (``format=`` overrides):
-
-* ``*.npz``: ``npz``, the native archive (:mod:`rigs._npz`), loaded verbatim;
-* ``*.gltf``, ``*.glb``: ``gltf``, morph targets of one mesh primitive (:mod:`rigs._gltf`);
-* a folder with ``*.target`` files, a ``*.zip`` (or, with ``format="target"``, any zip such as a wheel),
-  or a ``*.json`` manifest with ``base``: ``target``, a MakeHuman/MPFB target set (:mod:`rigs._target`);
-* a folder with ``*.obj`` files, its ``rig.json``, or its neutral ``*.obj`` (the other OBJ files of its
-  folder are the blendshapes): ``obj-folder``, neutral + one OBJ per blendshape (:mod:`rigs._obj_folder`);
-* ``*.usd``, ``*.usda``, ``*.usdc``: ``usd``, UsdSkel blend shapes of one mesh (:mod:`rigs._usd`, needs
-  the ``usd`` extra).
+"""Loading and saving rigs: one front door over every registered format (`rigs._formats`; the built-in ones
+are listed in `rigs._builtin_formats`), told apart by the path (``format=`` overrides).
 
 Every reader treats its files as untrusted (see :mod:`rigs._safe`): it reads only regular files inside the
 rig's folder, sizes every array against what the files can hold before allocating it, and turns every
@@ -25,9 +15,7 @@ report lands in ``meta``: ``meta["noise"]`` (floor and zeroed counts per shape),
 from __future__ import annotations
 
 import hashlib
-import os
 import warnings
-from collections.abc import Callable
 from dataclasses import replace
 from inspect import Parameter, signature
 from pathlib import Path
@@ -35,58 +23,14 @@ from typing import Any
 
 import numpy as np
 
+from rigs._formats import detect_format, format_for_writing, rig_format
 from rigs._inputs import RigInputs, recording
-from rigs._npz import load_npz, save_npz
-from rigs._obj_folder import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral, save_obj_folder
 from rigs._rig import Rig, RigError, RigWarning, vector_lengths
-from rigs._safe import read_json, regular_file
-from rigs._target import TARGET_SUFFIXES, load_target_folder, load_target_manifest, load_target_zip
-from rigs._usd import USD_SUFFIXES, load_usd, save_usd
 
 DEFAULT_NOISE_FLOOR = 1e-6
 #: Displacements shorter than this many rounding steps of the file's coordinates are noise: two
 #: coordinates rounded to the same step differ by at most one step each, ``sqrt(3)`` steps in length.
 ROUNDING_STEPS = 2.0
-
-FORMATS = ("npz", "obj-folder", "gltf", "target", "usd")
-
-
-def detect_format(path: str | Path) -> str:
-    """The format of ``path`` (see the module table); raises `RigError` when it cannot tell."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if not os.path.lexists(path):
-        raise RigError(f"{path}: no such file or folder")
-    if not path.is_dir():
-        regular_file(path)  # a dangling link, a FIFO or a device is named as such
-    if path.is_dir():
-        if any(p.name.endswith(TARGET_SUFFIXES) for p in path.rglob("*")):
-            return "target"
-        if any(p.suffix.lower() == ".obj" for p in path.iterdir()):
-            return "obj-folder"
-        raise RigError(f"{path}: folder holds neither OBJ files nor .target files")
-    if suffix == ".npz":
-        return "npz"
-    if suffix in (".gltf", ".glb"):
-        return "gltf"
-    if suffix in USD_SUFFIXES:
-        return "usd"
-    if suffix == ".zip":
-        return "target"
-    if suffix == ".json":
-        return "obj-folder" if "shapes" in _json_keys(path) else "target"
-    if suffix == ".obj":
-        return "obj-folder"
-    raise RigError(
-        f"{path}: unknown rig format {suffix or '(no suffix)'!r} "
-        "(.npz, .gltf, .glb, .usd, .usda, .usdc, .zip, .json, a folder, or the neutral .obj of a folder "
-        "of OBJs)"
-    )
-
-
-def _json_keys(path: Path) -> set[str]:
-    content = read_json(path, limit=MANIFEST_LIMIT, what="manifest")
-    return set(content) if isinstance(content, dict) else set()
 
 
 def load_with_inputs(path: str | Path, **options: Any) -> tuple[Rig, RigInputs]:
@@ -121,8 +65,9 @@ def load(
     ----------
     path : path
         File or folder.
-    format : {"npz", "obj-folder", "gltf", "target", "usd"}, optional
-        Overrides detection.
+    format : str, optional
+        A registered format's name (``"npz"``, ``"obj-folder"``, ``"gltf"``, ``"target"``, ``"usd"``, or a
+        plugin's), overriding detection.
     noise_floor : float, optional
         Displacements shorter than ``noise_floor`` times the neutral's bounding-box diagonal are zeroed.
         Default ``1e-6`` for interchange formats; ``.npz`` files are loaded verbatim unless it is given.
@@ -159,10 +104,8 @@ def load(
     >>> rig = load("head.glb", mesh="Head", weld=True)  # doctest: +SKIP
     """
     path = Path(path)
-    kind = format or detect_format(path)
-    if kind not in FORMATS:
-        raise RigError(f"{path}: unknown format {kind!r} (one of {', '.join(FORMATS)})")
-    reader = _reader(path, kind)
+    kind = detect_format(path) if format is None else rig_format(format, path)
+    reader = kind.reader(path)
     accepted = [
         name
         for name, parameter in signature(reader).parameters.items()
@@ -171,37 +114,15 @@ def load(
     unknown = sorted(set(options) - set(accepted))
     if unknown:
         listed = ", ".join(accepted) or "none"
-        raise RigError(f"{path}: unknown option {unknown[0]!r} for {kind} (accepted: {listed})")
+        raise RigError(f"{path}: unknown option {unknown[0]!r} for {kind.name} (accepted: {listed})")
     rig = reader(path, **options)
     if noise_floor is None:
-        noise_floor = 0.0 if kind == "npz" else DEFAULT_NOISE_FLOOR
+        noise_floor = 0.0 if kind.verbatim else DEFAULT_NOISE_FLOOR
     if noise_floor < 0:
         raise RigError(f"{path}: noise_floor must be >= 0, got {noise_floor}")
     if units is not None:
         rig = replace(rig, meta={**rig.meta, "units": units})
     return with_report(rig, noise_floor, origin=str(path))
-
-
-def _reader(path: Path, kind: str) -> Callable[..., Rig]:
-    if kind == "npz":
-        return load_npz
-    if kind == "gltf":
-        from rigs._gltf import load_gltf  # (scipy's graph and spatial modules: only for glTF)
-
-        return load_gltf
-    if kind == "usd":
-        return load_usd
-    if kind == "obj-folder":
-        if path.suffix.lower() == ".obj":
-            return load_obj_neutral
-        return _load_obj_manifest if path.suffix.lower() == ".json" else load_obj_folder
-    if path.is_dir():
-        return load_target_folder
-    return load_target_manifest if path.suffix.lower() == ".json" else load_target_zip
-
-
-def _load_obj_manifest(path: Path, **options: Any) -> Rig:
-    return load_obj_folder(path.parent, **options)
 
 
 def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: str = "") -> Rig:
@@ -321,8 +242,9 @@ def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
     path : path
         ``name.npz``, ``name.usd[a|c]``, or a folder path without suffix (created; it must not hold other
         OBJ files).
-    format : {"npz", "obj-folder", "usd"}, optional
-        Overrides the choice by suffix.
+    format : str, optional
+        A registered format that writes (``"npz"``, ``"obj-folder"``, ``"usd"``, or a plugin's),
+        overriding the choice by suffix.
 
     Returns
     -------
@@ -335,23 +257,8 @@ def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
         :func:`rigs._obj_folder.save_obj_folder`).
     """
     path = Path(path)
-    kind = format
-    if kind is None:
-        if path.suffix.lower() == ".npz":
-            kind = "npz"
-        elif path.suffix.lower() in USD_SUFFIXES:
-            kind = "usd"
-        elif path.is_dir() or not path.suffix:
-            kind = "obj-folder"
-        else:
-            raise RigError(
-                f"{path}: cannot save as {path.suffix!r}; use a .npz or .usd/.usda/.usdc file or a folder "
-                "path (OBJ folder)"
-            )
-    if kind == "npz":
-        return save_npz(rig, path)
-    if kind == "obj-folder":
-        return save_obj_folder(rig, path)
-    if kind == "usd":
-        return save_usd(rig, path)
-    raise RigError(f"{path}: cannot save format {kind!r} (npz, obj-folder or usd)")
+    kind = format_for_writing(path) if format is None else rig_format(format, path)
+    writer = kind.writer()
+    if writer is None:
+        raise RigError(f"{path}: cannot save format {kind.name!r}: it is read only")
+    return writer(rig, path)

@@ -36,9 +36,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from registry import BoundedMemo
 from transfer._digest import content_digest
 from transfer._inputs import check_weights
-from transfer._memo import BoundedMemo
 
 if TYPE_CHECKING:
     import scipy.sparse as sp

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
+from registry import BoundedMemo
 from transfer._digest import content_digest
 from transfer._frames import TransferredEdges, aligned_template
-from transfer._memo import BoundedMemo
 from transfer._reconstruct import FrameReconstruction, FreeBlock, constraint_groups
 
 #: Set-ups kept per process (each holds a few (K, N, 3) arrays and sparse factors of one rig pair).

@@ -9,11 +9,11 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from registry import BoundedMemo
 from transfer._base import Transfer, check_positive
 from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
 from transfer._gcv import BetaChoice, Spectra, choose_beta, ridge_spectra
 from transfer._inputs import TransferInputs, check_inputs
-from transfer._memo import BoundedMemo
 from transfer._reconstruct import displacement_lengths
 from transfer._setup import TransferSetup, transfer_setup
 

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from harness import read_records
 from harness._certificate import INCONSISTENT, instance_keys, violations
-from harness._overlap import GROUP_COLUMNS
+from harness._grid import GROUP_COLUMNS
 from harness.cli import cli
 from tests.plugin_distribution import registered_module
 

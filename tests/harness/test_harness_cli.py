@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -251,22 +249,3 @@ def test_rigs_fetch_faceunits_loads_and_saves_the_cached_rig(tmp_path, monkeypat
     assert rigs.load(out).names == tiny.names
     assert invoke("rigs", "fetch", "faceunits").exit_code == 0
     assert invoke("rigs", "fetch", "nothing").exit_code == 2
-
-
-def test_the_entry_point_freezes_the_collector_before_the_process_ends() -> None:
-    code = (
-        "import atexit, gc; atexit.register(lambda: print('frozen', gc.get_freeze_count())); "
-        "import sys; sys.argv[1:] = ['--version']; from harness.cli import main; main()"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert "harness" in done.stdout and int(done.stdout.split("frozen")[-1]) > 0
-
-
-def test_an_in_process_caller_keeps_its_collector() -> None:
-    code = (
-        "import contextlib, gc; from harness.cli import main\n"
-        "with contextlib.suppress(SystemExit):\n    main(['--version'])\n"
-        "print('frozen', gc.get_freeze_count())"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.split("frozen")[-1].strip() == "0"

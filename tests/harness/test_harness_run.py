@@ -10,6 +10,7 @@ import pytest
 
 import harness
 import packing
+import reports
 from harness import _plugins, _records
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
@@ -62,7 +63,7 @@ def test_a_small_grid_records_every_cell_and_every_sequence_passes_the_checker(r
     assert run["versions"]["solvers"]["cpsat"]["available"] is True
     assert set(run["machine"]) >= {"hostname", "cpu_count"} and "commit" in run["git"]
 
-    overlap = harness.read_overlap(tmp_path / "out")
+    overlap = reports.agreement_counts(harness.read_records(tmp_path / "out"))
     assert set(zip(overlap["solver_a"], overlap["solver_b"], strict=True)) == {
         ("cpsat", "greedy"),
         ("cpsat", "highs"),

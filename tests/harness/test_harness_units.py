@@ -252,3 +252,51 @@ def test_every_run_preset_is_a_valid_config() -> None:
     for name, values in harness.PRESETS.items():
         config = RunConfig(preset=name, **values)
         assert config.cells() and not math.isnan(config.cells()[0].mu)
+
+
+def test_a_transfer_is_computed_once_per_rig_method_and_training_set() -> None:
+    """Cells whose solvers agree share one transfer computation, and a method that ignores the training
+    expressions (``delta``) one estimate per rig, whatever the expressions (`harness._cell`)."""
+    import numpy as np
+
+    import transfer
+    from harness import _cell
+
+    template = rigs.generate("tiny", seed=0)
+    spec = CellSpec(
+        rig="tiny",
+        rig_seed=0,
+        warp="none",
+        solver="greedy",
+        mu=0.0,
+        alpha=0.0,
+        beta=0.0,
+        symmetry=True,
+        importance=True,
+        cap=None,
+        jmax=None,
+        time_limit=None,
+        repetition=0,
+        seed=0,
+        rig_digest="sha256:units",
+    )
+    weights = np.zeros((1, template.n_shapes))
+    weights[0, :2] = 1.0
+    estimates = []
+
+    def estimate() -> np.ndarray:
+        estimates.append(1)
+        return template.deltas * 0.5
+
+    first = _cell._transfer_metrics(transfer, "delta", spec, template, template, weights, estimate)
+    again = _cell._transfer_metrics(transfer, "delta", spec, template, template, weights, estimate)
+    other = weights.copy()
+    other[0, 2] = 1.0
+    third = _cell._transfer_metrics(transfer, "delta", spec, template, template, other, estimate)
+    assert (first["transfer_reused"], again["transfer_reused"], third["transfer_reused"]) == (
+        False,
+        True,
+        True,
+    )
+    assert len(estimates) == 1
+    assert again["rms"] == first["rms"] > 0

@@ -59,7 +59,6 @@ PINNED_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("n_chosen", pa.int64()),
     ("extra_examples", _STRINGS),
     ("objective", pa.float64()),
-    ("weight", pa.float64()),
     ("bound", pa.float64()),
     ("termination", pa.string()),
     ("presolve_time", pa.float64()),
@@ -206,7 +205,7 @@ def test_the_expression_columns_follow_the_dataclass() -> None:
     for column, annotation in expected.items():
         assert _records.RECORD_COLUMNS[column] == types[annotation], column
     computed = set(_records.expression_section()) - set(expected)
-    assert computed == {"n_chosen", "weight", "covered", "coverage"}
+    assert computed == {"n_chosen", "covered", "coverage"}
 
 
 def test_a_field_added_to_the_expression_becomes_a_column() -> None:
@@ -292,7 +291,7 @@ def test_expression_rows_add_what_the_cell_computes() -> None:
     rows = _cell._expression_rows({"cell": "c" * 16}, [first, second], n_shapes=8)
     assert [row["n_chosen"] for row in rows] == [3, 1]
     assert [row["covered"] for row in rows] == [3, 4] and rows[-1]["coverage"] == 0.5
-    assert [row["weight"] for row in rows] == [row["objective"] for row in rows] == [2.5, 1.0]
+    assert [row["objective"] for row in rows] == [2.5, 1.0] and "weight" not in rows[0]
     table = _records.records_table(rows)
     assert table.schema.equals(_records.RECORD_SCHEMA)
     assert table.column("termination").to_pylist() == ["completed", "completed"]

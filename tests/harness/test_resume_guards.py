@@ -155,10 +155,11 @@ def test_force_removes_only_files_the_harness_wrote(rig_file, tmp_path, inline) 
     assert not first & set(_records.part_files(out)) and len(_records.part_files(out)) == 1
     assert all(path.read_text() == "the user's" for path in users)
 
-    (out / "overlap.parquet").write_text("the user's now")
+    (out / "run.json").unlink()
+    (out / "run.json").write_text("the user's now")
     line = _one_line_error(invoke(*forced))
-    assert "overlap.parquet: exists and was not written by harness run" in line
-    (out / "overlap.parquet").unlink()
+    assert "run.json: exists and was not written by harness run" in line
+    (out / "run.json").unlink()
     (out / "records" / "keep.parquet").write_text("the user's")
     line = _one_line_error(invoke(*forced))
     assert "records holds files harness did not write (keep.parquet)" in line

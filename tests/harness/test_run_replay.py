@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 import harness
+import reports
 from harness import _records, _replay
 from harness._grid import RunConfig
 from tests.harness.cli_helpers import invoke
@@ -77,7 +78,7 @@ def test_replay_leaves_the_sequence_cells_as_they_were(replayed, tmp_path) -> No
 
 def test_replay_groups_apart_from_sequences(replayed) -> None:
     _, records, _ = replayed
-    table = harness.overlap_table(records)
+    table = reports.agreement_counts(records)
     assert set(table["mode"]) == {"sequence", "replay"}
     assert "mode" in harness.GROUP_COLUMNS and "permutation" in harness.GROUP_COLUMNS
 

@@ -1,7 +1,8 @@
 """Fixtures for the reports tests: a small face rig and fabricated run directories in the records schema.
 
-A fabricated run is what `harness run` writes (``run.json``, ``records/<cell>.parquet``, ``overlap.parquet``),
-built here from explicit expression sequences and times so that each test knows every expected number.
+A fabricated run is what `harness run` writes (``run.json``, ``records/<cell>.parquet``), built here from
+explicit expression sequences and times so that each test knows every expected number; the agreement of its
+solvers (Table 3), counted here by hand, is kept in `EXPECTED_AGREEMENT`.
 """
 
 from __future__ import annotations
@@ -57,6 +58,10 @@ GREEDY = [
     ["jawOpen", "smile_L", "smile_R", "noseWrinkle", "foreheadRaise"],
     ["cheekPuff_L", "cheekPuff_R"],
 ]
+
+
+#: Per fabricated run folder, its agreement rows (`reports.AGREEMENT_COLUMNS`) counted by hand.
+EXPECTED_AGREEMENT: dict[Path, list[dict[str, object]]] = {}
 
 
 def face_rig(resolution: int = 40) -> rigs.Rig:
@@ -238,13 +243,13 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
                 }
             )
             pq.write_table(pa.Table.from_pylist(rows, schema=schema), records_dir / f"{cell}.parquet")
-    overlap = []
+    agreement = []
     for setting, sequences in group_rows:
         for a, b in itertools.combinations(sorted(sequences), 2):
             for first in (5, 10, 20):
                 shapes_a = {s for shapes in sequences[a][:first] for s in shapes}
                 shapes_b = {s for shapes in sequences[b][:first] for s in shapes}
-                overlap.append(
+                agreement.append(
                     {
                         **setting,
                         "solver_a": a,
@@ -257,7 +262,7 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
                         "shared": len(shapes_a & shapes_b),
                     }
                 )
-    pq.write_table(pa.Table.from_pylist(overlap), out / "overlap.parquet")
+    EXPECTED_AGREEMENT[Path(out)] = agreement
     run = {
         "format": 1,
         "state": "complete",
@@ -297,6 +302,12 @@ def fabricate(face_rig_file: Path):
 def make_run(tmp_path: Path, fabricate):
     """Factory: ``make_run(name, **RunSpec fields)`` fabricates a run on the face rig under ``tmp_path``."""
     return lambda name, **fields: fabricate(tmp_path / name, **fields)
+
+
+@pytest.fixture(scope="session")
+def expected_agreement() -> dict[Path, list[dict[str, object]]]:
+    """Per fabricated run folder, its agreement rows counted by hand (`EXPECTED_AGREEMENT`)."""
+    return EXPECTED_AGREEMENT
 
 
 @pytest.fixture(scope="session")

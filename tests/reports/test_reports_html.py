@@ -10,10 +10,12 @@ import subprocess
 import time
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 
 import harness
+import reports
 from reports import build_report
 from reports._document import CONTENT_SECURITY_POLICY, Image, Section, html_page
 from reports.cli import report as report_command
@@ -67,7 +69,7 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     for heading in (
         "Timings (paper Table 2)",
         "Solvers across instances",
-        "Overlap of chosen shapes (paper Table 3)",
+        "Agreement of chosen shapes (paper Table 3, its 'overlap')",
         "Coverage",
         "The paper's claims",
         "Transfer error (paper Figs. 9 and 10)",
@@ -208,8 +210,14 @@ def test_a_rig_that_cannot_be_rebuilt_gets_a_note_instead_of_a_contact_sheet(mak
     assert "No contact sheet for rig moved-away: it could not be rebuilt (unknown rig" in text.read_text()
 
 
-def test_an_interrupted_run_without_overlap_table_still_gets_a_report(make_run):
+def test_the_agreement_of_solvers_is_counted_from_the_records(make_run, expected_agreement):
     run = make_run("run")
-    (run / "overlap.parquet").unlink()
+    expected = pd.DataFrame(expected_agreement[run])
+    found = reports.agreement_counts(harness.read_records(run))
+    assert list(found.columns) == list(reports.AGREEMENT_COLUMNS) and len(found) == len(expected) > 0
+    key = ["solver_a", "solver_b", "first", "importance", "repetition"]
+    columns = [*key, "expressions_a", "expressions_b", "shapes_a", "shapes_b", "shared"]
+    ordered = [frame[columns].sort_values(key).reset_index(drop=True) for frame in (found, expected)]
+    assert ordered[0].astype(str).equals(ordered[1].astype(str))
     _, text = build_report(run)
-    assert "No overlap table:" in text.read_text()
+    assert "## Agreement of chosen shapes" in text.read_text()

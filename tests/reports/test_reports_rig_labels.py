@@ -4,10 +4,6 @@ from __future__ import annotations
 
 import shutil
 
-import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
-
 from reports import build_report
 from reports._tables import rig_label, rig_labels
 
@@ -42,10 +38,6 @@ def test_a_report_on_two_rig_files_with_one_stem_keeps_them_apart(fabricate, fac
     other = fabricate(tmp_path / "other", rig=str(paths[1]))
     for part in (other / "records").glob("*.parquet"):
         shutil.copy(part, run / "records" / part.name)
-    overlap = pd.concat(
-        [pd.read_parquet(run / "overlap.parquet"), pd.read_parquet(other / "overlap.parquet")]
-    )
-    pq.write_table(pa.Table.from_pandas(overlap, preserve_index=False), run / "overlap.parquet")
 
     _, text = build_report(run)
     markdown = text.read_text()

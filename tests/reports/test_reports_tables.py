@@ -11,11 +11,11 @@ import pytest
 import harness
 from reports import (
     BASELINE_SOLVER,
-    PAPER_OVERLAP,
+    PAPER_AGREEMENT,
     PAPER_TIMINGS,
+    agreement_table,
     cell_times,
     expression_count_table,
-    overlap_table,
     problem_table,
     timing_table,
     worst_shapes_table,
@@ -49,7 +49,7 @@ def test_paper_overlaps_are_table_3_of_the_paper():
         for i, expressions in enumerate((5, 10, 20))
     }
     assert len(parsed) == 12
-    assert {key: PAPER_OVERLAP.loc[key].tolist() for key in PAPER_OVERLAP.index} == parsed
+    assert {key: PAPER_AGREEMENT.loc[key].tolist() for key in PAPER_AGREEMENT.index} == parsed
 
 
 def test_cell_times_divide_by_the_baseline_of_the_same_repetition(make_run):
@@ -126,8 +126,8 @@ def male_overlap(group) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_overlap_table_formats_like_table_3_with_the_paper_row(male_overlap):
-    table = overlap_table(male_overlap).set_index(["warp", "pair"])
+def test_agreement_table_formats_like_table_3_with_the_paper_row(male_overlap):
+    table = agreement_table(male_overlap).set_index(["warp", "pair"])
     ours = table.loc[("alien", "cpsat/greedy")]
     assert ours["5 ex."] == "38/36 (31)"  # repetition 1 is not shown
     assert ours["10 ex."] == "49/49 (42)"
@@ -136,8 +136,8 @@ def test_overlap_table_formats_like_table_3_with_the_paper_row(male_overlap):
     assert paper.tolist() == ["male", "36/38 (31)", "49/49 (42)", "63/63 (56)"]
 
 
-def test_overlap_table_of_an_empty_run_is_empty(male_overlap):
-    assert overlap_table(male_overlap.iloc[0:0]).empty
+def test_agreement_table_of_an_empty_run_is_empty(male_overlap):
+    assert agreement_table(male_overlap.iloc[0:0]).empty
 
 
 def test_expression_count_table_marks_truncated_sequences(make_run):

@@ -1,34 +1,29 @@
-"""``harness show OUT``: a run's summary in the terminal."""
+"""A run's summary in the terminal (``harness show OUT``), with the paper's claims (`reports._claims`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import click
 import pandas as pd
+from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from harness._cli_types import terminal
-from harness._durations import format_duration
-from harness._grid import VARIATION_FIELDS
+from harness import VARIATION_FIELDS, format_duration
 
 #: Packing settings a run may vary; `harness show` labels rows by those that do.
 _SETTING_COLUMNS: tuple[str, ...] = VARIATION_FIELDS
 
 
-@click.command("show")
-@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
-def show(out: Path) -> None:
-    """Summary tables of the run in OUT: cells by status, sequences per solver, transfer errors (and their
-    ratio to deformation transfer), the paper's claims held or not, problems."""
-    from harness._records import read_records
-    from harness._run import read_run
+def print_summary(out: Path) -> None:
+    """Print the summary tables of the run in ``out``: cells by status, sequences per solver, transfer
+    errors (and their ratio to deformation transfer), the paper's claims held or not, problems."""
+    from harness import read_records, read_run
 
     info = read_run(out)
     records = read_records(out)
     config = info["config"]
-    terminal().print(
+    _console().print(
         f"[bold]{out}[/]: {info['state']}, {info['n_cells']} cells, preset {config.get('preset') or '-'}, "
         f"started {info['started']}, finished {info.get('finished') or '-'}, "
         f"git {(info['git'].get('commit') or '-')[:10]}"
@@ -36,16 +31,16 @@ def show(out: Path) -> None:
     cells = records[records["kind"] == "cell"]
     statuses = cells["status"].value_counts().to_dict()
     missing = info["n_cells"] - len(cells)
-    terminal().print(
+    _console().print(
         "cells: "
         + ", ".join(f"{status} {count}" for status, count in sorted(statuses.items()))
         + (f", not yet run {missing} (harness run --resume {out})" if missing else "")
     )
-    terminal().print(_sequence_table(records))
+    _console().print(_sequence_table(records))
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
     if len(transfers):
-        terminal().print(_transfer_table(transfers))
-        terminal().print(_claims_table(records))
+        _console().print(_transfer_table(transfers))
+        _console().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
         table = Table(title="cells that did not finish ok")
@@ -53,7 +48,7 @@ def show(out: Path) -> None:
             table.add_column(column)
         for row in problems.itertuples():
             table.add_row(*map(escape, (row.rig, row.warp, row.solver, row.status, row.message or "")))
-        terminal().print(table)
+        _console().print(table)
 
 
 def _sequence_table(records: pd.DataFrame) -> Table:
@@ -150,8 +145,8 @@ def _setting_labels(rows: pd.DataFrame) -> list[str]:
 
 
 def _claims_table(records: pd.DataFrame) -> Table:
-    """The paper's claims, held or not, with the numbers (`harness._claims`)."""
-    from harness._claims import HELD, NOT_HELD, claims_table
+    """The paper's claims, held or not, with the numbers (`reports._claims`)."""
+    from reports._claims import HELD, NOT_HELD, claims_table
 
     colours = {HELD: "green", NOT_HELD: "red"}
     table = Table(title="the paper's claims (Carrigan et al. 2020, sec. 5.2)")
@@ -161,3 +156,8 @@ def _claims_table(records: pd.DataFrame) -> Table:
         colour = colours.get(row.verdict, "yellow")
         table.add_row(escape(row.claim), escape(row.measured), f"[{colour}]{row.verdict}[/]")
     return table
+
+
+def _console() -> Console:
+    """The terminal (made per use, so that its width follows ``COLUMNS``)."""
+    return Console(highlight=False)

@@ -1,11 +1,12 @@
-"""Shapes two solvers share in their first expressions (Carrigan et al. 2020, Table 3), from the records.
+"""Agreement of solvers: the shapes two solvers share in their first expressions (Carrigan et al. 2020,
+Table 3, which calls it overlap), computed from a run's records.
 
-Columns of ``OUT/overlap.parquet``:
+Columns of `agreement_counts`:
 
 ============== ======== ============================================================================
 column         dtype    meaning
 ============== ======== ============================================================================
-rig ... rep.   as cells the group: every cell column of `GROUP_COLUMNS` (the grid point minus solver)
+rig ... rep.   as cells the group: every cell column of `harness.GROUP_COLUMNS` (grid point minus solver)
 solver_a       string   first solver of the pair (alphabetically smaller)
 solver_b       string   second solver
 first          int64    number of leading expressions compared (5, 10, 20)
@@ -25,30 +26,13 @@ import itertools
 
 import pandas as pd
 
+from harness import GROUP_COLUMNS
+
 #: Leading expression counts compared, as in the paper's Table 3.
 FIRST_COUNTS: tuple[int, ...] = (5, 10, 20)
 
-#: Cell columns that define which solvers' sequences are compared with each other.
-GROUP_COLUMNS: tuple[str, ...] = (
-    "rig",
-    "rig_seed",
-    "warp",
-    "mu",
-    "alpha",
-    "beta",
-    "symmetry",
-    "importance",
-    "cap",
-    "distortion",
-    "examples",
-    "jmax",
-    "time_limit",
-    "repetition",
-    "mode",
-    "permutation",
-)
-
-OVERLAP_COLUMNS: tuple[str, ...] = (
+#: The columns of `agreement_counts`.
+AGREEMENT_COLUMNS: tuple[str, ...] = (
     *GROUP_COLUMNS,
     "solver_a",
     "solver_b",
@@ -61,7 +45,7 @@ OVERLAP_COLUMNS: tuple[str, ...] = (
 )
 
 
-def overlap_table(records: pd.DataFrame, first_counts: tuple[int, ...] = FIRST_COUNTS) -> pd.DataFrame:
+def agreement_counts(records: pd.DataFrame, first_counts: tuple[int, ...] = FIRST_COUNTS) -> pd.DataFrame:
     """Table 3 for every pair of solvers that ran the same grid point.
 
     Parameters
@@ -73,7 +57,7 @@ def overlap_table(records: pd.DataFrame, first_counts: tuple[int, ...] = FIRST_C
 
     Returns
     -------
-    DataFrame with `OVERLAP_COLUMNS`, one row per (group, solver pair, first count).
+    DataFrame with `AGREEMENT_COLUMNS`, one row per (group, solver pair, first count).
     """
     ok_cells = records.loc[(records["kind"] == "cell") & (records["status"] == "ok"), "cell"]
     expressions = records[(records["kind"] == "expression") & records["cell"].isin(ok_cells)]
@@ -100,6 +84,6 @@ def overlap_table(records: pd.DataFrame, first_counts: tuple[int, ...] = FIRST_C
                         len(shapes_a & shapes_b),
                     )
                 )
-    table = pd.DataFrame(rows, columns=list(OVERLAP_COLUMNS))
+    table = pd.DataFrame(rows, columns=list(AGREEMENT_COLUMNS))
     integers = ["first", "expressions_a", "expressions_b", "shapes_a", "shapes_b", "shared"]
     return table.astype({column: "int64" for column in integers})

@@ -1,10 +1,10 @@
-"""`transfer._memo.BoundedMemo`: the one cache of set-ups, scanners, scans and fitted expressions."""
+"""`registry.BoundedMemo`, the one cache type (transfer set-ups, scans, fitted expressions, cell rigs)."""
 
 from __future__ import annotations
 
 import threading
 
-from transfer._memo import BoundedMemo
+from registry import BoundedMemo
 
 
 def test_the_least_recently_used_value_goes_first():

@@ -1,8 +1,9 @@
-"""A bounded, thread-safe memo: the one cache shape of the transfer package.
+"""A bounded, thread-safe memo: the one cache type of the project.
 
-Set-ups per rig pair, scanners per target, scans per capture session and fitted expressions per rigging
-state are each kept in one: at most ``size`` entries, the least recently used dropped first, a value
-built outside the lock (two threads may build one key at once; the later value is kept).
+The transfer package keeps set-ups per rig pair, scanners per target, scans per capture session and fitted
+expressions per rigging state in one, the harness's cells their rigs and transfer results: at most
+``size`` entries, the least recently used dropped first, a value built outside the lock (two threads may
+build one key at once; the later value is kept).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The claims table (`harness._claims`) is computed from records: constructed records decide each verdict."""
+"""The claims table (`reports._claims`) is computed from records: constructed records decide each verdict."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 
 import harness
-from harness._claims import HELD, NOT_HELD, NOT_MEASURED, UNSTABLE, claims_table
 from harness._records import write_part
+from reports._claims import HELD, NOT_HELD, NOT_MEASURED, UNSTABLE, claims_table
 
 SHAPES = [f"s{i}" for i in range(20)]
 #: Optimal and greedy sequences sharing 9 of the optimal solver's 10 shapes in the first 5 expressions.

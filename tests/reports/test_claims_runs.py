@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 
 import harness
-from harness._claims import HELD, NOT_HELD, NOT_MEASURED, UNSTABLE, claims_table
 from harness._grid import CLAIM_VARIATIONS
 from harness.cli import cli
+from reports._claims import HELD, NOT_HELD, NOT_MEASURED, UNSTABLE, claims_table
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ seeds``, whatever the pooled share says.
 ============================ ==========================================================================
 claim                        rule (constants of this module)
 ============================ ==========================================================================
-greedy/optimal overlap       shapes both chose / shapes the optimal solver chose, in the first 5, 10, 20
+greedy/optimal agreement     shapes both chose / shapes the optimal solver chose, in the first 5, 10, 20
                              expressions (Table 3), all within `SHARED_RANGE` (67%-98%); points where
                              the optimal solver had used every shape already are left out
 optimal below greedy         ``ebfr`` RMS with the optimal solver's expressions below greedy's at more
@@ -46,8 +46,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from harness._overlap import overlap_table
-from harness._settings import settings_text, split_label
+from harness import settings_text, split_label
+from reports._agreement import agreement_counts
 
 #: The transfer the claims read (the paper's example-based facial rigging).
 CLAIM_TRANSFER = "ebfr"
@@ -192,13 +192,13 @@ def _shared_shapes(records: pd.DataFrame) -> Claim:
     title = "greedy and optimal choose similar, not identical shapes"
     paper = "Table 3: 67%-98% of the optimal method's shapes also chosen by greedy (first 5, 10, 20 expr.)"
     optimal = _optimal_solver(records)
-    overlap = overlap_table(records)
-    if optimal is None or overlap.empty:
+    agreement = agreement_counts(records)
+    if optimal is None or agreement.empty:
         return Claim(title, paper, f"needs ok cells of {GREEDY} and an optimal solver", NOT_MEASURED)
-    pairs = overlap[
-        (overlap["solver_a"].isin([optimal, GREEDY]))
-        & (overlap["solver_b"].isin([optimal, GREEDY]))
-        & (overlap["solver_a"] != overlap["solver_b"])
+    pairs = agreement[
+        (agreement["solver_a"].isin([optimal, GREEDY]))
+        & (agreement["solver_b"].isin([optimal, GREEDY]))
+        & (agreement["solver_a"] != agreement["solver_b"])
     ]
     pairs = _paper_setting(pairs)
     pairs = pairs[pairs["repetition"] == pairs["repetition"].min()] if not pairs.empty else pairs
