@@ -151,7 +151,7 @@ def restrict_conflict_sets(cliques, keep, n_items):
     """The maximal conflict sets of the sub-problem over the items ``keep`` (`ConflictSets.restrict`)."""
     kept = np.zeros(n_items, dtype=bool)
     kept[keep] = True
-    return ConflictSets.from_cliques(cliques).restrict(kept).as_tuple()
+    return ConflictSets.from_cliques(cliques, n_items).restrict(kept).as_tuple()
 
 
 def test_restrict_keeps_one_of_equal_sets_and_drops_the_contained_ones():
