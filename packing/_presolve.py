@@ -306,13 +306,17 @@ def _not_inside(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return outside != 0
 
 
+#: Set pairs `_dominated_by_larger` compares at once (bounds its temporaries to about 10 MB).
+_PAIRS_PER_BLOCK = 1 << 18
+
+
 def _dominated_by_larger(
     entry_set: np.ndarray, entry_item: np.ndarray, words: np.ndarray, sizes: np.ndarray, n_items: int
 ) -> np.ndarray:
     """(S,) bool: distinct sets contained in a larger one.
 
     ``entry_set`` and ``entry_item`` list the members of the sets, grouped by item. Each set is compared
-    only with the larger sets that hold its rarest item.
+    only with the larger sets that hold its rarest item, about `_PAIRS_PER_BLOCK` pairs at a time.
     """
     holders = np.bincount(entry_item, minlength=n_items)  # sets holding each item
     first_holder = np.zeros(n_items + 1, dtype=np.int64)
@@ -321,13 +325,19 @@ def _dominated_by_larger(
     np.minimum.at(rarest, entry_set, holders[entry_item] * n_items + entry_item)
     rarest %= n_items
     counts = holders[rarest]
-    subset = np.repeat(np.arange(sizes.size), counts)
-    offset = np.arange(subset.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    superset = entry_set[first_holder[rarest[subset]] + offset]
-    larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
-    subset, superset = subset[larger], superset[larger]
-    contained = ~_not_inside(words, subset, superset)
-    return np.bincount(subset[contained], minlength=sizes.size) > 0
+    pairs_before = np.zeros(sizes.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=pairs_before[1:])
+    bounds = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1], _PAIRS_PER_BLOCK), side="right") - 1
+    dominated = np.zeros(sizes.size, dtype=bool)
+    for start, stop in zip(bounds.tolist(), [*bounds[1:].tolist(), sizes.size], strict=True):
+        block = np.arange(start, stop)
+        subset = np.repeat(block, counts[block])
+        offset = np.arange(subset.size) - np.repeat(pairs_before[block] - pairs_before[start], counts[block])
+        superset = entry_set[first_holder[rarest[subset]] + offset]
+        larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
+        subset, superset = subset[larger], superset[larger]
+        dominated[subset[~_not_inside(words, subset, superset)]] = True
+    return dominated
 
 
 #: Word comparisons below which `_dominated_among` compares every candidate with every set at once.

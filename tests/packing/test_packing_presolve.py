@@ -212,3 +212,15 @@ def test_weights_given_are_not_frozen_in_place():
     weights = np.array([1.0, 2.0])
     problem_from_incidence(np.eye(2, dtype=bool), weights)
     weights[0] = 3.0  # the caller's array stays writable
+
+
+def test_the_dominance_check_in_blocks_of_pairs_gives_the_same_sets(monkeypatch):
+    import packing._presolve as presolve
+
+    rng = np.random.default_rng(3)
+    incidence = sp.csr_matrix(rng.random((40, 300)) < 0.08)
+    whole = maximal_conflict_sets(incidence)
+    monkeypatch.setattr(presolve, "_PAIRS_PER_BLOCK", 7)
+    blocked = maximal_conflict_sets(incidence)
+    assert whole[1] == blocked[1] and len(whole[0]) > 10
+    assert [c.tolist() for c in whole[0]] == [c.tolist() for c in blocked[0]]

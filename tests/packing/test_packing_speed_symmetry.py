@@ -193,3 +193,18 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
     assert all((b, a) in kept for a, b in kept)  # both directions of eq. 10
     assert len(kept) < 0.2 * rig.n_shapes**2  # and it does rule out most pairs
+
+
+def test_the_field_reads_the_displacements_of_the_active_entries_in_place():
+    rig = rigs.generate("arkit52")
+    norms, masks, mirror, normal, _, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    picked = np.random.default_rng(1).integers(0, rows.size, 300)
+    assert np.array_equal(field.moved(picked), rig.deltas[rows[picked], cols[picked]])
+    offsets = field.offsets()
+    assert offsets.size == rows.size and np.array_equal(
+        rig.deltas.reshape(-1)[offsets + 2], rig.deltas[rows, cols, 2]
+    )
+    assert np.shares_memory(field.displacements, rig.deltas)
