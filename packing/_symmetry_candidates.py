@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing._symmetry_field import SymmetryField
+from packing._symmetry_field import SymmetryField, reflect
 from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
@@ -70,7 +70,9 @@ def image_cell_sums(
         mirrored_rows, mirrored_cols, cell, field, candidates, int(cell.max()) + 1, source
     )
     n_image = np.bincount(mirrored_rows, minlength=candidates.size)
-    return CellSums(sums @ field.reflection, counts, present, n_image)  # R is linear: sum of reflections
+    return CellSums(
+        reflect(sums, field.reflection), counts, present, n_image
+    )  # R is linear: sum of reflections
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,8 @@ from packing._binary import active_lengths
 TABLE_CELLS = 1 << 21
 #: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
 ENTRY_CHUNK = 1 << 18
+#: Vectors `reflect` multiplies by the reflection in one matrix product.
+REFLECT_ROWS = 1 << 13
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,7 @@ class SymmetryField:
         displacements = deltas.reshape(-1, 3)
         moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
-        reflected = moved @ reflection
+        reflected = reflect(moved, reflection)
         del moved
         lengths = active_lengths(norms, active)
         n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
@@ -129,6 +131,23 @@ class SymmetryField:
             found[low:high] = hit
             table[written] = 0
         return found
+
+
+def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
+    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product.
+
+    One BLAS product over millions of three-column rows is slow (tens of times slower on a busy machine,
+    where its threads wait for each other); runs of a few thousand rows are not. Each row of a product is
+    computed on its own, so the result is bit for bit that of one product (a remainder of a single row,
+    which numpy would hand to a vector routine instead, joins the run before it).
+    """
+    reflected = np.empty((vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection))
+    bounds = [*range(0, vectors.shape[0], REFLECT_ROWS), vectors.shape[0]]
+    if len(bounds) > 2 and bounds[-1] - bounds[-2] == 1:
+        del bounds[-2]
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        np.matmul(vectors[start:stop], reflection, out=reflected[start:stop])
+    return reflected
 
 
 def index_type(active: sp.csr_matrix) -> type[np.signedinteger]:
