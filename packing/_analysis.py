@@ -46,8 +46,8 @@ class Analysis:
     params : PackingParams
     target : (N, 3) array or None
         The target neutral of eq. 6, if given.
-    masks : (K, N) bool array
-        Binary blendshapes.
+    active : (K, N) CSR bool matrix with sorted indices
+        Binary blendshapes (eq. 2); `masks` is the dense form.
     empty : (K,) bool array
         Shapes with no displacement above the noise floor (excluded from packing).
     terms : ImportanceTerms
@@ -66,7 +66,7 @@ class Analysis:
     rig: Rig
     params: PackingParams
     target: np.ndarray | None
-    masks: np.ndarray
+    active: sp.csr_matrix
     empty: np.ndarray
     terms: ImportanceTerms
     symmetry: SymmetryResult
@@ -84,6 +84,11 @@ class Analysis:
         )
 
     # -- reports -----------------------------------------------------------------------------------------
+    @property
+    def masks(self) -> np.ndarray:
+        """(K, N) bool array: the binary blendshapes (eq. 2), made dense on each read from `active`."""
+        return self.active.toarray()
+
     @property
     def empty_names(self) -> tuple[str, ...]:
         """Names of the empty shapes, excluded from packing."""
@@ -253,9 +258,8 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         clock = now
 
     target = target_neutral_of(rig, target_neutral)
-    norms, empty, masks = _binary_blendshapes(rig, settings)
+    norms, empty, active = _binary_blendshapes(rig, settings)
     require_nonempty(rig, empty)
-    active = sparse_masks(masks)
     lap("binary")
     if settings.importance and target is None:
         warn_missing_target(settings.alpha)
@@ -292,37 +296,43 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     )
     lap("presolve")
     timings["total"] = sum(timings.values())
-    return Analysis(rig, settings, target, masks, empty, terms, symmetry, problem, item_shapes, timings)
+    return Analysis(rig, settings, target, active, empty, terms, symmetry, problem, item_shapes, timings)
 
 
 #: Displacements whose lengths `_binary_blendshapes` holds at once (bounds its (K, N) float temporaries).
 BINARY_BLOCK = 1 << 22
 
 
-def _binary_blendshapes(rig: Rig, params: PackingParams) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+def _binary_blendshapes(rig: Rig, params: PackingParams) -> tuple[sp.csr_matrix, np.ndarray, sp.csr_matrix]:
     """`packing._binary.rig_masks` a block of shapes at a time (about `BINARY_BLOCK` vertices): the same
     empty shapes and masks (eq. 2 reads each shape's own lengths only), and the lengths of the active
-    entries only (`packing._binary.lengths_matrix`), without ever holding K N lengths.
+    entries only (`packing._binary.lengths_matrix`), without ever holding K N lengths or K N masks.
 
     Returns
     -------
-    (K, N) CSR lengths of the active entries, (K,) bool empty shapes, (K, N) bool masks.
+    (K, N) CSR lengths of the active entries, (K,) bool empty shapes, (K, N) CSR bool masks (sorted indices,
+    as `packing._binary.sparse_masks` makes them).
     """
     n_shapes, n_vertices = rig.n_shapes, rig.n_vertices
-    masks = np.zeros((n_shapes, n_vertices), dtype=bool)
     empty = np.zeros(n_shapes, dtype=bool)
-    lengths = []
+    lengths, columns, counts = [], [], [np.zeros(1, dtype=np.int64)]
     scale = rig.diagonal()
     per_block = max(1, BINARY_BLOCK // max(n_vertices, 1))
     for start in range(0, n_shapes, per_block):
         block = slice(start, min(start + per_block, n_shapes))
         norms = displacement_norms(rig.deltas[block])
         empty[block] = empty_mask(norms, params.noise_floor, scale)
-        masks[block] = masks_from_norms(norms, params.mu, empty[block])
-        lengths.append(norms[masks[block]])  # row-major: the order of the active entries
-    active = sparse_masks(masks)
-    matrix = sp.csr_matrix((np.concatenate(lengths), active.indices, active.indptr), shape=masks.shape)
-    return matrix, empty, masks
+        masks = masks_from_norms(norms, params.mu, empty[block])
+        lengths.append(norms[masks])  # row-major: the order of the active entries
+        active = sparse_masks(masks)
+        columns.append(active.indices)
+        counts.append(np.diff(active.indptr))
+    indptr = np.cumsum(np.concatenate(counts))
+    active = sp.csr_matrix(
+        (np.ones(indptr[-1], dtype=bool), np.concatenate(columns), indptr), shape=(n_shapes, n_vertices)
+    )
+    matrix = sp.csr_matrix((np.concatenate(lengths), active.indices, active.indptr), shape=active.shape)
+    return matrix, empty, active
 
 
 def build_problem(

@@ -10,6 +10,7 @@ rejection), which never visits a vertex again.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,21 +52,23 @@ class ConflictSets:
     """Distinct maximal conflict sets in flat (CSR) form, in canonical order.
 
     Set r holds items ``members[starts[r]:starts[r + 1]]``, ascending; sets are ordered by decreasing
-    size, then lexicographically by their item lists. ``sizes`` and ``owner`` (the set of each member)
-    are kept alongside for `restrict`. All arrays are read-only.
+    size, then lexicographically by their item lists, over the items ``0..n_items-1``. ``sizes`` and
+    ``owner`` (the set of each member) are kept alongside for `restrict`. All arrays are read-only.
     """
 
     members: np.ndarray
     starts: np.ndarray
     sizes: np.ndarray
     owner: np.ndarray
+    n_items: int
 
     @classmethod
-    def from_cliques(cls, cliques: tuple[np.ndarray, ...]) -> ConflictSets:
-        """The flat form of a tuple of conflict sets (as held by `PackingProblem.cliques`)."""
+    def from_cliques(cls, cliques: tuple[np.ndarray, ...], n_items: int) -> ConflictSets:
+        """The flat form of a tuple of conflict sets over ``n_items`` items (as held by
+        `PackingProblem.cliques`)."""
         sizes = np.fromiter((c.size for c in cliques), dtype=np.int64, count=len(cliques))
         members = np.concatenate(cliques).astype(np.int64) if cliques else np.zeros(0, dtype=np.int64)
-        return cls._frozen(members, sizes)
+        return cls._frozen(members, sizes, n_items)
 
     @classmethod
     def from_incidence(cls, incidence: sp.spmatrix) -> tuple[ConflictSets, int]:
@@ -82,7 +85,8 @@ class ConflictSets:
         conflicted = vertex_sizes >= 2  # one eq. 3b row each, to be reduced
         n_rows = int(np.count_nonzero(conflicted))
         if n_rows == 0:
-            return cls._frozen(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)), n_vertex_rows
+            empty = np.zeros(0, dtype=np.int64)
+            return cls._frozen(empty, empty.copy(), n_items), n_vertex_rows
         row_of_vertex = np.cumsum(conflicted) - 1
         inside = conflicted[incidence.indices]
         entry_row = row_of_vertex[incidence.indices[inside]]  # entries grouped by item (CSR order)
@@ -103,19 +107,31 @@ class ConflictSets:
         )
         maximal = unique[~dominated]
         _, members = np.nonzero(rows[maximal])
-        return cls._frozen(members.astype(np.int64), sizes[maximal]), n_vertex_rows
+        return cls._frozen(members.astype(np.int64), sizes[maximal], n_items), n_vertex_rows
 
     @classmethod
-    def _frozen(cls, members: np.ndarray, sizes: np.ndarray) -> ConflictSets:
+    def _frozen(cls, members: np.ndarray, sizes: np.ndarray, n_items: int) -> ConflictSets:
         starts = np.zeros(sizes.size + 1, dtype=np.int64)
         sizes.cumsum(out=starts[1:])
         owner = np.arange(sizes.size).repeat(sizes)
         for array in (members, starts, sizes, owner):
             array.flags.writeable = False
-        return cls(members, starts, sizes, owner)
+        return cls(members, starts, sizes, owner, n_items)
 
     def __len__(self) -> int:
         return self.sizes.size
+
+    @cached_property
+    def holders(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sets holding each item, in flat (CSR) form: ``(holder_starts, holder_sets)``, item i in sets
+        ``holder_sets[holder_starts[i]:holder_starts[i + 1]]`` (ascending). Computed on first use, in
+        O(M log M) for the M members."""
+        by_item = np.argsort(self.members, kind="stable")
+        holder_sets = self.owner[by_item]
+        holder_starts = np.zeros(self.n_items + 1, dtype=np.int64)
+        np.bincount(self.members, minlength=self.n_items).cumsum(out=holder_starts[1:])
+        holder_starts.flags.writeable = holder_sets.flags.writeable = False
+        return holder_starts, holder_sets
 
     def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The sets as a tuple of read-only int arrays (views of `members`)."""
@@ -143,9 +159,9 @@ class ConflictSets:
         sizes = np.bincount(owner, minlength=len(self))
         alive = sizes >= 2
         shrunk = alive & (sizes < self.sizes)
-        if not shrunk.any():  # unchanged sets, renumbered, in the same order
-            return self._frozen(members[alive[owner]], sizes[alive])
         n_kept = int(np.count_nonzero(kept))
+        if not shrunk.any():  # unchanged sets, renumbered, in the same order
+            return self._frozen(members[alive[owner]], sizes[alive], n_kept)
         words = _words(_bit_rows(owner, members, len(self), n_kept))
         retained = alive & ~_dominated_among(words, sizes, shrunk.nonzero()[0], owner, members, n_kept)
         order = _canonical_order(words, sizes, retained)
@@ -153,7 +169,97 @@ class ConflictSets:
         sizes = sizes[order]
         ahead = sizes.cumsum() - sizes  # where they go
         take = (start - ahead).repeat(sizes) + np.arange(ahead[-1] + sizes[-1])
-        return self._frozen(members[take], sizes)
+        return self._frozen(members[take], sizes, n_kept)
+
+
+class LazyConflictSets:
+    """The conflict sets of a problem, known or derived from an ancestor's on first use.
+
+    A restriction (`PackingProblem.restrict`) records only which of its parent's items it keeps. Its sets
+    are computed when asked, by one `ConflictSets.restrict` of the nearest ancestor whose sets are known
+    with the composed selection of items (a chain of restrictions gives the sets one restriction gives),
+    and the link to the parent is then let go. A consumer that only needs to know which items conflict
+    (Algorithm 2) reads the ancestor's sets through `view` and derives nothing.
+
+    Parameters
+    ----------
+    sets : ConflictSets or None
+        The sets, when known.
+    parent : LazyConflictSets, optional
+        The sets of the problem restricted, when ``sets`` is not given.
+    index : (n_items,) int array, optional
+        The kept items among the parent's, ascending.
+    """
+
+    def __init__(
+        self,
+        sets: ConflictSets | None,
+        parent: LazyConflictSets | None = None,
+        index: np.ndarray | None = None,
+    ) -> None:
+        self._sets, self._parent, self._index = sets, parent, index
+        self._view: ConflictView | None = None
+        self.n_items = sets.n_items if sets is not None else index.size
+
+    def __getstate__(self) -> dict[str, object]:
+        """Only the computed sets (a pickled copy does not carry its ancestors)."""
+        sets = self.value()
+        return {"_sets": sets, "_parent": None, "_index": None, "_view": None, "n_items": self.n_items}
+
+    @property
+    def known(self) -> bool:
+        """Whether the sets are computed."""
+        return self._sets is not None
+
+    def restricted(self, index: np.ndarray) -> LazyConflictSets:
+        """The sets of the problem over the items ``index`` (ascending) of this one, derived on first use."""
+        return LazyConflictSets(None, self, index)
+
+    def view(self) -> ConflictView:
+        """These sets once computed, else the view of the nearest problem up the lineage whose sets are known
+        (kept for the restrictions of this one: a sequence of restrictions walks one step each)."""
+        if self._sets is not None:
+            return ConflictView(self._sets, np.arange(self.n_items))
+        if self._view is None:
+            walked, node = [], self
+            while node._sets is None and node._view is None:
+                walked.append(node)
+                node = node._parent
+            view = node.view()
+            for node in reversed(walked):
+                view = node._view = ConflictView(view.sets, view.items[node._index])
+        return self._view
+
+    def value(self) -> ConflictSets:
+        """The sets, computed on the first call by one restriction of the nearest known ancestor's; the
+        lineage is then let go."""
+        if self._sets is None:
+            node, index = self, np.arange(self.n_items)
+            while node._sets is None:
+                index = node._index[index]
+                node = node._parent
+            kept = np.zeros(node.n_items, dtype=bool)
+            kept[index] = True
+            self._sets = node._sets.restrict(kept)
+            self._parent = self._index = self._view = None
+        return self._sets
+
+
+@dataclass(frozen=True)
+class ConflictView:
+    """Conflict sets over a superset of a problem's items: two items of the problem conflict iff they share
+    one of these sets, as they do iff they share one of the problem's own (maximal) sets.
+
+    Attributes
+    ----------
+    sets : ConflictSets
+        The sets, over ``sets.n_items`` items.
+    items : (I,) int array
+        The problem's items among them, ascending.
+    """
+
+    sets: ConflictSets
+    items: np.ndarray
 
 
 def _bit_rows(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> np.ndarray:
@@ -200,13 +306,17 @@ def _not_inside(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return outside != 0
 
 
+#: Set pairs `_dominated_by_larger` compares at once (bounds its temporaries to about 10 MB).
+_PAIRS_PER_BLOCK = 1 << 18
+
+
 def _dominated_by_larger(
     entry_set: np.ndarray, entry_item: np.ndarray, words: np.ndarray, sizes: np.ndarray, n_items: int
 ) -> np.ndarray:
     """(S,) bool: distinct sets contained in a larger one.
 
     ``entry_set`` and ``entry_item`` list the members of the sets, grouped by item. Each set is compared
-    only with the larger sets that hold its rarest item.
+    only with the larger sets that hold its rarest item, about `_PAIRS_PER_BLOCK` pairs at a time.
     """
     holders = np.bincount(entry_item, minlength=n_items)  # sets holding each item
     first_holder = np.zeros(n_items + 1, dtype=np.int64)
@@ -215,13 +325,19 @@ def _dominated_by_larger(
     np.minimum.at(rarest, entry_set, holders[entry_item] * n_items + entry_item)
     rarest %= n_items
     counts = holders[rarest]
-    subset = np.repeat(np.arange(sizes.size), counts)
-    offset = np.arange(subset.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    superset = entry_set[first_holder[rarest[subset]] + offset]
-    larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
-    subset, superset = subset[larger], superset[larger]
-    contained = ~_not_inside(words, subset, superset)
-    return np.bincount(subset[contained], minlength=sizes.size) > 0
+    pairs_before = np.zeros(sizes.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=pairs_before[1:])
+    bounds = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1], _PAIRS_PER_BLOCK), side="right") - 1
+    dominated = np.zeros(sizes.size, dtype=bool)
+    for start, stop in zip(bounds.tolist(), [*bounds[1:].tolist(), sizes.size], strict=True):
+        block = np.arange(start, stop)
+        subset = np.repeat(block, counts[block])
+        offset = np.arange(subset.size) - np.repeat(pairs_before[block] - pairs_before[start], counts[block])
+        superset = entry_set[first_holder[rarest[subset]] + offset]
+        larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
+        subset, superset = subset[larger], superset[larger]
+        dominated[subset[~_not_inside(words, subset, superset)]] = True
+    return dominated
 
 
 #: Word comparisons below which `_dominated_among` compares every candidate with every set at once.

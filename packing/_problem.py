@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from typing import Any
@@ -10,46 +10,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from packing._presolve import ConflictSets, maximal_conflict_sets
-
-
-class Deferred:
-    """A value computed on first read, once: what `PackingProblem.restrict` gives what it derives lazily."""
-
-    def __init__(self, compute: Callable[[], Any]) -> None:
-        self._compute: Callable[[], Any] | None = compute
-        self._value: Any = None
-
-    def value(self) -> Any:
-        """The value, computed on the first call (the function is then let go, with what it held)."""
-        if self._compute is not None:
-            self._value, self._compute = self._compute(), None
-        return self._value
-
-
-def _computed(value: Any) -> Any:
-    """The value of a `Deferred`, or ``value`` itself."""
-    return value.value() if isinstance(value, Deferred) else value
-
-
-class _DeferredField:
-    """A dataclass field that may be set to a `Deferred`; the value is computed on first read and kept (the
-    instance dictionary holds it under another name, so a frozen dataclass can still fill it in)."""
-
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name, self.slot = name, f"_{name}_value"
-
-    def __get__(self, instance: Any, owner: type | None = None) -> Any:
-        if instance is None:
-            raise AttributeError(self.name)  # (no default value for the dataclass)
-        value = instance.__dict__[self.slot]
-        if isinstance(value, Deferred):
-            value = value.value()
-            instance.__dict__[self.slot] = value
-        return value
-
-    def __set__(self, instance: Any, value: Any) -> None:
-        instance.__dict__[self.slot] = value
+from packing._deferred import Deferred, DeferredField, computed_state
+from packing._presolve import ConflictSets, ConflictView, LazyConflictSets
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,8 +56,8 @@ class PackingProblem:
     shape_names: tuple[str, ...]
     items: tuple[tuple[int, ...], ...]
     weights: np.ndarray
-    incidence: sp.csr_matrix = _DeferredField()  # type: ignore[assignment]
-    cliques: tuple[np.ndarray, ...] = _DeferredField()  # type: ignore[assignment]
+    incidence: sp.csr_matrix = DeferredField()  # type: ignore[assignment]
+    cliques: tuple[np.ndarray, ...] = DeferredField()  # type: ignore[assignment]
     cap: int | None = None
     n_vertex_rows: int = 0
     meta: Mapping[str, Any] = field(default_factory=dict)
@@ -105,8 +67,7 @@ class PackingProblem:
     def __getstate__(self) -> dict[str, Any]:
         """The instance dictionary with every deferred value computed (a `Deferred` holds a function, which
         does not pickle)."""
-        state = dict(self.__dict__)
-        return {name: _computed(value) for name, value in state.items()}
+        return computed_state(self)
 
     @property
     def n_items(self) -> int:
@@ -185,8 +146,7 @@ class PackingProblem:
         dropped_vertices = _row_vertices(matrix, rows[~kept])
         cover = self._vertex_cover - np.bincount(dropped_vertices, minlength=matrix.shape[1])
         rows = rows[keep_index]
-        parent = self._deferred_conflict_sets()
-        sets = Deferred(lambda: parent.value().restrict(kept))
+        sets = self._lineage().restricted(keep_index)
         weights = self.weights[keep_index]
         weights.flags.writeable = False
         derived: dict[str, Any] = {
@@ -219,6 +179,22 @@ class PackingProblem:
         if isinstance(self.__dict__.get("_cliques_value"), Deferred):
             return len(self._conflict_sets)
         return len(self.cliques)
+
+    def deferred_n_cliques(self) -> int | Deferred:
+        """`n_cliques` if this problem's conflict sets are known, else a `Deferred` of it that holds only what
+        derives the sets (for a record of the problem that a solver may not need the sets for)."""
+        lineage = self._lineage()
+        if lineage.known or not isinstance(self.__dict__.get("_cliques_value"), Deferred):
+            return self.n_cliques
+        return Deferred(lambda: len(lineage.value()))
+
+    @property
+    def conflict_view(self) -> ConflictView:
+        """Conflict sets over a superset of the items, with which items conflict exactly as they do in
+        `cliques`: this problem's own when computed, else the nearest computed ones of the problems it was
+        restricted from (`LazyConflictSets`). What a solver that only asks which items conflict reads,
+        without deriving this problem's maximal sets."""
+        return self._lineage().view()
 
     def permuted(self, order: Iterable[int]) -> PackingProblem:
         """The same problem with its items in another order: item ``i`` of the result is item ``order[i]``.
@@ -306,19 +282,15 @@ class PackingProblem:
     @property
     def _conflict_sets(self) -> ConflictSets:
         """`cliques` in flat form, for `restrict` (derived from the tuple, or by a restriction)."""
-        return self._deferred_conflict_sets().value()
+        return self._lineage().value()
 
-    def _deferred_conflict_sets(self) -> Deferred:
-        """`_conflict_sets` as a `Deferred` that holds what it needs but not this problem's other data."""
-        value = self.__dict__.get("_conflict_sets")
-        if not isinstance(value, Deferred):
-            if value is None:
-                cliques = self.cliques
-                value = Deferred(lambda: ConflictSets.from_cliques(cliques))
-            else:
-                value = Deferred(lambda sets=value: sets)
-            self.__dict__["_conflict_sets"] = value
-        return value
+    def _lineage(self) -> LazyConflictSets:
+        """`_conflict_sets`, known or derived on first use, holding none of this problem's other data."""
+        lineage = self.__dict__.get("_conflict_sets")
+        if lineage is None:
+            lineage = LazyConflictSets(ConflictSets.from_cliques(self.cliques, self.n_items))
+            self.__dict__["_conflict_sets"] = lineage
+        return lineage
 
     @cached_property
     def _incidence_rows(self) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -522,20 +494,21 @@ def problem_from_incidence(
         artist = sp.csr_matrix(
             (np.ones(columns.size, dtype=bool), (np.ravel(apart), columns)), shape=(n_items, len(apart))
         )
-        cliques, n_rows = maximal_conflict_sets(sp.hstack([incidence, artist], format="csr"))
+        sets, n_rows = ConflictSets.from_incidence(sp.hstack([incidence, artist], format="csr"))
         n_vertex_rows = n_rows - len(apart)
     else:
-        cliques, n_vertex_rows = maximal_conflict_sets(incidence)
+        sets, n_vertex_rows = ConflictSets.from_incidence(incidence)
     weights.flags.writeable = False
-    return PackingProblem(
+    problem = PackingProblem(
         shape_names=tuple(shape_names),
         items=tuple(tuple(int(k) for k in item) for item in items),
         weights=weights,
         incidence=incidence,
-        cliques=cliques,
+        cliques=sets.as_tuple(),
         cap=cap,
         n_vertex_rows=n_vertex_rows,
         meta=dict(meta or {}),
         tie_break=None if tie_break is None else np.asarray(tie_break, dtype=np.float64).ravel(),
         apart=apart,
     )
+    return _with_structure(problem, _conflict_sets=LazyConflictSets(sets))

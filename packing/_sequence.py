@@ -124,7 +124,7 @@ def sequence(
                 presolve_time=presolve_time,
                 n_items=problem.n_items,
                 vertex_rows=problem.n_vertex_rows,
-                clique_rows=problem.n_cliques,
+                clique_rows=problem.deferred_n_cliques(),
                 extra_examples=extra,
                 extra_time=extra_time,
             )

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
+from typing import Any
+
+from packing._deferred import DeferredField, computed_state
 
 
 class Termination(enum.StrEnum):
@@ -107,7 +110,9 @@ class Expression:
         Items available to this expression.
     vertex_rows, clique_rows : int
         Conflict rows before presolve (one per vertex active in an available item, eq. 3b) and after
-        (maximal conflict sets).
+        (maximal conflict sets). ``clique_rows`` may be given as a `packing._deferred.Deferred`: the
+        sequence does so when the solver did not need the maximal sets (`PackingProblem.deferred_n_cliques`),
+        and they are derived on first read.
     extra_examples : tuple of str
         Shapes already used earlier and added again by the second pass of sec. 6.
     extra_time : float
@@ -122,9 +127,13 @@ class Expression:
     presolve_time: float
     n_items: int
     vertex_rows: int
-    clique_rows: int
+    clique_rows: int = DeferredField()  # type: ignore[assignment]
     extra_examples: tuple[str, ...] = ()
     extra_time: float = 0.0
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The instance dictionary with ``clique_rows`` computed (a deferred value does not pickle)."""
+        return computed_state(self)
 
     @property
     def bound(self) -> float | None:

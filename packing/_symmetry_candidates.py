@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing._symmetry_field import SymmetryField
+from packing._symmetry_field import SymmetryField, reflect
 from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
@@ -67,10 +67,12 @@ def image_cell_sums(
     go before its (K, K) sums are made."""
     mirrored_rows, mirrored_cols, source = mirrored
     sums, counts, present = _cell_sums(
-        mirrored_rows, mirrored_cols, cell, field.moved, candidates, int(cell.max()) + 1, source
+        mirrored_rows, mirrored_cols, cell, field, candidates, int(cell.max()) + 1, source
     )
     n_image = np.bincount(mirrored_rows, minlength=candidates.size)
-    return CellSums(sums @ field.reflection, counts, present, n_image)  # R is linear: sum of reflections
+    return CellSums(
+        reflect(sums, field.reflection), counts, present, n_image
+    )  # R is linear: sum of reflections
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,7 @@ def candidate_pairs(
     """
     n_shapes = candidates.size
     n_cells = int(cell.max()) + 1
-    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field.moved, candidates, n_cells)
+    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field, candidates, n_cells)
     image_sums, image_counts, image_present = image.sums, image.counts, image.present
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
@@ -185,15 +187,15 @@ def _cell_sums(
     rows: np.ndarray,
     cols: np.ndarray,
     cell: np.ndarray,
-    vectors: np.ndarray,
+    field: SymmetryField,
     selected: np.ndarray,
     n_cells: int,
     source: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Summed vectors and counts of the entries of the ``selected`` shapes per (cell, shape).
+    """Summed displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
 
-    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the vector ``vectors[source[i]]``
-    (``vectors[i]`` without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
+    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the displacement of the field's active
+    entry ``source[i]`` (of entry i without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
     ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order. Every entry is
     summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
     """
@@ -205,7 +207,8 @@ def _cell_sums(
     present = np.flatnonzero(counts)
     present = present[selected[present % n_shapes]]
     sums = np.empty((present.size, 3))
+    offsets, coordinates = field.offsets(source), field.displacements.reshape(-1)
     for axis in range(3):
-        column = vectors[:, axis] if source is None else np.take(vectors[:, axis], source)
+        column = np.take(coordinates, offsets + axis)
         sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
     return sums, counts[present], present

@@ -14,6 +14,8 @@ from packing._binary import active_lengths
 TABLE_CELLS = 1 << 21
 #: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
 ENTRY_CHUNK = 1 << 18
+#: Vectors `reflect` multiplies by the reflection in one matrix product.
+REFLECT_ROWS = 1 << 13
 
 
 @dataclass(frozen=True)
@@ -24,8 +26,13 @@ class SymmetryField:
     ----------
     active : (K, N) CSR bool matrix with sorted indices
         The binary blendshapes; the active entries are numbered in its (row-major) storage order.
-    moved, reflected : (nnz, 3) arrays
-        Displacements ``dv_k^n`` of the active entries and their reflections ``R dv_k^n``.
+    rows : (nnz,) int array
+        The shape of each active entry (its vertex is ``active.indices``).
+    displacements : (K N, 3) array
+        The rig's deltas, read in place (`moved`): the displacements ``dv_k^n`` of the active entries are
+        not copied.
+    reflected : (nnz, 3) array
+        The reflections ``R dv_k^n`` of the active entries.
     lengths : (nnz,) array
         Their lengths.
     reflection : (3, 3) array
@@ -36,7 +43,8 @@ class SymmetryField:
     """
 
     active: sp.csr_matrix
-    moved: np.ndarray
+    rows: np.ndarray
+    displacements: np.ndarray
     reflected: np.ndarray
     lengths: np.ndarray
     reflection: np.ndarray
@@ -53,19 +61,38 @@ class SymmetryField:
         normal: np.ndarray,
     ) -> SymmetryField:
         """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
-        unit normal ``normal``."""
+        unit normal ``normal``. The displacements are gathered once, to be reflected (one matrix product
+        over all of them), and let go."""
         n_vertices = active.shape[1]
-        moved = np.take(deltas.reshape(-1, 3), rows.astype(np.int64) * n_vertices + cols, axis=0)
+        displacements = deltas.reshape(-1, 3)
+        moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
+        reflected = reflect(moved, reflection)
+        del moved
         lengths = active_lengths(norms, active)
         n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
         table = np.zeros(n_table, dtype=index_type(active))
-        return cls(active, moved, moved @ reflection, lengths, reflection, table)
+        return cls(active, rows, displacements, reflected, lengths, reflection, table)
+
+    def offsets(self, entry: np.ndarray | None = None) -> np.ndarray:
+        """Position of the x coordinate of the displacement of each active entry ``entry`` (positions; all by
+        default) among the rig's deltas, flattened: ``3 (k N + n)``."""
+        rows = self.rows if entry is None else np.take(self.rows, entry)
+        offsets = rows.astype(np.int64)
+        offsets *= self.active.shape[1]
+        offsets += self.active.indices if entry is None else np.take(self.active.indices, entry)
+        offsets *= 3
+        return offsets
+
+    def moved(self, entry: np.ndarray) -> np.ndarray:
+        """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions), read from the rig's
+        deltas."""
+        return np.take(self.displacements, self.offsets(entry) // 3, axis=0)  # (``take``: twice as fast)
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
         (positions among the active entries)."""
-        difference = np.take(self.moved, entry, axis=0)  # (``take`` gathers rows twice as fast as indexing)
+        difference = self.moved(entry)
         difference -= np.take(self.reflected, image_entry, axis=0)
         distance = np.einsum("ij,ij->i", difference, difference)
         np.sqrt(distance, out=distance)
@@ -104,6 +131,23 @@ class SymmetryField:
             found[low:high] = hit
             table[written] = 0
         return found
+
+
+def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
+    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product.
+
+    One BLAS product over millions of three-column rows is slow (tens of times slower on a busy machine,
+    where its threads wait for each other); runs of a few thousand rows are not. Each row of a product is
+    computed on its own, so the result is bit for bit that of one product (a remainder of a single row,
+    which numpy would hand to a vector routine instead, joins the run before it).
+    """
+    reflected = np.empty((vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection))
+    bounds = [*range(0, vectors.shape[0], REFLECT_ROWS), vectors.shape[0]]
+    if len(bounds) > 2 and bounds[-1] - bounds[-2] == 1:
+        del bounds[-2]
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        np.matmul(vectors[start:stop], reflection, out=reflected[start:stop])
+    return reflected
 
 
 def index_type(active: sp.csr_matrix) -> type[np.signedinteger]:

@@ -100,26 +100,28 @@ def greedy_items(
 
 
 def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarray) -> tuple[int, ...]:
-    """`greedy_items` without overlap, on the presolved conflict sets instead of the vertices.
+    """`greedy_items` without overlap, on conflict sets instead of the vertices.
 
     Two items share a vertex iff they share a conflict set, so adding an item blocks every member of
-    its sets (and, under the cap, every item with more shapes than the room left): no vertex is read and
-    only the sets of the chosen items are visited.
+    its sets, and an item with more shapes than the cap leaves room for is skipped: no vertex is read and
+    only the sets of the chosen items are visited. The sets are `PackingProblem.conflict_view`'s (those of
+    a problem this one was restricted from, over its item numbering), so that the sequence's restricted
+    problems never derive their own.
     """
-    starts, members, owner = problem.clique_arrays
+    view = problem.conflict_view
+    starts, members = view.sets.starts, view.sets.members
+    holder_starts, holder_sets = view.sets.holders
     room = np.inf if problem.cap is None else problem.cap
-    blocked = counts > room
+    blocked = np.zeros(view.sets.n_items, dtype=bool)
     chosen: list[int] = []
-    for item in order.tolist():
-        if blocked[item]:
+    visits = zip(order.tolist(), view.items[order].tolist(), counts[order].tolist(), strict=True)
+    for item, outer, count in visits:
+        if blocked[outer] or count > room:
             continue
         chosen.append(item)
-        blocked[item] = True
-        for r in owner[members == item].tolist():  # the conflict sets holding the item
+        for r in holder_sets[holder_starts[outer] : holder_starts[outer + 1]].tolist():
             blocked[members[starts[r] : starts[r + 1]]] = True
-        if problem.cap is not None:
-            room -= int(counts[item])
-            blocked |= counts > room
+        room -= count
     return tuple(chosen)
 
 

@@ -130,3 +130,35 @@ def test_greedy_sequence_equals_a_greedy_over_the_whole_problem(preset, params):
     reference = numpy_greedy_sequence(analysis)
     assert len(reference) > 3
     assert [sorted(expression.shapes) for expression in expressions] == [sorted(s) for s in reference]
+
+
+def test_a_greedy_sequence_derives_no_conflict_sets_and_counts_them_when_read():
+    analysis = _analysis(FILM_LAYOUT)
+    expressions = packing.sequence(analysis.rig, solvers.get("greedy"), analysis=analysis)
+    assert len(expressions) > 5
+    assert all(isinstance(e.__dict__["_clique_rows_value"], Deferred) for e in expressions[1:])
+    copies = pickle.loads(pickle.dumps(expressions[::-1]))[::-1]
+    used: list[str] = []
+    for expression, copy in zip(expressions, copies, strict=True):
+        fresh = analysis.problem_for(used)
+        assert expression.clique_rows == copy.clique_rows == len(fresh.cliques)
+        assert expression == copy
+        used.extend(expression.shapes)
+
+
+def test_a_conflict_view_says_which_items_conflict_as_the_cliques_do():
+    full = _analysis("female").problem
+    restricted = full.restrict(range(0, full.n_items, 2)).restrict(range(3, 60))
+    view = restricted.conflict_view
+    assert view.sets is full.conflict_view.sets  # nothing derived
+    assert np.array_equal(view.items, np.arange(0, full.n_items, 2)[3:60])
+    local = np.full(view.sets.n_items, -1)
+    local[view.items] = np.arange(view.items.size)
+    pairs_in_view, pairs_in_cliques = set(), set()
+    for members in view.sets.as_tuple():
+        kept = local[members][local[members] >= 0].tolist()
+        pairs_in_view.update((a, b) for a in kept for b in kept if a < b)
+    for members in restricted.cliques:
+        pairs_in_cliques.update((a, b) for a in members.tolist() for b in members.tolist() if a < b)
+    assert pairs_in_view == pairs_in_cliques and pairs_in_view
+    assert restricted.conflict_view.sets is not view.sets  # its own, once derived

@@ -151,7 +151,7 @@ def restrict_conflict_sets(cliques, keep, n_items):
     """The maximal conflict sets of the sub-problem over the items ``keep`` (`ConflictSets.restrict`)."""
     kept = np.zeros(n_items, dtype=bool)
     kept[keep] = True
-    return ConflictSets.from_cliques(cliques).restrict(kept).as_tuple()
+    return ConflictSets.from_cliques(cliques, n_items).restrict(kept).as_tuple()
 
 
 def test_restrict_keeps_one_of_equal_sets_and_drops_the_contained_ones():
@@ -212,3 +212,15 @@ def test_weights_given_are_not_frozen_in_place():
     weights = np.array([1.0, 2.0])
     problem_from_incidence(np.eye(2, dtype=bool), weights)
     weights[0] = 3.0  # the caller's array stays writable
+
+
+def test_the_dominance_check_in_blocks_of_pairs_gives_the_same_sets(monkeypatch):
+    import packing._presolve as presolve
+
+    rng = np.random.default_rng(3)
+    incidence = sp.csr_matrix(rng.random((40, 300)) < 0.08)
+    whole = maximal_conflict_sets(incidence)
+    monkeypatch.setattr(presolve, "_PAIRS_PER_BLOCK", 7)
+    blocked = maximal_conflict_sets(incidence)
+    assert whole[1] == blocked[1] and len(whole[0]) > 10
+    assert [c.tolist() for c in whole[0]] == [c.tolist() for c in blocked[0]]

@@ -186,11 +186,13 @@ def test_next_problem_refuses_problems_it_cannot_continue(crowded):
 
 
 def test_the_analysis_is_done_once(crowded, exact_solver, monkeypatch):
-    import packing._problem as problem_module
+    from packing._presolve import ConflictSets
 
     calls = []
-    original = problem_module.maximal_conflict_sets
-    monkeypatch.setattr(problem_module, "maximal_conflict_sets", lambda m: calls.append(1) or original(m))
+    original = ConflictSets.from_incidence
+    monkeypatch.setattr(
+        ConflictSets, "from_incidence", classmethod(lambda cls, m: calls.append(1) or original(m))
+    )
     expressions = packing.sequence(crowded, exact_solver)
     assert len(expressions) > 2 and len(calls) == 1
 

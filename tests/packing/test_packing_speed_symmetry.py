@@ -193,3 +193,28 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
     assert all((b, a) in kept for a, b in kept)  # both directions of eq. 10
     assert len(kept) < 0.2 * rig.n_shapes**2  # and it does rule out most pairs
+
+
+def test_the_field_reads_the_displacements_of_the_active_entries_in_place():
+    rig = rigs.generate("arkit52")
+    norms, masks, mirror, normal, _, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    picked = np.random.default_rng(1).integers(0, rows.size, 300)
+    assert np.array_equal(field.moved(picked), rig.deltas[rows[picked], cols[picked]])
+    offsets = field.offsets()
+    assert offsets.size == rows.size and np.array_equal(
+        rig.deltas.reshape(-1)[offsets + 2], rig.deltas[rows, cols, 2]
+    )
+    assert np.shares_memory(field.displacements, rig.deltas)
+
+
+@pytest.mark.parametrize("n_rows", [0, 1, 2, 3, 8191, 8192, 8193, 8194, 20000])
+def test_reflecting_in_runs_of_rows_is_one_matrix_product_bit_for_bit(n_rows):
+    rng = np.random.default_rng(n_rows)
+    vectors = rng.normal(size=(n_rows, 3)) * rng.uniform(0, 4, size=(n_rows, 1))
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
+    assert np.array_equal(symmetry_field.reflect(vectors, reflection), vectors @ reflection)
