@@ -138,8 +138,9 @@ def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
 
     One BLAS product over millions of three-column rows is slow (tens of times slower on a busy machine,
     where its threads wait for each other); runs of a few thousand rows are not. Each row of a product is
-    computed on its own, so the result is bit for bit that of one product (a remainder of a single row,
-    which numpy would hand to a vector routine instead, joins the run before it).
+    computed on its own, so the result is that of one product to the rounding of a three-term sum (bit for
+    bit where the BLAS kernels treat every row alike; a remainder of a single row, which numpy would hand to
+    a vector routine instead, joins the run before it).
     """
     reflected = np.empty((vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection))
     bounds = [*range(0, vectors.shape[0], REFLECT_ROWS), vectors.shape[0]]

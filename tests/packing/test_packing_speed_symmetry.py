@@ -211,10 +211,14 @@ def test_the_field_reads_the_displacements_of_the_active_entries_in_place():
 
 
 @pytest.mark.parametrize("n_rows", [0, 1, 2, 3, 8191, 8192, 8193, 8194, 20000])
-def test_reflecting_in_runs_of_rows_is_one_matrix_product_bit_for_bit(n_rows):
+def test_reflecting_in_runs_of_rows_is_one_matrix_product_to_rounding(n_rows):
+    """Equal to one product up to the rounding of a three-term sum: BLAS kernels may order the sum
+    differently for a run's last rows (on this machine they do not, elsewhere they may)."""
     rng = np.random.default_rng(n_rows)
     vectors = rng.normal(size=(n_rows, 3)) * rng.uniform(0, 4, size=(n_rows, 1))
     normal = rng.normal(size=3)
     normal /= np.linalg.norm(normal)
     reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
-    assert np.array_equal(symmetry_field.reflect(vectors, reflection), vectors @ reflection)
+    whole = vectors @ reflection
+    bound = 4 * np.finfo(float).eps * np.abs(vectors).sum(axis=1, keepdims=True)
+    assert np.all(np.abs(symmetry_field.reflect(vectors, reflection) - whole) <= bound)
