@@ -186,7 +186,8 @@ def pack(
         `harness._session_minimum.DEFAULT_TIME_LIMIT`).
     timeout : float, optional
         Wall-clock seconds for the whole packing (loading and analysis included). Every solve gets at most
-        the time left (a solver without a native time limit finishes the solve in progress); once it is
+        the time left, and a solver that overruns it (ignoring its limit, or having none) is stopped with
+        its worker process after a short allowance (`harness._pack_solver.late_allowance`); once it is
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
         expression was found by then, a ValueError says so and nothing is written.
     force : bool

@@ -1,9 +1,13 @@
 """A solver that fails during ``harness pack`` ends it with one line naming the solver, the expression and the
 reason, and a non-zero exit, whatever the failure: raised, malformed answer, infeasible claim, ``sys.exit`` or
-a crash of the process."""
+a crash of the process; one that ignores its time limit is stopped by ``--timeout`` and ``--time-limit``."""
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,7 +23,12 @@ fail-infeasible = failing_solvers:Infeasible
 fail-exit = failing_solvers:Exiting
 fail-abort = failing_solvers:Aborting
 fail-second = failing_solvers:SecondFails
+stall = failing_solvers:Stalling
+stall-second = failing_solvers:StallingSecond
 """
+
+#: Bound on a pack whose solver never answers (seconds): it must end long before.
+PATIENCE = 60.0
 
 
 @pytest.fixture
@@ -67,3 +76,48 @@ def test_a_failure_under_refinement_is_as_loud(failing_plugins, tmp_path):
     result = invoke("pack", "tiny", "--solver", "fail-raise", "--reject", "1:jawOpen", "--out", out)
     assert_one_line_error(result, "solver fail-raise failed on expression 1: RuntimeError: the backend lost")
     assert not out.exists() or not any(out.iterdir())
+
+
+def _pack_in_a_process(*arguments: object) -> subprocess.CompletedProcess[str]:
+    """``harness pack ARGUMENTS`` in a process of its own (a hang fails the test instead of stalling it)."""
+    return subprocess.run(
+        [sys.executable, "-c", "from harness.cli import main; main()", "pack", *map(str, arguments)],
+        capture_output=True,
+        text=True,
+        timeout=PATIENCE,
+        env={**os.environ, "COLUMNS": "250"},
+    )
+
+
+def test_timeout_stops_a_solver_that_ignores_its_limit_before_the_first_expression(failing_plugins, tmp_path):
+    out = tmp_path / "out"
+    result = _pack_in_a_process("tiny", "--solver", "stall", "--timeout", "3", "--no-pictures", "--out", out)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--timeout 3.0s ran out before the first expression was found" in lines[0]
+    assert not (out / "expressions.json").exists()
+
+
+def test_timeout_stops_a_solver_that_ignores_its_limit_and_keeps_what_was_found(failing_plugins, tmp_path):
+    out = tmp_path / "out"
+    arguments = ("tiny", "--solver", "stall-second", "--timeout", "3", "--no-pictures", "--out", out)
+    result = _pack_in_a_process(*arguments)
+    assert result.returncode == 0, result.stderr
+    document = json.loads((out / "expressions.json").read_text())
+    assert len(document["expressions"]) == 1
+    assert (
+        "stopped by --timeout 3.0s after 1 expressions; the expressions found so far are written"
+        in (document["warnings"])
+    )
+
+
+def test_time_limit_stops_a_solver_that_ignores_it_and_says_so(failing_plugins, tmp_path):
+    out = tmp_path / "out"
+    arguments = ("tiny", "--solver", "stall-second", "--time-limit", "1", "--no-pictures", "--out", out)
+    result = _pack_in_a_process(*arguments)
+    assert result.returncode == 0, result.stderr
+    document = json.loads((out / "expressions.json").read_text())
+    assert len(document["expressions"]) == 1
+    reasons = " ".join(entry["reason"] for entry in document["excluded"])
+    assert "the solver found no expression 2: " in reasons, reasons
+    assert "no answer within its time limit of 1s; stopped after" in reasons, reasons
