@@ -210,7 +210,7 @@ class IsolatedSolver:
                 ) from None
             except WorkerError as error:
                 raise SolverFailure(
-                    f"solver {self._label} could not be loaded: {_last_line(str(error))}"
+                    f"solver {self._label} could not be loaded: {last_line(str(error))}"
                 ) from None
         assert self._loaded is not None
         return self._loaded
@@ -236,7 +236,7 @@ class IsolatedSolver:
         except WorkerDied as error:
             reason = f"its process died ({error.exit})"
         except WorkerError as error:
-            reason = _last_line(str(error))
+            reason = last_line(str(error))
         return failed(self.name, reason, time.monotonic() - start)
 
     def close(self) -> None:
@@ -279,7 +279,7 @@ class LoudSolver:
 
         solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
         if solution.termination is Termination.ERROR:
-            reason = _last_line(solution.message) or "no message"
+            reason = last_line(solution.message) or "no message"
         elif solution.termination is Termination.INFEASIBLE:
             reason = "it claims the expression is infeasible, but an empty expression always is feasible"
         else:
@@ -292,7 +292,7 @@ class LoudSolver:
         raise SolverFailure(f"solver {self.name} failed on expression {expression}{stage}: {reason}")
 
 
-def _last_line(text: str) -> str:
+def last_line(text: str) -> str:
     """The last non-empty line of a message (a traceback's names the exception)."""
     lines = [line.strip() for line in str(text).splitlines() if line.strip()]
     return lines[-1] if lines else ""
