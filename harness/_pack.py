@@ -73,6 +73,7 @@ from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
 from harness._session_minimum import minimum_sequence
+from harness._session_pictures import prepare_scene
 from registry import HarnessError
 
 if TYPE_CHECKING:
@@ -253,6 +254,7 @@ def pack(
                 warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
                 target_vertices = None if target_mesh is None else target_mesh.vertices
                 analysis = packing.analyse(rig, target_vertices, **params)
+            scene = prepare_scene(rig, analysis.params.mu) if pictures else None  # while the solver works
             regions = params.get("regions")
             protect = [*input_paths(rig_argument), *inputs]
             protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
@@ -343,7 +345,13 @@ def pack(
             "warnings": found,
         }
         session = session_files(
-            rig, document, target=target_mesh, pictures=pictures, glb=glb, notes=[*notes, *found]
+            rig,
+            document,
+            target=target_mesh,
+            pictures=pictures,
+            glb=glb,
+            notes=[*notes, *found],
+            scene=scene,
         )
         files, changed = _write(folder, document, session)
     return PackResult(document, files, notes, [*found, *changed])

@@ -333,9 +333,10 @@ class Backdrop:
     """The neutral seen in a `Frame`, kept so that a pose's `Raster` needs only the triangles the pose
     changes rasterised again: the same raster, sample for sample, as `rasterise` of the whole pose.
 
-    A triangle is changed when one of its corners has a normal some moved vertex bends (`Motion`); the
-    others keep their place, depth and light, and where the neutral's nearest triangle at a sample is a
-    changed one, the nearest unchanged triangle there is found among the neutral's kept samples.
+    Only the triangles with a moved corner are rasterised again (`Motion.moved`); where the neutral's
+    nearest triangle at a sample is one of them, the nearest unmoved triangle there is found among the
+    neutral's kept samples. A triangle with a corner whose normal some moved vertex bends keeps its
+    samples and gets the light of the bent normals (`Motion.changed`); the others keep their light too.
 
     Parameters
     ----------
@@ -362,28 +363,32 @@ class Backdrop:
 
     def pose(self, vertices: np.ndarray, motion: Motion) -> Raster:
         """The raster of the pose ``vertices``, whose `Motion` from the neutral is ``motion``."""
-        changed = np.append(motion.changed, False)  # index -1 (no triangle): not changed
+        moved = np.append(motion.moved, False)  # index -1 (no triangle): not moved
         nearest, depth = self.nearest.copy(), self.depth.copy()
-        hole = changed[nearest]
+        hole = moved[nearest]
         nearest[hole], depth[hole] = -1, -np.inf
-        refill = hole[self.pixel] & ~changed[self.owner]
+        refill = hole[self.pixel] & ~moved[self.owner]
         _keep_nearest(nearest, depth, self.pixel[refill], self.owner[refill], self.near[refill])
-        moving = np.flatnonzero(motion.changed)
-        corners = self.frame.project(vertices).T[:, self.triangles[moving].T]
-        brightness = self.frame.brightness(motion.normals)[self.triangles[moving].T]
-        depth_plane, moved_shade = _planes(corners, brightness)
-        for pixel, owner, near in _scan(corners, depth_plane, self.frame.samples):
+        lit = np.flatnonzero(motion.changed)  # every moved triangle is among them
+        corners = self.frame.project(vertices).T[:, self.triangles[lit].T]
+        brightness = self.frame.brightness(motion.normals)[self.triangles[lit].T]
+        depth_plane, lit_shade = _planes(corners, brightness)
+        scanned = motion.moved[lit]
+        moving = lit[scanned]
+        for pixel, owner, near in _scan(corners[:, :, scanned], depth_plane[scanned], self.frame.samples):
             _keep_nearest(nearest, depth, pixel, moving[owner].astype(np.int32), near)
         shade_plane = self.shade_plane.copy()
-        shade_plane[moving] = moved_shade
+        shade_plane[lit] = lit_shade
         return _raster(nearest, shade_plane, self.frame)
 
 
 @dataclass(frozen=True)
 class Motion:
-    """What a pose changes of its neutral: ``changed`` (T,) the triangles with a corner whose normal is
-    bent, ``normals`` (N, 3) the pose's `vertex_normals`."""
+    """What a pose changes of its neutral: ``moved`` (T,) the triangles with a moved corner, ``changed``
+    (T,) the triangles with a corner whose normal is bent (the moved ones among them), ``normals`` (N, 3)
+    the pose's `vertex_normals`."""
 
+    moved: np.ndarray
     changed: np.ndarray
     normals: np.ndarray
 
@@ -393,13 +398,14 @@ class Motion:
     ) -> Motion:
         """The motion from ``neutral`` (of normals ``neutral_normals``) to the pose ``vertices``."""
         triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
-        moved = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
-        bent = np.zeros(len(moved), dtype=bool)  # corners of a triangle that moved: their normals change
-        bent[triangles[moved[triangles].any(axis=1)].ravel()] = True
+        shifted = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
+        moved = shifted[triangles].any(axis=1)
+        bent = np.zeros(len(shifted), dtype=bool)  # corners of a triangle that moved: their normals change
+        bent[triangles[moved].ravel()] = True
         changed = bent[triangles].any(axis=1)  # every triangle of a bent vertex: its own normals are exact
         normals = np.array(neutral_normals, dtype=np.float64)
         normals[bent] = vertex_normals(vertices, triangles[changed])[bent]
-        return cls(changed, normals)
+        return cls(moved, changed, normals)
 
 
 def _planes(corners: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
