@@ -441,8 +441,9 @@ def _scan(
     """
     width, height = size
     edges = _edges(corners)
-    low = np.maximum(np.ceil(edges[:, [0, 6]] - 0.5), 0).astype(np.int64)  # first column and row
-    high = np.minimum(np.floor(edges[:, [1, 8]] - 0.5), [width - 1, height - 1]).astype(np.int64)
+    planes = np.ascontiguousarray(depth_plane.T)  # (3, T): a, b and c, each gathered in one piece
+    low = np.maximum(np.ceil(edges[[0, 6]].T - 0.5), 0).astype(np.int64)  # first column and row
+    high = np.minimum(np.floor(edges[[1, 8]].T - 0.5), [width - 1, height - 1]).astype(np.int64)
     spans = np.maximum(high - low + 1, 0)
     bound = np.where(np.isnan(depth_plane[:, 0]), 0, spans[:, 0] * spans[:, 1])
     start, ends, count = 0, np.cumsum(bound), len(bound)
@@ -451,15 +452,16 @@ def _scan(
             int(np.searchsorted(ends, ends[start] - bound[start] + _CHUNK_SAMPLES, "right")), start + 1
         )
         chunk = np.arange(start, stop, dtype=np.int32)[bound[start:stop] > 0]
-        yield _samples(edges[chunk], chunk, low[chunk, 1], spans[chunk, 1], depth_plane, width)
+        yield _samples(edges[:, chunk], chunk, low[chunk, 1], spans[chunk, 1], planes, width)
         start = stop
 
 
 def _edges(corners: np.ndarray) -> np.ndarray:
-    """Per triangle: its x range, the top corner and the slope (dx/dy) of the edge from it to the bottom
-    corner, the middle corner and the slopes of the edges from top to middle and middle to bottom, and
-    the bottom row: ``x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid, y_bottom,
-    slope_lower`` (slopes of horizontal edges are 0: no row crosses them)."""
+    """(10, T): per triangle, its x range, the top corner and the slope (dx/dy) of the edge from it to
+    the bottom corner, the middle corner and the slopes of the edges from top to middle and middle to
+    bottom, and the bottom row: ``x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid,
+    y_bottom, slope_lower`` (slopes of horizontal edges are 0: no row crosses them), one row each (so
+    that each is gathered in one piece)."""
     x, y = corners[0], corners[1]
     count = x.shape[1]
     top = np.argmin(y, axis=0)  # the first lowest y; the bottom is the last largest, the middle the third
@@ -484,8 +486,7 @@ def _edges(corners: np.ndarray) -> np.ndarray:
             y_mid,
             y_bottom,
             slope(x_mid, y_mid, x_bottom, y_bottom),
-        ],
-        axis=1,
+        ]
     )
 
 
@@ -494,33 +495,35 @@ def _samples(
     owners: np.ndarray,
     first_row: np.ndarray,
     rows: np.ndarray,
-    depth_plane: np.ndarray,
+    planes: np.ndarray,
     width: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel index, triangle and depth of every pixel centre inside the given triangles (`_edges`).
+    """Pixel index, triangle and depth of every pixel centre inside the given triangles (`_edges`, and
+    the (3, T) rows a, b, c of every triangle's depth plane).
 
     Work is per row of a triangle where it can be (its span, its first pixel and depth, the depth step
     along the row), and one ``np.repeat`` per value expands the rows to their pixels.
     """
     row_of = np.repeat(np.arange(len(owners), dtype=np.int32), rows)
     y = first_row.astype(np.int32)[row_of] + _ragged(rows)
-    edge = np.take(edges, row_of, axis=0)
+    x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid, _, slope_lower = (
+        np.take(edge, row_of) for edge in edges
+    )
     centre = y + 0.5
-    long_side = edge[:, 2] + (centre - edge[:, 6]) * edge[:, 3]
-    upper = centre < edge[:, 7]
+    long_side = x_top + (centre - y_top) * slope_long
+    upper = centre < y_mid
     short_side = np.where(
         upper,
-        edge[:, 2] + (centre - edge[:, 6]) * edge[:, 5],
-        edge[:, 4] + (centre - edge[:, 7]) * edge[:, 9],
+        x_top + (centre - y_top) * slope_upper,
+        x_mid + (centre - y_mid) * slope_lower,
     )
-    left = np.clip(np.minimum(long_side, short_side), edge[:, 0], edge[:, 1])  # (rounding at the corners)
-    right = np.clip(np.maximum(long_side, short_side), edge[:, 0], edge[:, 1])
+    left = np.clip(np.minimum(long_side, short_side), x_min, x_max)  # (rounding at the corners)
+    right = np.clip(np.maximum(long_side, short_side), x_min, x_max)
     start = np.maximum(np.ceil(left - 0.5), 0).astype(np.int32)
     count = np.maximum(np.minimum(np.floor(right - 0.5), width - 1).astype(np.int32) - start + 1, 0)
     owner = owners[row_of]
-    plane = np.take(depth_plane, owner, axis=0)
-    step = plane[:, 0]
-    first_depth = step * (start + 0.5) + plane[:, 1] * centre + plane[:, 2]
+    step, down, offset_depth = (np.take(plane, owner) for plane in planes)
+    first_depth = step * (start + 0.5) + down * centre + offset_depth
     offset = _ragged(count)
     pixel = np.repeat(y * width + start, count) + offset
     near = np.repeat(first_depth, count) + np.repeat(step, count) * offset
