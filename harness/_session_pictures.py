@@ -168,12 +168,21 @@ class Scene:
 
 def prepare_scene(rig: Rig, mu: float) -> Future[Scene]:
     """Start making the `Scene` of ``rig`` at ``mu`` on a thread of its own (e.g. while the solver
-    works); `session_pictures` takes it."""
+    works), then importing Pillow and its PNG writer; `session_pictures` takes it."""
     pool = ThreadPoolExecutor(1, thread_name_prefix="scene")
     try:
-        return pool.submit(Scene.of, rig, mu)
+        scene = pool.submit(Scene.of, rig, mu)
+        pool.submit(_import_pillow)
+        return scene
     finally:
         pool.shutdown(wait=False)
+
+
+def _import_pillow() -> None:
+    """Import Pillow's image, drawing and font modules and its file formats (`PIL.Image.preinit`)."""
+    from PIL import Image, ImageDraw, ImageFont  # noqa: F401
+
+    Image.preinit()
 
 
 class _Stage:
