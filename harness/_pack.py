@@ -46,10 +46,11 @@ texture coordinates, normals, groups, materials and faces; ``on_target/expressio
 ``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png``,
 ``..._front_pose.png`` and ``..._three_quarter_pose.png``; and the scan sheet ``session.html``.
 
-The folder is claimed with `harness._outdir.claim` (kind ``pack``), whose manifest lists every file
-written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty folder without
-the harness manifest needs ``force`` and its files are kept, and the rig's own file or folder is never the
-output. Only files an earlier packing wrote are replaced or removed.
+The folder is claimed with `harness._outdir.claim` (kind ``pack``), under an exclusive lock held until the
+session is written (another command claiming it meanwhile is refused with one line), and its manifest
+lists every file written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty
+folder without the harness manifest needs ``force`` and its files are kept, and the rig's own file or
+folder is never the output. Only files an earlier packing wrote are replaced or removed.
 """
 
 from __future__ import annotations
