@@ -455,7 +455,7 @@ def _lock(folder: Path) -> int:
         if isinstance(error, BlockingIOError):
             raise OutputFolderError(
                 f"{folder}: in use by another harness command writing into it; wait for it to end, or "
-                f"choose another output folder"
+                "choose another output folder"
             ) from None
         raise OutputFolderError(f"{folder}: cannot lock the folder ({error.strerror or error})") from None
     return descriptor
