@@ -82,12 +82,17 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
     default=False,
     help="Second pass adding already-used shapes where they fit (sec. 6).",
 )
-@click.option("--time-limit", type=DURATION, help="Per-solve time limit (30s, 2m). [default: none]")
+@click.option(
+    "--time-limit",
+    type=DURATION,
+    help="Per-solve time limit (30s, 2m); a solver that overruns it is stopped. [default: none]",
+)
 @click.option(
     "--timeout",
     type=DURATION,
-    help="Wall-clock limit for the whole packing (10m): each solve gets at most the time left; when it runs "
-    "out, the expressions found so far are written with a warning (exit 0), or, with none found, an error. "
+    help="Wall-clock limit for the whole packing (10m): each solve gets at most the time left (a solver that "
+    "ignores it is stopped); when it runs out, the expressions found so far are written with a warning "
+    "(exit 0), or, with none found, an error. "
     "[default: none]",
 )
 @click.option(

@@ -24,16 +24,22 @@ Whatever ``force`` says, a file is overwritten or removed only when the manifest
 and its content is still what the harness wrote; a file changed since is left in place with a
 `ChangedFileWarning`. Every write is atomic (`atomic_write`): a unique temporary file in the same folder,
 flushed to disk, then renamed over the target, so a reader never sees half a file. One process writes a
-folder's manifest at a time.
+folder's manifest at a time: a claim with ``lock`` holds an exclusive ``flock`` on the folder itself until
+`OutputFolder.close` (or the process ends, however it ends), taken before the folder is read, so a second
+command claiming the same folder, new or not, is refused with one line while the first writes (it would
+otherwise remove the first's staged files as leftovers, and the two would list and place their files over
+each other). ``harness run`` holds the same lock of its own (`harness._run.locked`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import json
 import os
 import warnings
+import weakref
 from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -136,10 +142,24 @@ class OutputFolder:
     the files of other kinds included.
     """
 
-    def __init__(self, path: Path, kind: str, files: dict[str, dict[str, str]]) -> None:
+    def __init__(
+        self, path: Path, kind: str, files: dict[str, dict[str, str]], lock: int | None = None
+    ) -> None:
         self.path = path
         self.kind = kind
         self.files = files
+        self._release = None if lock is None else weakref.finalize(self, os.close, lock)
+
+    def close(self) -> None:
+        """Release the folder's lock, if the claim took one (idempotent)."""
+        if self._release is not None:
+            self._release()
+
+    def __enter__(self) -> OutputFolder:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
 
     @property
     def manifest(self) -> Path:
@@ -368,7 +388,9 @@ class OutputFolder:
         return _write(self.manifest, (json.dumps(document, indent=2, sort_keys=True) + "\n").encode())
 
 
-def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ()) -> OutputFolder:
+def claim(
+    folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = (), lock: bool = False
+) -> OutputFolder:
     """Open ``folder`` for a session of ``kind``, creating it (rules in the module docstring).
 
     Nothing is removed here: replacing a session is `OutputFolder.write_file` over its unchanged files and
@@ -383,16 +405,64 @@ def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ())
         Replace a session of this kind, or write beside the files of a folder without a manifest.
     protect : iterable of Path
         Inputs the output must stay apart from: the folder may not be, contain or lie inside any of them.
+    lock : bool
+        Hold an exclusive lock on the folder until `OutputFolder.close` (the folder is created first).
 
     Raises
     ------
     OutputFolderError
-        One line naming the folder, what is wrong and how to proceed.
+        One line naming the folder, what is wrong and how to proceed; for a locked claim, also when
+        another process holds the folder's lock.
     """
     folder = Path(folder)
     check_apart(folder, protect)
     if folder.exists() and not folder.is_dir():
         raise OutputFolderError(f"{folder}: exists and is not a folder; choose another output folder")
+    if not lock:
+        return _claimed(folder, kind, force, None)
+    _make(folder)
+    held = _lock(folder)
+    try:
+        return _claimed(folder, kind, force, held)
+    except BaseException:
+        os.close(held)
+        raise
+
+
+def _make(folder: Path) -> None:
+    """Create the output ``folder`` (and its parents) unless it exists; a failure is one line."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputFolderError(
+            f"{folder}: cannot create the output folder ({error.strerror or error})"
+        ) from None
+
+
+def _lock(folder: Path) -> int:
+    """An open descriptor of ``folder`` holding its exclusive ``flock``.
+
+    Raises
+    ------
+    OutputFolderError
+        When another process holds it, or the folder cannot be locked.
+    """
+    descriptor = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as error:
+        os.close(descriptor)
+        if isinstance(error, BlockingIOError):
+            raise OutputFolderError(
+                f"{folder}: in use by another harness command writing into it; wait for it to end, or "
+                "choose another output folder"
+            ) from None
+        raise OutputFolderError(f"{folder}: cannot lock the folder ({error.strerror or error})") from None
+    return descriptor
+
+
+def _claimed(folder: Path, kind: str, force: bool, lock: int | None) -> OutputFolder:
+    """`claim` once the folder is apart from the inputs (and locked, with ``lock``)."""
     files: dict[str, dict[str, str]] = {}
     if folder.is_dir():
         files, problem = _read_manifest(folder / MANIFEST_NAME)
@@ -410,14 +480,9 @@ def claim(folder: Path, *, kind: str, force: bool, protect: Iterable[Path] = ())
                 f"{folder}: holds a harness {kind} ({listed}); use --force to replace it, "
                 "or choose another output folder"
             )
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise OutputFolderError(
-            f"{folder}: cannot create the output folder ({error.strerror or error})"
-        ) from None
+    _make(folder)
     _remove_leftovers(folder, files)
-    return OutputFolder(folder, kind, files)
+    return OutputFolder(folder, kind, files, lock)
 
 
 def _leftover(path: Path) -> bool:

@@ -46,10 +46,11 @@ texture coordinates, normals, groups, materials and faces; ``on_target/expressio
 ``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png``,
 ``..._front_pose.png`` and ``..._three_quarter_pose.png``; and the scan sheet ``session.html``.
 
-The folder is claimed with `harness._outdir.claim` (kind ``pack``), whose manifest lists every file
-written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty folder without
-the harness manifest needs ``force`` and its files are kept, and the rig's own file or folder is never the
-output. Only files an earlier packing wrote are replaced or removed.
+The folder is claimed with `harness._outdir.claim` (kind ``pack``), under an exclusive lock held until the
+session is written (another command claiming it meanwhile is refused with one line), and its manifest
+lists every file written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty
+folder without the harness manifest needs ``force`` and its files are kept, and the rig's own file or
+folder is never the output. Only files an earlier packing wrote are replaced or removed.
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ from __future__ import annotations
 import json
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from contextlib import nullcontext
+from contextlib import ExitStack, nullcontext
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -73,6 +74,7 @@ from harness._rigspec import input_paths, resolve_rig
 from harness._session import session_files
 from harness._session_mesh import read_target
 from harness._session_minimum import minimum_sequence
+from harness._session_pictures import prepare_scene
 from registry import HarnessError
 
 if TYPE_CHECKING:
@@ -186,7 +188,8 @@ def pack(
         `harness._session_minimum.DEFAULT_TIME_LIMIT`).
     timeout : float, optional
         Wall-clock seconds for the whole packing (loading and analysis included). Every solve gets at most
-        the time left (a solver without a native time limit finishes the solve in progress); once it is
+        the time left, and a solver that overruns it (ignoring its limit, or having none) is stopped with
+        its worker process after a short allowance (`harness._pack_solver.late_allowance`); once it is
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
         expression was found by then, a ValueError says so and nothing is written.
     force : bool
@@ -233,114 +236,125 @@ def pack(
         )
     plugins.check_settings([solver_name], [], solver_option="--solver")
     started = monotonic()
-    with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
-        full_rig = resolve_rig(rig_argument, seed=seed)
-        target_mesh = read_target(target, full_rig)
-        for name in sorted({name for names in (rejections or {}).values() for name in names}):
-            full_rig.index(name)  # RigError names the rig, the shape and close matches
-        if rejections and jmax is not None and max(rejections) > jmax:
-            raise HarnessError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
-        constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
-        rig, params = constraints.rig, constraints.params
-        rejections = {
-            number: kept for number, names in (rejections or {}).items() if (kept := names & set(rig.names))
-        }
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-            analysis = packing.analyse(rig, None if target_mesh is None else target_mesh.vertices, **params)
-        regions = params.get("regions")
-        protect = [*input_paths(rig_argument), *inputs]
-        protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
-        folder = claim(out, kind="pack", force=force, protect=protect)
-        deadline = None if timeout is None else Deadline(isolated, started + timeout)
-        rejected: dict[int, set[str]] = {}  # filled as the artist decides
-        found: list[str] = []
-        if minimum:
-            result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
-            expressions = result.expressions
-            overlap = 0.0
-            if not result.proven:
-                found.append(result.message())
-        else:
-            refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
-            expressions = packing.sequence(
-                rig,
-                LoudSolver(refining, solver_name),
-                analysis=analysis,
-                jmax=jmax,
-                time_limit=time_limit,
-                seed=seed,
-            )
-            overlap = isolated.capabilities.max_overlap
-    packing.check(
-        rig,
-        expressions,
-        pairs=analysis.pairs,
-        overlap=overlap,
-        maximal=not minimum,
-        rejected=rejected,
-        **params,
-    )
-    timed_out = deadline is not None and deadline.expired
-    refined = bool(rejections) or decide is not None
-    missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
-    if rejections and not timed_out and max(rejections) > len(expressions):
-        made = f"the sequence stopped after {len(expressions)} expressions"
-        raise HarnessError(_no_expression(max(rejections), rejections, made))
-    notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
-    if minimum:
-        notes.append(result.message())
-    if missing:
-        notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
-    expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
-    if timed_out and not expressions:
-        raise HarnessError(
-            f"--timeout {format_duration(timeout)} ran out before the first expression was found "
-            f"(loading and analysing {rig_argument} took {format_duration(deadline.started - started)}); "
-            "give a longer --timeout"
-        )
-    groups = [[*expression.shapes, *expression.extra_examples] for expression in expressions]
-    found += [cancellation.message for cancellation in packing.find_cancellations(rig, groups)]
-    if timed_out:
-        found.append(
-            f"stopped by --timeout {format_duration(timeout)} after {len(expressions)} expressions; "
-            "the expressions found so far are written"
-        )
-    chosen = analysis.params.as_dict()
-    sequence: dict[str, Any] = {
-        "mode": "minimum" if minimum else "sequence",
-        "jmax": None if minimum else jmax,
-        "seed": seed,
-        "time_limit": result.time_limit if minimum else time_limit,
-        "timeout": timeout,
-        "overlap": overlap,
-    }
-    if minimum:
-        sequence["minimum"] = result.summary()
-    document = {
-        "rig": rig_argument,
-        "solver": "cpsat" if minimum else solver_name,
-        "params": {key: chosen[key] for key in DOCUMENT_PARAMS},
-        "sequence": sequence,
-        "target": None if target is None else str(target),
-        "pairs": [list(pair) for pair in analysis.pairs],
-        "expressions": [
-            {
-                "shapes": [str(name) for name in expression.shapes],
-                "extra_examples": [str(name) for name in expression.extra_examples],
-                "objective": float(expression.objective),
-                "status": str(expression.status),
+    with ExitStack() as held:  # the output folder's lock, once it is claimed
+        with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
+            full_rig = resolve_rig(rig_argument, seed=seed)
+            target_mesh = read_target(target, full_rig)
+            for name in sorted({name for names in (rejections or {}).values() for name in names}):
+                full_rig.index(name)  # RigError names the rig, the shape and close matches
+            if rejections and jmax is not None and max(rejections) > jmax:
+                raise HarnessError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
+            constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
+            rig, params = constraints.rig, constraints.params
+            rejections = {
+                number: kept
+                for number, names in (rejections or {}).items()
+                if (kept := names & set(rig.names))
             }
-            for expression in expressions
-        ],
-        "excluded": _excluded(analysis, missing, reason, rejected, constraints.excluded, full_rig.names),
-        "constraints": constraints.document,
-        "warnings": found,
-    }
-    session = session_files(
-        rig, document, target=target_mesh, pictures=pictures, glb=glb, notes=[*notes, *found]
-    )
-    files, changed = _write(folder, document, session)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
+                target_vertices = None if target_mesh is None else target_mesh.vertices
+                analysis = packing.analyse(rig, target_vertices, **params)
+            scene = prepare_scene(rig, analysis.params.mu) if pictures else None  # while the solver works
+            regions = params.get("regions")
+            protect = [*input_paths(rig_argument), *inputs]
+            protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
+            folder = held.enter_context(claim(out, kind="pack", force=force, protect=protect, lock=True))
+            deadline = None if timeout is None else Deadline(isolated, started + timeout)
+            rejected: dict[int, set[str]] = {}  # filled as the artist decides
+            found: list[str] = []
+            if minimum:
+                result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
+                expressions = result.expressions
+                overlap = 0.0
+                if not result.proven:
+                    found.append(result.message())
+            else:
+                refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
+                expressions = packing.sequence(
+                    rig,
+                    LoudSolver(refining, solver_name),
+                    analysis=analysis,
+                    jmax=jmax,
+                    time_limit=time_limit,
+                    seed=seed,
+                )
+                overlap = isolated.capabilities.max_overlap
+        packing.check(
+            rig,
+            expressions,
+            pairs=analysis.pairs,
+            overlap=overlap,
+            maximal=not minimum,
+            rejected=rejected,
+            **params,
+        )
+        timed_out = deadline is not None and deadline.expired
+        refined = bool(rejections) or decide is not None
+        missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
+        if rejections and not timed_out and max(rejections) > len(expressions):
+            made = f"the sequence stopped after {len(expressions)} expressions"
+            raise HarnessError(_no_expression(max(rejections), rejections, made))
+        notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
+        if minimum:
+            notes.append(result.message())
+        if missing:
+            notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
+        expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
+        if timed_out and not expressions:
+            raise HarnessError(
+                f"--timeout {format_duration(timeout)} ran out before the first expression was found "
+                f"(loading and analysing {rig_argument} took {format_duration(deadline.started - started)}); "
+                "give a longer --timeout"
+            )
+        groups = [[*expression.shapes, *expression.extra_examples] for expression in expressions]
+        found += [cancellation.message for cancellation in packing.find_cancellations(rig, groups)]
+        if timed_out:
+            found.append(
+                f"stopped by --timeout {format_duration(timeout)} after {len(expressions)} expressions; "
+                "the expressions found so far are written"
+            )
+        chosen = analysis.params.as_dict()
+        sequence: dict[str, Any] = {
+            "mode": "minimum" if minimum else "sequence",
+            "jmax": None if minimum else jmax,
+            "seed": seed,
+            "time_limit": result.time_limit if minimum else time_limit,
+            "timeout": timeout,
+            "overlap": overlap,
+        }
+        if minimum:
+            sequence["minimum"] = result.summary()
+        document = {
+            "rig": rig_argument,
+            "solver": "cpsat" if minimum else solver_name,
+            "params": {key: chosen[key] for key in DOCUMENT_PARAMS},
+            "sequence": sequence,
+            "target": None if target is None else str(target),
+            "pairs": [list(pair) for pair in analysis.pairs],
+            "expressions": [
+                {
+                    "shapes": [str(name) for name in expression.shapes],
+                    "extra_examples": [str(name) for name in expression.extra_examples],
+                    "objective": float(expression.objective),
+                    "status": str(expression.status),
+                }
+                for expression in expressions
+            ],
+            "excluded": _excluded(analysis, missing, reason, rejected, constraints.excluded, full_rig.names),
+            "constraints": constraints.document,
+            "warnings": found,
+        }
+        session = session_files(
+            rig,
+            document,
+            target=target_mesh,
+            pictures=pictures,
+            glb=glb,
+            notes=[*notes, *found],
+            scene=scene,
+        )
+        files, changed = _write(folder, document, session)
     return PackResult(document, files, notes, [*found, *changed])
 
 

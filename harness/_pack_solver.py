@@ -7,13 +7,17 @@ calls ``sys.exit`` loses its process, not the packing, and its failure becomes a
 the outermost wrapper, turns every such answer, and a claim that an expression is infeasible (the empty
 expression always is feasible), into a `SolverFailure`: one line naming the solver, the expression and the
 reason, and a non-zero exit of ``harness pack``.
+
+A solve given a time limit gets its answer within the limit and `late_allowance` of it: a solver that
+overruns it (one that ignores its limit, or has none) is stopped with its process, and the solve answers
+``Termination.TIME_LIMIT`` with no items, as a solve its limit stopped before a first incumbent does.
 """
 
 from __future__ import annotations
 
 import re
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 from registry import HarnessError
 
@@ -23,6 +27,19 @@ if TYPE_CHECKING:
 
 #: Solvers loaded in this worker process, by label.
 _LOADED: dict[str, LoadedSolver] = {}
+
+#: Seconds a solve may overrun its time limit, at least (model building, answer transfer) ...
+LATE_SECONDS = 2.0
+#: ... and as a share of the limit, when that is more.
+LATE_SHARE = 0.1
+
+#: What `IsolatedSolver._reply` returns when no reply came in time.
+_NO_REPLY: Final = object()
+
+
+def late_allowance(time_limit: float) -> float:
+    """Seconds a solve with ``time_limit`` may overrun it before it is stopped."""
+    return max(LATE_SECONDS, LATE_SHARE * time_limit)
 
 
 class SolverFailure(HarnessError):
@@ -86,6 +103,22 @@ def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
     )
 
 
+def _stopped(backend: str, time_limit: float, elapsed: float) -> Solution:
+    """The ``Termination.TIME_LIMIT`` answer of ``backend`` stopped for overrunning ``time_limit``."""
+    from packing import Solution, Termination
+
+    return Solution(
+        items=(),
+        shapes=(),
+        objective=0.0,
+        bound=None,
+        termination=Termination.TIME_LIMIT,
+        solve_time=elapsed,
+        backend=backend,
+        message=f"no answer within its time limit of {time_limit:g}s; stopped after {elapsed:.1f}s",
+    )
+
+
 class IsolatedSolver:
     """A solver plugin that solves in a worker process of its own (see the module docstring).
 
@@ -126,17 +159,37 @@ class IsolatedSolver:
         self._ready()
         return self._worker.call("harness._pack_solver:availability_in_worker", self._label)  # type: ignore[return-value]
 
-    def _ready(self) -> None:
-        """Wait for the worker to have loaded and warmed up the plugin (see `_plugin` for its errors)."""
+    def _ready(self, end: float | None = None) -> bool:
+        """Wait for the worker to have loaded and warmed up the plugin (see `_plugin` for its errors);
+        False when the warm-up did not end by ``end`` (`time.monotonic`), which stopped the worker."""
         from solvers import WorkerError
 
         self._plugin()
         if self._warming:
             self._warming = False
             try:
-                self._worker.receive()
+                return self._reply(end) is not _NO_REPLY
             except WorkerError:  # it died warming up: the next call starts a fresh process and says how
                 pass
+        return True
+
+    def _reply(self, end: float | None) -> object:
+        """The reply to the oldest call sent, or `_NO_REPLY` when none came by ``end`` (`time.monotonic`;
+        None: wait for it), and the worker, left working on the call, is stopped.
+
+        Raises
+        ------
+        solvers.WorkerError
+            The call raised, or the process died (`solvers.WorkerDied`).
+        """
+        from solvers import wait_for_workers
+
+        if end is not None:
+            wait_for_workers([self._worker], max(0.0, end - time.monotonic()))
+            if not self._worker.ready():
+                self._worker.stop()
+                return _NO_REPLY
+        return self._worker.receive()
 
     def _plugin(self) -> tuple[str, Capabilities]:
         """Name and capabilities of the plugin, once the worker has loaded it.
@@ -157,26 +210,34 @@ class IsolatedSolver:
                 ) from None
             except WorkerError as error:
                 raise SolverFailure(
-                    f"solver {self._label} could not be loaded: {_last_line(str(error))}"
+                    f"solver {self._label} could not be loaded: {last_line(str(error))}"
                 ) from None
         assert self._loaded is not None
         return self._loaded
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
-        """The plugin's answer from the worker, or ``Termination.ERROR`` saying how the worker failed."""
+        """The plugin's answer from the worker; ``Termination.ERROR`` saying how the worker failed, or
+        ``Termination.TIME_LIMIT`` with no items when ``time_limit`` and `late_allowance` passed without
+        an answer (the worker is then stopped)."""
         from solvers import WorkerDied, WorkerError
 
-        self._ready()
-        start = time.perf_counter()
+        start = time.monotonic()
+        end = None if time_limit is None else start + time_limit + late_allowance(time_limit)
         try:
-            return self._worker.call(  # type: ignore[return-value]
-                "harness._pack_solver:solve_in_worker", self._label, problem, time_limit, seed
-            )
+            if self._ready(end):
+                self._worker.send(
+                    "harness._pack_solver:solve_in_worker", self._label, problem, time_limit, seed
+                )
+                reply = self._reply(end)
+                if reply is not _NO_REPLY:
+                    return reply  # type: ignore[return-value]
+            assert time_limit is not None  # (only a solve with a time limit goes unanswered)
+            return _stopped(self.name, time_limit, time.monotonic() - start)
         except WorkerDied as error:
             reason = f"its process died ({error.exit})"
         except WorkerError as error:
-            reason = _last_line(str(error))
-        return failed(self.name, reason, time.perf_counter() - start)
+            reason = last_line(str(error))
+        return failed(self.name, reason, time.monotonic() - start)
 
     def close(self) -> None:
         """Leave the worker for the next packing of this process with the same solver (it ends with the
@@ -218,7 +279,7 @@ class LoudSolver:
 
         solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
         if solution.termination is Termination.ERROR:
-            reason = _last_line(solution.message) or "no message"
+            reason = last_line(solution.message) or "no message"
         elif solution.termination is Termination.INFEASIBLE:
             reason = "it claims the expression is infeasible, but an empty expression always is feasible"
         else:
@@ -231,7 +292,7 @@ class LoudSolver:
         raise SolverFailure(f"solver {self.name} failed on expression {expression}{stage}: {reason}")
 
 
-def _last_line(text: str) -> str:
+def last_line(text: str) -> str:
     """The last non-empty line of a message (a traceback's names the exception)."""
     lines = [line.strip() for line in str(text).splitlines() if line.strip()]
     return lines[-1] if lines else ""

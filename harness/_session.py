@@ -15,11 +15,12 @@ Each expression of the document gains ``files``: the names of its mesh, target m
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import Future
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
-from harness._session_pictures import session_pictures
+from harness._session_pictures import Scene, session_pictures
 from harness._session_render import shape_colours
 from harness._session_sheet import Card, Legend, scan_sheet
 from harness._session_words import plain_words
@@ -39,6 +40,7 @@ def session_files(
     pictures: bool = True,
     glb: bool = False,
     notes: Sequence[str] = (),
+    scene: Future[Scene] | None = None,
 ) -> Iterator[tuple[str, str | bytes]]:
     """(file name relative to the folder, content) of every session file, made one at a time so that a
     writer can store each while the next is made (`harness._outdir.OutputFolder.write_files`);
@@ -58,6 +60,9 @@ def session_files(
         Also write ``expressions.glb``.
     notes : sequence of str
         Footer lines of the scan sheet.
+    scene : Future of Scene, optional
+        The pictures' `Scene` of ``rig`` at the document's ``mu``, prepared ahead
+        (`harness._session_pictures.prepare_scene`).
     """
     expressions = document["expressions"]
     for index, expression in enumerate(expressions, start=1):
@@ -67,7 +72,9 @@ def session_files(
             expression["files"]["on_target"] = f"{ON_TARGET}/{name}.obj"
     legends = [_legend(expression, document.get("pairs", ())) for expression in expressions]
     mu = float(document["params"]["mu"])
-    rendering = session_pictures(rig, expressions, legends, mu) if pictures and expressions else None
+    rendering = (
+        session_pictures(rig, expressions, legends, mu, scene=scene) if pictures and expressions else None
+    )
     try:  # the pictures render while the meshes are written
         yield from session_meshes(rig, expressions, target)
         if glb:

@@ -6,6 +6,10 @@ cap bound, or CP-SAT's bound), and the sequence then gives each expression in tu
 (eq. 3a) the minimum count allows (`solvers.ordered_minimum_sequence`). When the proof does not finish
 within the time limit, the cover found is used and what was proved is said: the count lies between the
 lower bound and the cover's size.
+
+The cover and its ordering are solved in a worker process (`solvers.worker`), as every solve of ``harness
+pack`` is (`harness._pack_solver`): a backend that crashes or exits is one `SolverFailure` line, and Ctrl-C
+stops the worker and reaches the packing's clean-up.
 """
 
 from __future__ import annotations
@@ -13,11 +17,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from harness._pack_solver import SolverFailure, last_line
+
 if TYPE_CHECKING:
-    from packing import Analysis, Expression
+    from packing import Analysis, Expression, PackingProblem
+    from solvers import OrderedSequence
 
 #: Seconds for the proof (and each ordered step) when no ``--time-limit`` is given.
 DEFAULT_TIME_LIMIT = 60.0
+
+#: The function the worker process solves with (``"module:function"``, `ordered_cover`).
+SOLVE_IN_WORKER = "harness._session_minimum:ordered_cover"
 
 
 @dataclass(frozen=True)
@@ -82,16 +92,24 @@ def minimum_sequence(analysis: Analysis, *, time_limit: float | None, seed: int)
 
     Raises
     ------
-    ValueError
-        When an item holds more shapes than the cap allows (no cover exists).
+    SolverFailure
+        When the solve failed in the worker (it raised, e.g. for an item with more shapes than the cap
+        allows, exited or crashed).
     """
     import packing
     import solvers
 
     limit = DEFAULT_TIME_LIMIT if time_limit is None else float(time_limit)
     problem = analysis.problem
-    minimum = solvers.minimum_expressions(problem, solver="cpsat", time_limit=limit, seed=seed)
-    ordered = solvers.ordered_minimum_sequence(problem, time_limit=limit, seed=seed, minimum=minimum)
+    try:
+        ordered: OrderedSequence = solvers.worker("pack-minimum").call(  # type: ignore[assignment]
+            SOLVE_IN_WORKER, problem, limit, seed
+        )
+    except solvers.WorkerDied as error:
+        raise SolverFailure(f"solver cpsat failed on --minimum: its process died ({error.exit})") from None
+    except solvers.WorkerError as error:
+        raise SolverFailure(f"solver cpsat failed on --minimum: {last_line(str(error))}") from None
+    minimum = ordered.minimum
     expressions = []
     for index, (items, termination) in enumerate(
         zip(ordered.expressions, ordered.terminations, strict=True), start=1
@@ -121,3 +139,12 @@ def minimum_sequence(analysis: Analysis, *, time_limit: float | None, seed: int)
             )
         )
     return MinimumResult(expressions, minimum.count, minimum.lower_bound, limit)
+
+
+def ordered_cover(problem: PackingProblem, time_limit: float, seed: int) -> OrderedSequence:
+    """The fewest expressions covering ``problem`` (`solvers.minimum_expressions`, CP-SAT) in importance
+    order (`solvers.ordered_minimum_sequence`); run in the worker process."""
+    import solvers
+
+    minimum = solvers.minimum_expressions(problem, solver="cpsat", time_limit=time_limit, seed=seed)
+    return solvers.ordered_minimum_sequence(problem, time_limit=time_limit, seed=seed, minimum=minimum)

@@ -9,8 +9,10 @@
 
 All the pictures of one view share one `Frame`, fitted to every expression, so they compare at one scale
 and place, and the part of the face an expression does not move is rasterised once for all of them
-(`Backdrop`). Expressions are rendered on a pool of threads (numpy's array loops and Pillow's
-PNG encoding run without Python's global lock), one per processor this process may use.
+(`Backdrop`). What no expression changes (the `Scene`: normals, active vertices, front camera) can be
+prepared before the expressions are known (`prepare_scene`, while the solver works). Expressions are
+rendered on a pool of threads (numpy's array loops and Pillow's PNG encoding run without Python's global
+lock), one per processor this process may use.
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ import importlib.util
 import io
 import os
 import threading
+import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -56,8 +60,10 @@ BACKGROUND = np.array([1.0, 1.0, 1.0])
 #: Grey level of a bare pose (its pictures are greyscale on white: a third of the data to encode).
 CLAY = 0.84
 #: zlib level of the PNG pictures: level 1 writes them about four times as fast as the default 6, for
-#: files about a third larger.
+#: files about a third larger; its run-length strategy writes them a fifth faster again (rendered faces and
+#: flat backgrounds are rows of repeats after PNG's filters), the files a little smaller.
 _PNG_LEVEL = 1
+_PNG_STRATEGY = zlib.Z_RLE
 #: Most threads rendering at once (each holds a few images' worth of samples).
 _MOST_THREADS = 8
 #: Legend text height in pixels; the legend shrinks down to the smallest to fit its lines.
@@ -80,15 +86,16 @@ class Rendering:
 
     def __init__(
         self,
+        scene: Future[Scene],
         rig: Rig,
+        mu: float,
         expressions: Sequence[dict[str, Any]],
         legends: Sequence[Legend],
-        mu: float,
         workers: int,
     ) -> None:
         self._expressions = expressions
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="pictures")
-        stage = self._pool.submit(_Stage, rig, expressions, mu)
+        stage = self._pool.submit(_Stage, scene, rig, mu, expressions)
         views = {key: self._pool.submit(_backdrop, stage, degrees) for key, degrees in POSES.items()}
         self._made = [
             self._pool.submit(_render, stage, views, index, legends[index]) for index in range(len(legends))
@@ -114,6 +121,7 @@ def session_pictures(
     mu: float,
     *,
     workers: int | None = None,
+    scene: Future[Scene] | None = None,
 ) -> Rendering:
     """Start rendering the pictures of every expression (`Rendering`).
 
@@ -129,22 +137,71 @@ def session_pictures(
     workers : int, optional
         Threads rendering at once; by default one per processor this process may use (at most
         `_MOST_THREADS`).
+    scene : Future of Scene, optional
+        The `Scene` of ``rig`` and ``mu`` prepared ahead (`prepare_scene`); by default it is made here.
+
+    Raises
+    ------
+    ValueError
+        For a ``scene`` of another rig or threshold (when the pictures are read).
     """
-    return Rendering(rig, expressions, legends, mu, workers or _processors())
+    return Rendering(scene or prepare_scene(rig, mu), rig, mu, expressions, legends, workers or _processors())
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What every picture of a rig shares whatever its expressions: the neutral's `vertex_normals`, the
+    active vertices (eq. 2, `active_vertices` at the threshold ``mu`` the expressions are packed with)
+    and the front camera (`rigs.frontal_camera`)."""
+
+    rig: Rig
+    mu: float
+    normals: np.ndarray
+    active: np.ndarray
+    front: np.ndarray
+
+    @classmethod
+    def of(cls, rig: Rig, mu: float) -> Scene:
+        """The scene of ``rig`` at the threshold ``mu``."""
+        import rigs
+
+        normals = vertex_normals(rig.neutral, rig.triangles)
+        return cls(rig, mu, normals, active_vertices(rig, mu), rigs.frontal_camera(rig))
+
+
+def prepare_scene(rig: Rig, mu: float) -> Future[Scene]:
+    """Start making the `Scene` of ``rig`` at ``mu`` on a thread of its own (e.g. while the solver
+    works), then importing Pillow and its PNG writer; `session_pictures` takes it."""
+    pool = ThreadPoolExecutor(1, thread_name_prefix="scene")
+    try:
+        scene = pool.submit(Scene.of, rig, mu)
+        pool.submit(_import_pillow)
+        return scene
+    finally:
+        pool.shutdown(wait=False)
+
+
+def _import_pillow() -> None:
+    """Import Pillow's image, drawing and font modules and its file formats (`PIL.Image.preinit`)."""
+    from PIL import Image, ImageDraw, ImageFont  # noqa: F401
+
+    Image.preinit()
 
 
 class _Stage:
-    """What every picture of a session shares: the rig's neutral and normals, the expressions' poses,
-    the active vertices and the front camera."""
+    """What every picture of a session shares: the `Scene` and the expressions' poses."""
 
-    def __init__(self, rig: Rig, expressions: Sequence[dict[str, Any]], mu: float) -> None:
-        import rigs
-
-        self.rig = rig
-        self.normals = vertex_normals(rig.neutral, rig.triangles)
-        self.poses = rig.neutral + expression_poses(rig, expressions)
-        self.active = active_vertices(rig, mu)
-        self.front = rigs.frontal_camera(rig)
+    def __init__(
+        self, scene: Future[Scene], rig: Rig, mu: float, expressions: Sequence[dict[str, Any]]
+    ) -> None:
+        shared = scene.result()
+        if shared.rig is not rig or shared.mu != mu:
+            raise ValueError("the pictures' scene was prepared for another rig or threshold mu")
+        self.rig = shared.rig
+        self.normals = shared.normals
+        self.poses = shared.rig.neutral + expression_poses(shared.rig, expressions)
+        self.active = shared.active
+        self.front = shared.front
 
 
 def _backdrop(stage: Future[_Stage], degrees: float) -> Backdrop:
@@ -230,7 +287,7 @@ def _png(image: np.ndarray | Image.Image) -> bytes:
     if isinstance(image, np.ndarray):
         image = Image.fromarray(image)
     buffer = io.BytesIO()
-    image.save(buffer, format="PNG", compress_level=_PNG_LEVEL)
+    image.save(buffer, format="PNG", compress_level=_PNG_LEVEL, compress_type=_PNG_STRATEGY)
     return buffer.getvalue()
 
 

@@ -333,9 +333,10 @@ class Backdrop:
     """The neutral seen in a `Frame`, kept so that a pose's `Raster` needs only the triangles the pose
     changes rasterised again: the same raster, sample for sample, as `rasterise` of the whole pose.
 
-    A triangle is changed when one of its corners has a normal some moved vertex bends (`Motion`); the
-    others keep their place, depth and light, and where the neutral's nearest triangle at a sample is a
-    changed one, the nearest unchanged triangle there is found among the neutral's kept samples.
+    Only the triangles with a moved corner are rasterised again (`Motion.moved`); where the neutral's
+    nearest triangle at a sample is one of them, the nearest unmoved triangle there is found among the
+    neutral's kept samples. A triangle with a corner whose normal some moved vertex bends keeps its
+    samples and gets the light of the bent normals (`Motion.changed`); the others keep their light too.
 
     Parameters
     ----------
@@ -362,28 +363,32 @@ class Backdrop:
 
     def pose(self, vertices: np.ndarray, motion: Motion) -> Raster:
         """The raster of the pose ``vertices``, whose `Motion` from the neutral is ``motion``."""
-        changed = np.append(motion.changed, False)  # index -1 (no triangle): not changed
+        moved = np.append(motion.moved, False)  # index -1 (no triangle): not moved
         nearest, depth = self.nearest.copy(), self.depth.copy()
-        hole = changed[nearest]
+        hole = moved[nearest]
         nearest[hole], depth[hole] = -1, -np.inf
-        refill = hole[self.pixel] & ~changed[self.owner]
+        refill = hole[self.pixel] & ~moved[self.owner]
         _keep_nearest(nearest, depth, self.pixel[refill], self.owner[refill], self.near[refill])
-        moving = np.flatnonzero(motion.changed)
-        corners = self.frame.project(vertices).T[:, self.triangles[moving].T]
-        brightness = self.frame.brightness(motion.normals)[self.triangles[moving].T]
-        depth_plane, moved_shade = _planes(corners, brightness)
-        for pixel, owner, near in _scan(corners, depth_plane, self.frame.samples):
+        lit = np.flatnonzero(motion.changed)  # every moved triangle is among them
+        corners = self.frame.project(vertices).T[:, self.triangles[lit].T]
+        brightness = self.frame.brightness(motion.normals)[self.triangles[lit].T]
+        depth_plane, lit_shade = _planes(corners, brightness)
+        scanned = motion.moved[lit]
+        moving = lit[scanned]
+        for pixel, owner, near in _scan(corners[:, :, scanned], depth_plane[scanned], self.frame.samples):
             _keep_nearest(nearest, depth, pixel, moving[owner].astype(np.int32), near)
         shade_plane = self.shade_plane.copy()
-        shade_plane[moving] = moved_shade
+        shade_plane[lit] = lit_shade
         return _raster(nearest, shade_plane, self.frame)
 
 
 @dataclass(frozen=True)
 class Motion:
-    """What a pose changes of its neutral: ``changed`` (T,) the triangles with a corner whose normal is
-    bent, ``normals`` (N, 3) the pose's `vertex_normals`."""
+    """What a pose changes of its neutral: ``moved`` (T,) the triangles with a moved corner, ``changed``
+    (T,) the triangles with a corner whose normal is bent (the moved ones among them), ``normals`` (N, 3)
+    the pose's `vertex_normals`."""
 
+    moved: np.ndarray
     changed: np.ndarray
     normals: np.ndarray
 
@@ -393,13 +398,14 @@ class Motion:
     ) -> Motion:
         """The motion from ``neutral`` (of normals ``neutral_normals``) to the pose ``vertices``."""
         triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
-        moved = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
-        bent = np.zeros(len(moved), dtype=bool)  # corners of a triangle that moved: their normals change
-        bent[triangles[moved[triangles].any(axis=1)].ravel()] = True
+        shifted = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
+        moved = shifted[triangles].any(axis=1)
+        bent = np.zeros(len(shifted), dtype=bool)  # corners of a triangle that moved: their normals change
+        bent[triangles[moved].ravel()] = True
         changed = bent[triangles].any(axis=1)  # every triangle of a bent vertex: its own normals are exact
         normals = np.array(neutral_normals, dtype=np.float64)
         normals[bent] = vertex_normals(vertices, triangles[changed])[bent]
-        return cls(changed, normals)
+        return cls(moved, changed, normals)
 
 
 def _planes(corners: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -435,8 +441,9 @@ def _scan(
     """
     width, height = size
     edges = _edges(corners)
-    low = np.maximum(np.ceil(edges[:, [0, 6]] - 0.5), 0).astype(np.int64)  # first column and row
-    high = np.minimum(np.floor(edges[:, [1, 8]] - 0.5), [width - 1, height - 1]).astype(np.int64)
+    planes = np.ascontiguousarray(depth_plane.T)  # (3, T): a, b and c, each gathered in one piece
+    low = np.maximum(np.ceil(edges[[0, 6]].T - 0.5), 0).astype(np.int64)  # first column and row
+    high = np.minimum(np.floor(edges[[1, 8]].T - 0.5), [width - 1, height - 1]).astype(np.int64)
     spans = np.maximum(high - low + 1, 0)
     bound = np.where(np.isnan(depth_plane[:, 0]), 0, spans[:, 0] * spans[:, 1])
     start, ends, count = 0, np.cumsum(bound), len(bound)
@@ -445,15 +452,16 @@ def _scan(
             int(np.searchsorted(ends, ends[start] - bound[start] + _CHUNK_SAMPLES, "right")), start + 1
         )
         chunk = np.arange(start, stop, dtype=np.int32)[bound[start:stop] > 0]
-        yield _samples(edges[chunk], chunk, low[chunk, 1], spans[chunk, 1], depth_plane, width)
+        yield _samples(edges[:, chunk], chunk, low[chunk, 1], spans[chunk, 1], planes, width)
         start = stop
 
 
 def _edges(corners: np.ndarray) -> np.ndarray:
-    """Per triangle: its x range, the top corner and the slope (dx/dy) of the edge from it to the bottom
-    corner, the middle corner and the slopes of the edges from top to middle and middle to bottom, and
-    the bottom row: ``x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid, y_bottom,
-    slope_lower`` (slopes of horizontal edges are 0: no row crosses them)."""
+    """(10, T): per triangle, its x range, the top corner and the slope (dx/dy) of the edge from it to
+    the bottom corner, the middle corner and the slopes of the edges from top to middle and middle to
+    bottom, and the bottom row: ``x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid,
+    y_bottom, slope_lower`` (slopes of horizontal edges are 0: no row crosses them), one row each (so
+    that each is gathered in one piece)."""
     x, y = corners[0], corners[1]
     count = x.shape[1]
     top = np.argmin(y, axis=0)  # the first lowest y; the bottom is the last largest, the middle the third
@@ -478,8 +486,7 @@ def _edges(corners: np.ndarray) -> np.ndarray:
             y_mid,
             y_bottom,
             slope(x_mid, y_mid, x_bottom, y_bottom),
-        ],
-        axis=1,
+        ]
     )
 
 
@@ -488,33 +495,35 @@ def _samples(
     owners: np.ndarray,
     first_row: np.ndarray,
     rows: np.ndarray,
-    depth_plane: np.ndarray,
+    planes: np.ndarray,
     width: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel index, triangle and depth of every pixel centre inside the given triangles (`_edges`).
+    """Pixel index, triangle and depth of every pixel centre inside the given triangles (`_edges`, and
+    the (3, T) rows a, b, c of every triangle's depth plane).
 
     Work is per row of a triangle where it can be (its span, its first pixel and depth, the depth step
     along the row), and one ``np.repeat`` per value expands the rows to their pixels.
     """
     row_of = np.repeat(np.arange(len(owners), dtype=np.int32), rows)
     y = first_row.astype(np.int32)[row_of] + _ragged(rows)
-    edge = np.take(edges, row_of, axis=0)
+    x_min, x_max, x_top, slope_long, x_mid, slope_upper, y_top, y_mid, _, slope_lower = (
+        np.take(edge, row_of) for edge in edges
+    )
     centre = y + 0.5
-    long_side = edge[:, 2] + (centre - edge[:, 6]) * edge[:, 3]
-    upper = centre < edge[:, 7]
+    long_side = x_top + (centre - y_top) * slope_long
+    upper = centre < y_mid
     short_side = np.where(
         upper,
-        edge[:, 2] + (centre - edge[:, 6]) * edge[:, 5],
-        edge[:, 4] + (centre - edge[:, 7]) * edge[:, 9],
+        x_top + (centre - y_top) * slope_upper,
+        x_mid + (centre - y_mid) * slope_lower,
     )
-    left = np.clip(np.minimum(long_side, short_side), edge[:, 0], edge[:, 1])  # (rounding at the corners)
-    right = np.clip(np.maximum(long_side, short_side), edge[:, 0], edge[:, 1])
+    left = np.clip(np.minimum(long_side, short_side), x_min, x_max)  # (rounding at the corners)
+    right = np.clip(np.maximum(long_side, short_side), x_min, x_max)
     start = np.maximum(np.ceil(left - 0.5), 0).astype(np.int32)
     count = np.maximum(np.minimum(np.floor(right - 0.5), width - 1).astype(np.int32) - start + 1, 0)
     owner = owners[row_of]
-    plane = np.take(depth_plane, owner, axis=0)
-    step = plane[:, 0]
-    first_depth = step * (start + 0.5) + plane[:, 1] * centre + plane[:, 2]
+    step, down, offset_depth = (np.take(plane, owner) for plane in planes)
+    first_depth = step * (start + 0.5) + down * centre + offset_depth
     offset = _ragged(count)
     pixel = np.repeat(y * width + start, count) + offset
     near = np.repeat(first_depth, count) + np.repeat(step, count) * offset

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from typing import ClassVar
 
 from packing import PackingProblem, Termination
 from solvers import Availability, Capabilities, Result
+from solvers.greedy import GreedySolver
 
 
 class Raising:
@@ -78,3 +80,25 @@ class SecondFails(Raising):
         if problem.meta.get("expression") == 1:
             return Result((0,), Termination.COMPLETED)
         raise RuntimeError("out of memory")
+
+
+class Stalling(Raising):
+    """Claims a native time limit, then never answers (it ignores the limit), the warm-up solve included."""
+
+    name: ClassVar[str] = "stall"
+    capabilities: ClassVar[Capabilities] = Capabilities(exact=False, time_limit=True)
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
+        threading.Event().wait()
+        raise AssertionError("unreachable")
+
+
+class StallingSecond(Stalling):
+    """Packs the first expression as greedy does (Algorithm 2), then never answers."""
+
+    name: ClassVar[str] = "stall-second"
+
+    def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
+        if problem.meta.get("expression", 1) == 1:
+            return GreedySolver().solve(problem)
+        return super().solve(problem, time_limit=time_limit, seed=seed)

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 from matplotlib.image import imread
 from scipy.spatial.transform import Rotation
 
+import harness._session_minimum
 import rigs
 from harness._outdir import MANIFEST_NAME
 from harness.cli import cli
@@ -410,16 +411,9 @@ def test_minimum_is_the_chromatic_number_of_the_conflict_graph(seed, tmp_path) -
 
 
 def test_minimum_not_proven_in_time_says_what_was_proven(monkeypatch, tmp_path) -> None:
-    import solvers
-    from packing import Termination
-
-    found = solvers.minimum_expressions
-
-    def unproven(problem, **options):
-        result = found(problem, **options)
-        return replace(result, lower_bound=result.count - 1, termination=Termination.TIME_LIMIT)
-
-    monkeypatch.setattr(solvers, "minimum_expressions", unproven)
+    monkeypatch.setattr(
+        harness._session_minimum, "SOLVE_IN_WORKER", "tests.harness.minimum_workers:unproven_cover"
+    )
     path = rigs.save(conflict_rig(1), tmp_path / "rig.npz")
     document, output = pack(path, tmp_path / "out", "--minimum", "--no-pictures", "--time-limit", "5s")
     count = len(document["expressions"])

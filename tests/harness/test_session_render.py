@@ -13,7 +13,7 @@ from PIL import Image
 import harness
 import packing
 import rigs
-from harness._session_pictures import SIZE, _legend_picture, face_size, session_pictures
+from harness._session_pictures import SIZE, _legend_picture, face_size, prepare_scene, session_pictures
 from harness._session_render import Backdrop, Frame, Motion, rasterise, vertex_normals
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
@@ -99,6 +99,18 @@ def test_session_pictures_are_the_same_bytes_for_the_same_input_on_any_thread_co
         image = Image.open(io.BytesIO(png))
         assert not image.info  # no text chunks: no software tag, no time stamp
         assert image.size == (SIZE if path.endswith("_front.png") else face_size())
+
+
+def test_a_scene_prepared_ahead_gives_the_same_pictures_and_must_be_of_the_rig_and_threshold() -> None:
+    rig = rigs.generate("tiny")
+    groups = [list(rig.names[:3]), [rig.names[4]]]
+    expressions, legends = session(rig, groups)
+    made_here = list(session_pictures(rig, expressions, legends, 0.3))
+    again, _ = session(rig, groups)
+    assert list(session_pictures(rig, again, legends, 0.3, scene=prepare_scene(rig, 0.3))) == made_here
+    for scene in (prepare_scene(rig, 0.5), prepare_scene(rigs.generate("tiny", seed=1), 0.3)):
+        with pytest.raises(ValueError, match="prepared for another rig or threshold"):
+            list(session_pictures(rig, again, legends, 0.3, scene=scene))
 
 
 def test_the_coloured_picture_has_its_legend_on_the_right_and_no_caption_above() -> None:
