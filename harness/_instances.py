@@ -131,46 +131,48 @@ def export(
     """
     sequences = _unique_prefixes(list(sequences))
     protect = [path for sequence in sequences for path in sequence.inputs]
-    folder = claim(out, kind="instances", force=force, protect=protect)
-    described, instances, files = [], [], []
-    for sequence in sequences:
-        solved = recorded_sequence(
-            sequence.rig,
-            sequence.target_neutral,
-            solver,
-            params=dict(sequence.params),
-            jmax=sequence.jmax,
-            time_limit=sequence.time_limit,
-            seed=sequence.seed,
-        ).solved
-        described.append({**sequence.describe(), "expressions": len(solved)})
-        for problem, solution in solved:
-            entry, text = _instance(sequence, problem, solution)
-            instances.append(entry)
-            files.append((entry["file"], text))
-    from solvers import solu_line
+    with claim(out, kind="instances", force=force, protect=protect, lock=True) as folder:
+        described, instances, files = [], [], []
+        for sequence in sequences:
+            solved = recorded_sequence(
+                sequence.rig,
+                sequence.target_neutral,
+                solver,
+                params=dict(sequence.params),
+                jmax=sequence.jmax,
+                time_limit=sequence.time_limit,
+                seed=sequence.seed,
+            ).solved
+            described.append({**sequence.describe(), "expressions": len(solved)})
+            for problem, solution in solved:
+                entry, text = _instance(sequence, problem, solution)
+                instances.append(entry)
+                files.append((entry["file"], text))
+        from solvers import solu_line
 
-    solu = "".join(solu_line(entry["status"], entry["name"], entry["value"]) + "\n" for entry in instances)
-    document = {
-        "format": FORMAT,
-        "version": VERSION,
-        "solver": solver.name,
-        "sequences": described,
-        "instances": instances,
-    }
+        solu = "".join(
+            solu_line(entry["status"], entry["name"], entry["value"]) + "\n" for entry in instances
+        )
+        document = {
+            "format": FORMAT,
+            "version": VERSION,
+            "solver": solver.name,
+            "sequences": described,
+            "instances": instances,
+        }
 
-    def contents() -> Iterator[tuple[str, str]]:
-        yield from files
-        yield SOLU_FILE, solu
-        yield INDEX_FILE, json.dumps(document, indent=2) + "\n"
+        def contents() -> Iterator[tuple[str, str]]:
+            yield from files
+            yield SOLU_FILE, solu
+            yield INDEX_FILE, json.dumps(document, indent=2) + "\n"
 
-    paths = folder.write_files(contents())
-    names = [path.relative_to(folder.path).as_posix() for path in paths]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ChangedFileWarning)
-        folder.remove_stale(keep=names)
-    changed = [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
-    return ExportResult(document, paths, changed)
+        paths = folder.write_files(contents())
+        names = [path.relative_to(folder.path).as_posix() for path in paths]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ChangedFileWarning)
+            folder.remove_stale(keep=names)
+        changed = [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
+        return ExportResult(document, paths, changed)
 
 
 @dataclass(frozen=True)
