@@ -2,7 +2,9 @@
 
 Runs write ``OUT/run.json`` and ``OUT/records/*.parquet``; `read_run` and `read_records` read them back (the
 columns are documented in `harness._records`); the tables made from them are the `reports` package's. The
-harness runs rigs through `packing`, `solvers` and `transfer` and never computes results itself.
+harness runs rigs through `packing`, `solvers` and `transfer` and never computes results itself. Beside
+them, the pieces other commands build on (`session`'s ``harness pack``, plugin commands): the shared options
+(`constraint_options`, `DURATION`, ...), the output folder (`claim`) and the plugins (`load_solver`).
 
 Names are imported from their modules on first use (PEP 562), so that ``harness --help`` and the commands
 that need no records store start without importing pandas and pyarrow.
@@ -15,6 +17,8 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
+    from harness._cli_constraints import constraint_options, constraint_params
+    from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
     from harness._durations import format_duration, parse_duration
     from harness._environment import commits_since
     from harness._executors import DaskExecutor, LocalExecutor
@@ -26,15 +30,18 @@ if TYPE_CHECKING:
         CellSpec,
         RunConfig,
     )
+    from harness._outdir import ChangedFileWarning, OutputFolder, OutputFolderError, claim
+    from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
-    from harness._rigspec import resolve_rig
+    from harness._rigspec import input_paths, resolve_rig
     from harness._run import RunDirectoryError, RunSummary, read_run, run_grid
-    from harness._session_render import active_vertices, render_mesh, shape_colours, triangle_colours
     from harness._settings import settings_text, split_label
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
+        "_cli_constraints": ["constraint_options", "constraint_params"],
+        "_cli_types": ["DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
         "_durations": ["format_duration", "parse_duration"],
         "_environment": ["commits_since"],
         "_executors": ["DaskExecutor", "LocalExecutor"],
@@ -47,9 +54,10 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "RunConfig",
         ],
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
-        "_rigspec": ["resolve_rig"],
+        "_outdir": ["ChangedFileWarning", "OutputFolder", "OutputFolderError", "claim"],
+        "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
+        "_rigspec": ["input_paths", "resolve_rig"],
         "_run": ["RunDirectoryError", "RunSummary", "read_run", "run_grid"],
         "_settings": ["settings_text", "split_label"],
-        "_session_render": ["active_vertices", "render_mesh", "shape_colours", "triangle_colours"],
     },
 )

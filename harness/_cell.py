@@ -179,7 +179,7 @@ def set_up(spec: CellSpec, template: Rig | None = None) -> None:
         ]:
             if not info.available:
                 raise RuntimeError(f"{label} is unavailable here: {info.reason or 'no reason given'}")
-        plugins.solver(spec.solver)
+        plugins.load_solver(spec.solver)
         for name in spec.transfers:
             plugins.transfer_method(name)
     except Exception as error:  # noqa: BLE001 - whatever fails, the cell cannot run on this machine
@@ -220,7 +220,7 @@ def warm_up(solver_name: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", packing.MissingTargetWarning)
             problem = packing.build_problem(rigs.generate("tiny"))
-        plugins.solver(solver_name).solve(problem, time_limit=5.0, seed=0)
+        plugins.load_solver(solver_name).solve(problem, time_limit=5.0, seed=0)
     except Exception:  # noqa: BLE001 - the timed cell reports the real failure
         pass
 
@@ -265,7 +265,7 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
         return [_finish(cell_row, status=status, message=message, cell_time=time.perf_counter() - started)]
 
     try:
-        solver = permuted_solver(plugins.solver(spec.solver), spec.permutation)
+        solver = permuted_solver(plugins.load_solver(spec.solver), spec.permutation)
         finished = _ExpressionRows(base, template.n_shapes, journal)
         if spec.mode == "replay":
             params = packing_params(spec)

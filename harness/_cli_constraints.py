@@ -65,7 +65,7 @@ class ConstraintParams(TypedDict):
     apart: tuple[tuple[str, str], ...]
     regions: str | None
     #: The constraints file each of its pairs came from, so that a name the rig lacks is told naming it
-    #: (`harness._pack_constraints.session_constraints` takes it out before packing).
+    #: (`session._constraints.session_constraints` takes it out before packing).
     constraint_origins: dict[tuple[str, str], str]
 
 

@@ -171,6 +171,6 @@ def _export(
         if run_rig is not None:
             raise HarnessError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
         chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
-    solver = plugins.solver(solver_name)
+    solver = plugins.load_solver(solver_name)
     result = export_instances(chosen, solver=solver, out=out, force=force)
     return result.document, result.files, result.warnings

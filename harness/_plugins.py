@@ -35,7 +35,7 @@ def transfer_names() -> list[str]:
     return list(transfer.names())
 
 
-def solver(label: str) -> LoadedSolver:
+def load_solver(label: str) -> LoadedSolver:
     """The solver plugin of a label (``cpsat`` or ``cpsat[workers=2]``), made with the label's settings and
     behind the framework's checks and normalisation (`solvers.get`).
 

@@ -90,7 +90,7 @@ def _build(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, Any]
     recorded = recorded_sequence(
         template,
         None if spec.warp == NO_WARP else target.neutral,
-        plugins.solver(REFERENCE_SOLVER),
+        plugins.load_solver(REFERENCE_SOLVER),
         params=dict(params),
         jmax=spec.jmax,
         time_limit=spec.time_limit,

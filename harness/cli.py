@@ -1,6 +1,7 @@
 """The ``harness`` command line.
 
-Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``, ``pack``.
+Built-in commands: ``rigs`` (generate, info, warp, convert, fetch), ``list``, ``run``; ``pack`` is the
+`session` package's, ``report``, ``compare`` and ``show`` the `reports` package's (entry points).
 Other distributions add commands through the entry-point group ``harness.commands``: each entry point names a
 `click.Command` (or a ``typer.Typer`` app) and is imported only when its command runs or shows its own help.
 A built-in command's module is imported the same way: ``harness --help`` lists the built-ins from their
@@ -63,14 +64,6 @@ BUILTIN = {
         "harness._cli_run",
         "run",
         "Run the grid rigs x warps x solvers x packing parameters x repetitions; record every cell.",
-    ),
-    "pack": Builtin(
-        "harness._cli_pack",
-        "pack",
-        "Choose the reference expressions of RIG (any rig file or folder, a preset name, or a fetched rig's "
-        "name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per "
-        "expression (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and "
-        "materials), the pictures and the scan sheet session.html.",
     ),
 }
 

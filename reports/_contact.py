@@ -2,9 +2,9 @@
 
 An artist takes these to a scanning session (Carrigan et al. 2020, sec. 5.3 and Fig. 11): every panel shows
 the template posed in one expression (neutral plus the sum of its blendshapes, sec. 3), the active vertices
-of each blendshape (eq. 2, the masks packing used: `harness.active_vertices`) in that shape's colour, and
+of each blendshape (eq. 2, the masks packing used: `render.active_vertices`) in that shape's colour, and
 the shape names underneath. The face is seen through `rigs.frontal_camera` and drawn by
-`harness.render_mesh`, the camera and renderer of the pictures of ``harness pack``.
+`render.render_mesh`, the camera and renderer of the pictures of ``harness pack``.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-import harness
+import render
 from reports._png import report_style
 from rigs import Rig, frontal_camera
 
@@ -32,7 +32,7 @@ def draw_expression(
     *,
     size: tuple[int, int] = (PANEL_WIDTH, PANEL_WIDTH),
 ) -> np.ndarray:
-    """Draw ``rig`` posed in the expression made of ``shapes`` onto ``ax`` (`harness.render_mesh`).
+    """Draw ``rig`` posed in the expression made of ``shapes`` onto ``ax`` (`render.render_mesh`).
 
     Parameters
     ----------
@@ -41,10 +41,10 @@ def draw_expression(
     rig : Rig
         The template rig.
     shapes : sequence of str
-        Blendshape names of the expression; each gets its own colour (`harness.shape_colours`), and a
+        Blendshape names of the expression; each gets its own colour (`render.shape_colours`), and a
         triangle takes the colour of the shape most of its corners are active in.
     active : (K, N) bool array
-        Active vertices of every blendshape of ``rig`` (eq. 2), as from `harness.active_vertices`.
+        Active vertices of every blendshape of ``rig`` (eq. 2), as from `render.active_vertices`.
     camera : (3, 3) array
         Rows right, up and towards the viewer, as from `rigs.frontal_camera`.
     size : (width, height)
@@ -55,10 +55,10 @@ def draw_expression(
     (len(shapes), 3) array of the RGB colours used for the shapes, in order.
     """
     indices = rig.indices(shapes)
-    colours = harness.shape_colours([1] * len(indices))
-    fills = harness.triangle_colours(rig.triangles, active[indices], colours)
+    colours = render.shape_colours([1] * len(indices))
+    fills = render.triangle_colours(rig.triangles, active[indices], colours)
     posed = rig.neutral + rig.deltas[indices].sum(axis=0)
-    image = harness.render_mesh(posed, rig.triangles, camera, fills, width=size[0], height=size[1])
+    image = render.render_mesh(posed, rig.triangles, camera, fills, width=size[0], height=size[1])
     ax.imshow(image, interpolation="antialiased")
     ax.set_axis_off()
     return colours
@@ -109,7 +109,7 @@ def contact_sheet(
         How many of the first expressions to draw per row.
     mu : float
         Activity threshold of eq. 2 used to colour each shape's active vertices (the run's ``mu``; the
-        noise floor is packing's, `harness.active_vertices`).
+        noise floor is packing's, `render.active_vertices`).
     title : str
         Figure title, e.g. the rig name.
 
@@ -132,7 +132,7 @@ def contact_sheet(
     columns = max(1, max(len(seq) for seq in rows.values()))
     most_names = max([len(e) for seq in rows.values() for e in seq] + [1])
     names_height = 0.16 * most_names
-    active = harness.active_vertices(rig, mu)
+    active = render.active_vertices(rig, mu)
     camera = frontal_camera(rig)
     size = _panel_size(rig, camera)
     with report_style():

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 #: The project's packages.
-PACKAGES = ("registry", "rigs", "packing", "solvers", "transfer", "harness", "reports")
+PACKAGES = ("registry", "rigs", "packing", "solvers", "transfer", "render", "harness", "session", "reports")
 
 
 class SpeedTargetMissed(UserWarning):

@@ -1,5 +1,5 @@
 """Functions the worker of ``harness pack --minimum`` runs in place of
-`harness._session_minimum.ordered_cover` (named by `harness._session_minimum.SOLVE_IN_WORKER`), for the
+`session._minimum.ordered_cover` (named by `session._minimum.SOLVE_IN_WORKER`), for the
 tests."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import threading
 from dataclasses import replace
 from pathlib import Path
 
-from harness._session_minimum import ordered_cover
 from packing import PackingProblem, Termination
+from session._minimum import ordered_cover
 from solvers import OrderedSequence
 
 #: Environment variable naming the file `stalling_cover` writes its process id to.

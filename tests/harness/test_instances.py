@@ -128,7 +128,7 @@ def test_the_files_are_the_models_the_exact_backends_solve(registered, tmp_path:
 
 
 def test_a_time_limited_reference_is_best_not_opt(registered, tmp_path: Path, monkeypatch) -> None:
-    real = harness._plugins.solver
+    real = harness._plugins.load_solver
 
     class CutShort:
         """The real solver's answer, reported as stopped by its time limit."""
@@ -140,7 +140,7 @@ def test_a_time_limited_reference_is_best_not_opt(registered, tmp_path: Path, mo
             solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
             return dataclasses.replace(solution, termination=packing.Termination.TIME_LIMIT)
 
-    monkeypatch.setattr(harness._plugins, "solver", lambda name: CutShort(real(name)))
+    monkeypatch.setattr(harness._plugins, "load_solver", lambda name: CutShort(real(name)))
     out = tmp_path / "instances"
     result = export("tiny", "--out", out, "--time-limit", "1s")
     assert result.exit_code == 0, result.output

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import harness._pack
 import packing
 import rigs
+import session._pack
 import solvers
 from harness._outdir import MANIFEST_NAME, OutputFolder
 from tests.harness import cli_helpers
@@ -123,7 +123,7 @@ class TimedSolver:
 
 
 class InProcess(contextlib.nullcontext):
-    """`harness._pack_solver.IsolatedSolver` without the worker: the solver on the test clock solves here."""
+    """`session._solver.IsolatedSolver` without the worker: the solver on the test clock solves here."""
 
     def __init__(self, label, clock: Clock) -> None:
         super().__init__(TimedSolver(clock))
@@ -132,8 +132,8 @@ class InProcess(contextlib.nullcontext):
 @pytest.fixture
 def clock(monkeypatch) -> Clock:
     clock = Clock(step=1.0)
-    monkeypatch.setattr(harness._pack, "monotonic", clock)
-    monkeypatch.setattr(harness._pack, "IsolatedSolver", lambda label: InProcess(label, clock))
+    monkeypatch.setattr(session._pack, "monotonic", clock)
+    monkeypatch.setattr(session._pack, "IsolatedSolver", lambda label: InProcess(label, clock))
     return clock
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-import harness._session_minimum
+import session._minimum
 from tests.harness.cli_helpers import assert_one_line_error, invoke
 from tests.harness.minimum_workers import MARK_VARIABLE
 from tests.plugin_distribution import registered_module
@@ -37,10 +37,10 @@ PATIENCE = 60.0
 #: ``harness pack`` whose ``--minimum`` solves with `tests.harness.minimum_workers.stalling_cover`.
 STALLING_MINIMUM = """
 import sys
-import harness._session_minimum
+import session._minimum
 from harness.cli import main
 
-harness._session_minimum.SOLVE_IN_WORKER = "tests.harness.minimum_workers:stalling_cover"
+session._minimum.SOLVE_IN_WORKER = "tests.harness.minimum_workers:stalling_cover"
 main(sys.argv[1:])
 """
 
@@ -146,7 +146,7 @@ def test_time_limit_stops_a_solver_that_ignores_it_and_says_so(failing_plugins, 
 )
 def test_a_failing_minimum_solve_is_one_line(monkeypatch, tmp_path, function, reason):
     named = f"tests.harness.minimum_workers:{function}"
-    monkeypatch.setattr(harness._session_minimum, "SOLVE_IN_WORKER", named)
+    monkeypatch.setattr(session._minimum, "SOLVE_IN_WORKER", named)
     out = tmp_path / "out"
     result = invoke("pack", "tiny", "--minimum", "--no-pictures", "--out", out)
     assert_one_line_error(result, "solver cpsat failed on --minimum: ", reason)

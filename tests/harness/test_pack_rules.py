@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 import rigs
-from harness._pack import pack
 from packing._face_rules import FaceRule, match_rules, name_keys, read_rules
+from session._pack import pack
 from tests.harness.cli_helpers import assert_one_line_error, invoke
 
 #: Built-in rigs that pack in about a second; ``film`` and ``dense`` take half a minute each.

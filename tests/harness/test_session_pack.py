@@ -14,8 +14,8 @@ from click.testing import CliRunner
 from matplotlib.image import imread
 from scipy.spatial.transform import Rotation
 
-import harness._session_minimum
 import rigs
+import session._minimum
 from harness._outdir import MANIFEST_NAME
 from harness.cli import cli
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
@@ -411,9 +411,7 @@ def test_minimum_is_the_chromatic_number_of_the_conflict_graph(seed, tmp_path) -
 
 
 def test_minimum_not_proven_in_time_says_what_was_proven(monkeypatch, tmp_path) -> None:
-    monkeypatch.setattr(
-        harness._session_minimum, "SOLVE_IN_WORKER", "tests.harness.minimum_workers:unproven_cover"
-    )
+    monkeypatch.setattr(session._minimum, "SOLVE_IN_WORKER", "tests.harness.minimum_workers:unproven_cover")
     path = rigs.save(conflict_rig(1), tmp_path / "rig.npz")
     document, output = pack(path, tmp_path / "out", "--minimum", "--no-pictures", "--time-limit", "5s")
     count = len(document["expressions"])

@@ -1,4 +1,4 @@
-"""`harness.render_mesh` and the session pictures: depth-buffered, fitted, deterministic, coloured by the
+"""`render.render_mesh` and the session pictures: depth-buffered, fitted, deterministic, coloured by the
 masks packing used, the unmoved face rasterised once and the same for it."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import harness
 import packing
+import render
 import rigs
-from harness._session_pictures import SIZE, _legend_picture, face_size, prepare_scene, session_pictures
-from harness._session_render import Backdrop, Frame, Motion, rasterise, vertex_normals
+from render._raster import Backdrop, Frame, Motion, rasterise, vertex_normals
+from session._pictures import SIZE, _legend_picture, face_size, prepare_scene, session_pictures
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
 RED, BLUE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
@@ -39,7 +39,7 @@ def crossing_triangles() -> tuple[np.ndarray, np.ndarray]:
 def test_the_nearest_surface_wins_even_where_triangles_cross(order) -> None:
     vertices, triangles = crossing_triangles()
     colours = np.array([RED, BLUE])
-    image = harness.render_mesh(vertices, triangles[order], FRONT, colours[order], width=80, height=80)
+    image = render.render_mesh(vertices, triangles[order], FRONT, colours[order], width=80, height=80)
     rgb, alpha = image[..., :3].astype(int), image[..., 3]
     row = 60  # low in the picture, where the triangles are wide
     covered = np.flatnonzero(alpha[row] == 255)
@@ -48,21 +48,21 @@ def test_the_nearest_surface_wins_even_where_triangles_cross(order) -> None:
 
 
 def test_rendering_in_chunks_gives_the_same_image(monkeypatch) -> None:
-    from harness import _session_render
+    from render import _raster
 
     rig = rigs.generate("tiny")
     camera = rigs.three_quarter_camera(rigs.frontal_camera(rig))
     fills = np.random.default_rng(0).uniform(0.2, 1.0, (rig.n_triangles, 3))
-    whole = harness.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110)
-    monkeypatch.setattr(_session_render, "_CHUNK_SAMPLES", 500)  # many chunks, merged into the buffers
+    whole = render.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110)
+    monkeypatch.setattr(_raster, "_CHUNK_SAMPLES", 500)  # many chunks, merged into the buffers
     assert np.array_equal(
-        harness.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110), whole
+        render.render_mesh(rig.neutral, rig.triangles, camera, fills, width=90, height=110), whole
     )
 
 
 def test_the_mesh_is_fitted_centred_and_antialiased() -> None:
     square = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]]) + 5.0
-    image = harness.render_mesh(
+    image = render.render_mesh(
         square, np.array([[0, 1, 2], [0, 2, 3]]), FRONT, np.ones((2, 3)) * 0.5, width=100, height=100
     )
     alpha = image[..., 3]
@@ -75,8 +75,8 @@ def test_the_mesh_is_fitted_centred_and_antialiased() -> None:
 
 
 def session(rig: rigs.Rig, groups: list[list[str]]) -> tuple[list[dict], list]:
-    """Expressions of ``groups`` of shape names and their legends, as `harness._session` makes them."""
-    from harness._session import _legend
+    """Expressions of ``groups`` of shape names and their legends, as `session._files` makes them."""
+    from session._files import _legend
 
     expressions = [{"shapes": group, "extra_examples": [], "files": {}} for group in groups]
     return expressions, [_legend(expression, ()) for expression in expressions]
@@ -173,7 +173,7 @@ def test_triangles_take_the_shape_most_of_their_corners_are_active_in() -> None:
     active = np.zeros((2, 7), dtype=bool)
     active[0, 0] = True
     active[1, [1, 2, 3]] = True
-    fills = harness.triangle_colours(triangles, active, np.array([RED, BLUE]))
+    fills = render.triangle_colours(triangles, active, np.array([RED, BLUE]))
     skin = fills[3]
     assert [fill.tolist() for fill in fills] == [
         BLUE.tolist(),
@@ -187,7 +187,7 @@ def test_triangles_take_the_shape_most_of_their_corners_are_active_in() -> None:
         BLUE.tolist(),
     )  # no corner active: skin; a tie: the first shape
     assert np.array_equal(
-        harness.triangle_colours(triangles, active[:0], np.zeros((0, 3))), np.tile(skin, (5, 1))
+        render.triangle_colours(triangles, active[:0], np.zeros((0, 3))), np.tile(skin, (5, 1))
     )
 
 
@@ -195,10 +195,10 @@ def test_shape_colours_never_repeat_within_an_expression() -> None:
     from matplotlib import colormaps
 
     for groups in ([1] * 8, [2] * 10, [2, 1, 2], [1] * 30):
-        colours = harness.shape_colours(groups)
+        colours = render.shape_colours(groups)
         assert len(colours) == sum(groups) and len({tuple(c) for c in colours.round(6)}) == sum(groups)
     tab20 = np.asarray(colormaps["tab20"].colors)
-    assert np.allclose(harness.shape_colours([2, 1]), tab20[[0, 1, 2]])  # a pair's two tones, then a hue
+    assert np.allclose(render.shape_colours([2, 1]), tab20[[0, 1, 2]])  # a pair's two tones, then a hue
 
 
 @pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
@@ -209,13 +209,13 @@ def test_active_vertices_are_the_masks_packing_uses() -> None:
     )
     for mu in (0.3, 0.5):
         analysis = packing.analyse(faint, mu=mu)
-        masks = harness.active_vertices(faint, mu)
+        masks = render.active_vertices(faint, mu)
         assert np.array_equal(masks, analysis.masks)
     assert analysis.empty[-1] and not masks[-1].any()  # packing's noise floor: the faint shape is empty
 
 
 def test_a_long_legend_shrinks_and_cuts_its_words_to_fit_the_picture() -> None:
-    colours = harness.shape_colours([1] * 40)
+    colours = render.shape_colours([1] * 40)
     words = [f"left upper eyelid squeeze and raise number {k}" for k in range(40)]
     face = np.full((SIZE[1], face_size()[0], 3), 255, dtype=np.uint8)
     image = Image.open(io.BytesIO(_legend_picture(face, words, colours)))

@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 import rigs
-from harness._session import session_files
-from harness._session_sheet import INSTRUCTIONS, plain_note, sheet_layout
-from harness._session_words import plain_words
+from session._files import session_files
+from session._sheet import INSTRUCTIONS, plain_note, sheet_layout
+from session._words import plain_words
 from tests.chromium import run_chromium
 
 #: Paper sizes in millimetres (width, height) and their PDF media boxes in points.

@@ -11,6 +11,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 import harness
+import render
 import rigs
 from reports import contact_sheet, coverage_figure, png_bytes, rms_figure
 from reports._contact import distinct_sequences, draw_expression
@@ -92,11 +93,11 @@ def test_png_bytes_are_deterministic(make_run, face_rig_file):
 
 def test_draw_expression_shows_the_face_from_the_front_in_the_shape_colours(face):
     ax = Figure().add_subplot()
-    active = harness.active_vertices(face)
+    active = render.active_vertices(face)
     colours = draw_expression(
         ax, face, ["jawOpen", "browUp_L"], active, rigs.frontal_camera(face), size=(200, 260)
     )
-    assert colours.tolist() == harness.shape_colours([1, 1]).tolist()
+    assert colours.tolist() == render.shape_colours([1, 1]).tolist()
     (image,) = ax.get_images()
     pixels = np.asarray(image.get_array())
     assert pixels.shape == (260, 200, 4)
@@ -118,9 +119,9 @@ def test_contact_sheet_colours_the_masks_packing_used(face, monkeypatch):
     faint = replace(face, deltas=np.concatenate([face.deltas[:-1], face.deltas[-1:] * 1e-5]))
     assert packing.analyse(faint).empty[-1]  # below packing's noise floor (relative to the diagonal)
     seen = []
-    original = harness.active_vertices
+    original = render.active_vertices
     monkeypatch.setattr(
-        harness, "active_vertices", lambda rig, mu=0.3: seen.append(original(rig, mu)) or seen[-1]
+        render, "active_vertices", lambda rig, mu=0.3: seen.append(original(rig, mu)) or seen[-1]
     )
     contact_sheet(faint, {"cpsat": [[faint.names[-1], "jawOpen"]]}, mu=0.25)
     (masks,) = seen

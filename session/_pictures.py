@@ -1,7 +1,7 @@
 """The pictures of a scanning session, in ``pictures/``, for every expression:
 
 * ``expression_XX_front.png``: the template posed in the expression, seen from the front found from the
-  face (`rigs.frontal_camera`), each active shape coloured (`harness._session_render.triangle_colours`)
+  face (`rigs.frontal_camera`), each active shape coloured (`render._raster.triangle_colours`)
   and named on the right in plain words with its colour;
 * ``expression_XX_front_pose.png`` and ``expression_XX_three_quarter_pose.png``: the same pose bare, in
   grey, from the front and turned 35 degrees towards the character's left (`rigs.three_quarter_camera`),
@@ -31,8 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from harness._session_mesh import expression_name, expression_poses
-from harness._session_render import (
+from render._raster import (
     Backdrop,
     Frame,
     Motion,
@@ -40,12 +39,13 @@ from harness._session_render import (
     triangle_colours,
     vertex_normals,
 )
+from session._mesh import expression_name, expression_poses
 
 if TYPE_CHECKING:
     from PIL import Image, ImageDraw, ImageFont
 
-    from harness._session_sheet import Legend
     from rigs import Rig
+    from session._sheet import Legend
 
 PICTURES = "pictures"
 #: Key (in an expression's ``files``) of the coloured front picture, and of the bare poses with the turn

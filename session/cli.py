@@ -6,15 +6,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
-from rich.markup import escape
-from rich.table import Table
 
-from harness._cli_constraints import constraint_options, constraint_params
-from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
-from harness._pack import EXPRESSIONS_FILE, parse_rejections
-from harness._pack import pack as pack_rig
-from harness._pack_constraints import parse_exclusions
-from harness._session import SHEET_FILE
+from harness import DURATION, SOLVER_SEED, FiniteFloatRange, constraint_options, constraint_params, terminal
 
 if TYPE_CHECKING:
     from rich.console import JustifyMethod
@@ -147,7 +140,14 @@ def pack(
     name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per expression
     (template neutral + its shapes, keeping the source OBJ's UVs, normals, groups and materials), the
     pictures and the scan sheet session.html."""
-    from harness import _plugins as plugins
+    from rich.markup import escape
+    from rich.table import Table
+
+    from harness import expand_names, solver_names
+    from session._constraints import parse_exclusions
+    from session._files import SHEET_FILE
+    from session._pack import EXPRESSIONS_FILE, parse_rejections
+    from session._pack import pack as pack_rig
 
     if refine and reject:
         raise click.UsageError("use either --refine (interactive) or --reject (listed), not both")
@@ -156,7 +156,7 @@ def pack(
             "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
-    plugins.expand_names([solver], plugins.solver_names(), "solver", "--solver")
+    expand_names([solver], solver_names(), "solver", "--solver")
 
     def decide(expression: int, shape: str, extra_example: bool) -> bool:
         role = " as an extra example" if extra_example else ""

@@ -24,9 +24,9 @@ cap of sec. 6, ``together``/``apart`` every pair enforced, the artist's then the
 ``regions`` the regions file given, if any); ``constraints`` says whether the anatomical rules were on, the
 pairs they added (kind ``together``, ``apart``, or ``only_with`` for a shape left out unless scanned with the
 other) with the reason of each, and the rules that yielded to the artist's pairs
-(`harness._pack_constraints`); ``sequence`` the settings of the sequence: ``mode`` ``sequence`` is
+(`session._constraints`); ``sequence`` the settings of the sequence: ``mode`` ``sequence`` is
 Algorithm 1 (``jmax`` expressions at most, ``time_limit`` per solve and ``timeout`` for the whole packing in
-seconds), ``minimum`` the fewest expressions that cover every shape (`harness._session_minimum`, with
+seconds), ``minimum`` the fewest expressions that cover every shape (`session._minimum`, with
 ``minimum`` saying what was proved); ``overlap`` is the share of an item's active vertices the solver may
 overlap (its declared ``capabilities.max_overlap``; 0 is eq. 3b); ``pairs`` the symmetry pairs enforced.
 Together they are what the independent checker needs::
@@ -40,7 +40,7 @@ rule, empty, rejected, or the sequence stopped before it). ``warnings`` are the 
 expression whose displacements largely cancel (`packing.find_cancellations`), a ``timeout`` that cut the
 sequence short, and a minimum that was not proved.
 
-Beside it (`harness._session`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
+Beside it (`session._files`): ``neutral.obj`` and ``expression_XX.obj`` (XX = 01, 02, ...: the template
 neutral plus the sum of that expression's shapes, primary and extra examples) keeping the source OBJ's
 texture coordinates, normals, groups, materials and faces; ``on_target/expression_XX.obj`` with
 ``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png``,
@@ -65,17 +65,22 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import _plugins as plugins
-from harness._durations import format_duration
-from harness._outdir import ChangedFileWarning, OutputFolder, claim
-from harness._pack_constraints import session_constraints
-from harness._pack_solver import IsolatedSolver, LoudSolver
-from harness._rigspec import input_paths, resolve_rig
-from harness._session import session_files
-from harness._session_mesh import read_target
-from harness._session_minimum import minimum_sequence
-from harness._session_pictures import prepare_scene
+from harness import (
+    ChangedFileWarning,
+    OutputFolder,
+    check_settings,
+    claim,
+    format_duration,
+    input_paths,
+    resolve_rig,
+)
 from registry import HarnessError
+from session._constraints import session_constraints
+from session._files import session_files
+from session._mesh import read_target
+from session._minimum import minimum_sequence
+from session._pictures import prepare_scene
+from session._solver import IsolatedSolver, LoudSolver
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -185,11 +190,11 @@ def pack(
         Packing parameters (``mu``, ``alpha``, ``beta``, ``symmetry``, ``together``, ``regions``, ...).
     seed, time_limit
         Passed to every solve (with ``minimum``: to the proof and each ordered step; default
-        `harness._session_minimum.DEFAULT_TIME_LIMIT`).
+        `session._minimum.DEFAULT_TIME_LIMIT`).
     timeout : float, optional
         Wall-clock seconds for the whole packing (loading and analysis included). Every solve gets at most
         the time left, and a solver that overruns it (ignoring its limit, or having none) is stopped with
-        its worker process after a short allowance (`harness._pack_solver.late_allowance`); once it is
+        its worker process after a short allowance (`session._solver.late_allowance`); once it is
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
         expression was found by then, a ValueError says so and nothing is written.
     force : bool
@@ -213,7 +218,7 @@ def pack(
         Shapes left out of the whole session.
     default_constraints : bool
         Apply the anatomical rules shipped with `packing` to the shapes whose names match
-        (`harness._pack_constraints`).
+        (`session._constraints`).
 
     Raises
     ------
@@ -222,7 +227,7 @@ def pack(
     ValueError
         For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
         or for an expression the session does not have.
-    harness._pack_solver.SolverFailure
+    session._solver.SolverFailure
         A ValueError for a solver that failed on an expression (it raised, answered items the problem does
         not have, claimed infeasibility, exited or crashed: it solves in a worker process), before anything
         is written.
@@ -234,7 +239,7 @@ def pack(
             "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
-    plugins.check_settings([solver_name], [], solver_option="--solver")
+    check_settings([solver_name], [], solver_option="--solver")
     started = monotonic()
     with ExitStack() as held:  # the output folder's lock, once it is claimed
         with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading

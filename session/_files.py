@@ -1,13 +1,13 @@
 """The files of a scanning session folder, besides ``expressions.json``.
 
-* ``neutral.obj`` and ``expression_XX.obj`` (`harness._session_mesh`), and with a target
+* ``neutral.obj`` and ``expression_XX.obj`` (`session._mesh`), and with a target
   ``on_target/expression_XX.obj``; ``materials.mtl`` beside them for a glTF rig with materials;
 * ``expressions.glb`` (``glb``): the template with one morph target per expression (its summed
   deltas), named ``expression_XX``, for tools that take glTF;
 * ``pictures/expression_XX_front.png``, ``..._front_pose.png`` and ``..._three_quarter_pose.png``: the
   expression from the front with its shapes coloured and named, and its bare pose from the front and
-  at three-quarters (`harness._session_pictures`);
-* ``session.html``: the scan sheet (`harness._session_sheet`).
+  at three-quarters (`session._pictures`);
+* ``session.html``: the scan sheet (`session._sheet`).
 
 Each expression of the document gains ``files``: the names of its mesh, target mesh and pictures.
 """
@@ -19,11 +19,11 @@ from concurrent.futures import Future
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from harness._session_mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
-from harness._session_pictures import Scene, session_pictures
-from harness._session_render import shape_colours
-from harness._session_sheet import Card, Legend, scan_sheet
-from harness._session_words import plain_words
+from render._raster import shape_colours
+from session._mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
+from session._pictures import Scene, session_pictures
+from session._sheet import Card, Legend, scan_sheet
+from session._words import plain_words
 
 if TYPE_CHECKING:
     from rigs import Rig
@@ -62,7 +62,7 @@ def session_files(
         Footer lines of the scan sheet.
     scene : Future of Scene, optional
         The pictures' `Scene` of ``rig`` at the document's ``mu``, prepared ahead
-        (`harness._session_pictures.prepare_scene`).
+        (`session._pictures.prepare_scene`).
     """
     expressions = document["expressions"]
     for index, expression in enumerate(expressions, start=1):

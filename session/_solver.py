@@ -49,10 +49,10 @@ class SolverFailure(HarnessError):
 def load_in_worker(label: str) -> tuple[str, Capabilities]:
     """Load the solver ``label`` in the worker process (its library import paid before the first solve);
     its name and capabilities."""
-    from harness import _plugins as plugins
+    from harness import load_solver
 
     if label not in _LOADED:
-        _LOADED[label] = plugins.solver(label)
+        _LOADED[label] = load_solver(label)
     return _LOADED[label].name, _LOADED[label].capabilities
 
 
@@ -139,8 +139,8 @@ class IsolatedSolver:
 
         self._label = label
         self._worker = solvers.worker(f"pack-{label}")
-        self._worker.send("harness._pack_solver:load_in_worker", label)
-        self._worker.send("harness._pack_solver:warm_in_worker", label)
+        self._worker.send("session._solver:load_in_worker", label)
+        self._worker.send("session._solver:warm_in_worker", label)
         self._loaded: tuple[str, Capabilities] | None = None
         self._warming = True
 
@@ -157,7 +157,7 @@ class IsolatedSolver:
     def availability(self) -> Availability:
         """The plugin's availability."""
         self._ready()
-        return self._worker.call("harness._pack_solver:availability_in_worker", self._label)  # type: ignore[return-value]
+        return self._worker.call("session._solver:availability_in_worker", self._label)  # type: ignore[return-value]
 
     def _ready(self, end: float | None = None) -> bool:
         """Wait for the worker to have loaded and warmed up the plugin (see `_plugin` for its errors);
@@ -225,9 +225,7 @@ class IsolatedSolver:
         end = None if time_limit is None else start + time_limit + late_allowance(time_limit)
         try:
             if self._ready(end):
-                self._worker.send(
-                    "harness._pack_solver:solve_in_worker", self._label, problem, time_limit, seed
-                )
+                self._worker.send("session._solver:solve_in_worker", self._label, problem, time_limit, seed)
                 reply = self._reply(end)
                 if reply is not _NO_REPLY:
                     return reply  # type: ignore[return-value]

@@ -1,9 +1,9 @@
 """``session.html``: the scan sheet of a scanning session, for the screen and for print.
 
 One card per expression in priority order (the sequence order of Algorithm 1, most important first,
-Carrigan et al. 2020, sec. 4.5): its pictures (`harness._session_pictures`: the shapes coloured, the bare
+Carrigan et al. 2020, sec. 4.5): its pictures (`session._pictures`: the shapes coloured, the bare
 pose from the front and at three-quarters) captioned in the page, its priority and importance (eq. 3a),
-and its shapes in plain words (`harness._session_words.plain_words`) with the colour each has in the
+and its shapes in plain words (`session._words.plain_words`) with the colour each has in the
 picture. The page says what to do in a rigging TD's words, with no reference to the paper.
 
 The page needs nothing but the pictures beside it (no script, no web font). It prints on A4 and on US
@@ -22,7 +22,7 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from harness._session_pictures import FACE_SHARE, PAINTED, SIZE, picture_files
+from session._pictures import FACE_SHARE, PAINTED, SIZE, picture_files
 
 #: Each shape of an expression as its picture shows it: ``(plain words, shape name, RGB colour, extra?)``.
 Legend = list[tuple[str, str, np.ndarray, bool]]

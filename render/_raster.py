@@ -9,7 +9,7 @@ expression's shape most of its corners are active in (eq. 2, with the masks pack
 wins, exactly, also where triangles cross), Gouraud-shaded by a two-sided Lambert light and supersampled
 for smooth edges, into a `Raster` that `Raster.paint` colours. `render_mesh` fits a mesh into an image
 (the report's contact sheets, `reports.contact_sheet`); the session pictures
-(`harness._session_pictures`) frame every expression alike and raster again only what an expression
+(`session._pictures`) frame every expression alike and raster again only what an expression
 moves (`Backdrop`).
 """
 
