@@ -10,8 +10,7 @@ from typing import TYPE_CHECKING
 from registry import HarnessError
 
 if TYPE_CHECKING:
-    from rigs import Rig, RigInputs
-    from rigs._warp import Warp
+    from rigs import Rig, RigInputs, Warp
 
 #: Rigs ``harness rigs fetch NAME`` downloads and converts into the user cache, by name.
 FETCHED_RIGS = {

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from packing._cancel import CANCEL_RATIO, Cancellation, cancelling_twins, find_cancellations
     from packing._check import CheckError, check
     from packing._constraints import parse_pair, read_constraints
+    from packing._face_rules import FaceRule, MatchedRules, match_rules, read_rules
     from packing._importance import DegenerateDistortionWarning, MissingTargetWarning, importance
     from packing._params import DEFAULT_REGION_PAIRS, PackingParams
     from packing._problem import PackingProblem, problem_from_incidence
@@ -35,6 +36,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_analysis": ["TIE_BREAK_SCALE", "Analysis", "analyse", "build_problem", "tie_break_perturbation"],
         "_binary": ["binary_blendshapes", "empty_shapes"],
+        "_face_rules": ["FaceRule", "MatchedRules", "match_rules", "read_rules"],
         "_bounds": [
             "conflict_set_bound",
             "ExpressionBound",

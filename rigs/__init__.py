@@ -16,15 +16,18 @@ if TYPE_CHECKING:
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
     from rigs._formats import RigFormat, detect_format, formats, register_format
     from rigs._generate import PRESETS, PresetSpec, generate
+    from rigs._gltf_surface import GltfSurface
+    from rigs._gltf_write import glb_bytes
     from rigs._inputs import RigInputs
     from rigs._io import load, load_with_inputs, save
     from rigs._mirror import mirror_map
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
-    from rigs._obj_surface import ObjSurface, plain_surface, rig_surface
+    from rigs._obj import decimal_step, parse_obj
+    from rigs._obj_surface import ObjSurface, plain_surface, read_surface, rig_surface
     from rigs._regions import read_regions, regions_from_mapping
     from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
     from rigs._safe import read_json
-    from rigs._warp import WARPS, Compose, LocalScale, Scale, warp
+    from rigs._warp import WARPS, Compose, LocalScale, Scale, Warp, warp
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
@@ -39,10 +42,13 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_inputs": ["RigInputs"],
         "_mirror": ["mirror_map"],
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
-        "_obj_surface": ["ObjSurface", "plain_surface", "rig_surface"],
+        "_gltf_surface": ["GltfSurface"],
+        "_gltf_write": ["glb_bytes"],
+        "_obj": ["decimal_step", "parse_obj"],
+        "_obj_surface": ["ObjSurface", "plain_surface", "read_surface", "rig_surface"],
         "_regions": ["read_regions", "regions_from_mapping"],
         "_safe": ["read_json"],
         "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],
-        "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "warp"],
+        "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "Warp", "warp"],
     },
 )

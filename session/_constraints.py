@@ -68,7 +68,7 @@ def session_constraints(
         a left-out shape the artist also constrains, or a session left without shapes.
     """
     import packing
-    from packing._face_rules import match_rules, read_rules
+    from packing import match_rules, read_rules
 
     params = dict(params)
     _check_file_pairs(rig, params, params.pop("constraint_origins", {}))

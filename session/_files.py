@@ -19,7 +19,7 @@ from concurrent.futures import Future
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from render._raster import shape_colours
+from render import shape_colours
 from session._mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
 from session._pictures import Scene, session_pictures
 from session._sheet import Card, Legend, scan_sheet
@@ -121,7 +121,7 @@ def _legend(expression: Mapping[str, Any], pairs: Sequence[Sequence[str]]) -> Le
 
 def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:
     """The template with one morph target per expression."""
-    from rigs._gltf_write import glb_bytes
+    from rigs import glb_bytes
 
     names = tuple(expression_name(index, len(expressions)) for index in range(1, len(expressions) + 1))
     posed = replace(rig, deltas=expression_poses(rig, expressions), names=names, regions={})

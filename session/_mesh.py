@@ -26,8 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from rigs import ObjSurface, Rig
-    from rigs._gltf_surface import GltfSurface
+    from rigs import GltfSurface, ObjSurface, Rig
 
 NEUTRAL_FILE = "neutral.obj"
 ON_TARGET = "on_target"
@@ -56,7 +55,7 @@ def precision(*arrays: np.ndarray) -> Precision:
     A fixed rounding step (`rigs._obj.decimal_step`, on a sample of each array) when every array has one
     (the finest of them); else float32 when every value is a float32 (glTF); else float64.
     """
-    from rigs._obj import decimal_step
+    from rigs import decimal_step
 
     steps, single = [], True
     for values in arrays:
@@ -89,8 +88,7 @@ def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
     if path is None:
         return None
     import rigs
-    from rigs._obj import parse_obj
-    from rigs._obj_surface import read_surface
+    from rigs import parse_obj, read_surface
 
     path = Path(path)
     surface = None

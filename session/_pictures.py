@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from render._raster import (
+from render import (
     Backdrop,
     Frame,
     Motion,

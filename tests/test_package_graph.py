@@ -43,3 +43,27 @@ def test_a_package_imports_only_those_before_it(package: str) -> None:
 def test_the_order_names_every_package_of_the_distribution() -> None:
     packages = {path.parent.name for path in ROOT.glob("*/__init__.py") if path.parent.name != "tests"}
     assert packages == set(ORDER)
+
+
+def private_imports(path: Path, package: str) -> list[str]:
+    """Modules of other project packages that ``path`` imports by a private name (``rigs._obj``)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        names = [alias.name for alias in node.names] if isinstance(node, ast.Import) else []
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        for name in names:
+            top, _, rest = name.partition(".")
+            if top in ORDER and top != package and rest.startswith("_"):
+                found.append(name)
+    return found
+
+
+@pytest.mark.parametrize("package", ORDER)
+def test_a_package_uses_the_others_by_their_public_names(package: str) -> None:
+    private = {
+        str(path.relative_to(ROOT)): private_imports(path, package)
+        for path in sorted((ROOT / package).rglob("*.py"))
+        if private_imports(path, package)
+    }
+    assert private == {}
