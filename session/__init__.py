@@ -2,9 +2,9 @@
 al. 2020, Algorithm 1 with one solver, sec. 4.5's refinement and second pass) and writes the session folder:
 ``expressions.json``, one OBJ per expression, the pictures and the printable scan sheet.
 
-`pack` is the library entry (`session.cli` the command); the solver runs in a worker process of its own
-(`session._solver`), the anatomical rules and the artist's constraints are merged in `session._constraints`,
-and the folder's files are made by `session._files`.
+`pack` of a `PackConfig` is the library entry (`session.cli` the command); the solver runs in a worker
+process of its own (`session._solver`), the anatomical rules and the artist's constraints are merged in
+`session._constraints`, and the folder's files are made by `session._files`.
 
 Names are imported from their modules on first use (PEP 562), so that ``harness --help`` lists ``pack``
 without importing NumPy.
@@ -18,9 +18,12 @@ import lazy_loader
 
 if TYPE_CHECKING:
     from session._files import SHEET_FILE
-    from session._pack import EXPRESSIONS_FILE, PackResult, pack
+    from session._pack import EXPRESSIONS_FILE, PackConfig, PackResult, pack
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
-    submod_attrs={"_files": ["SHEET_FILE"], "_pack": ["EXPRESSIONS_FILE", "PackResult", "pack"]},
+    submod_attrs={
+        "_files": ["SHEET_FILE"],
+        "_pack": ["EXPRESSIONS_FILE", "PackConfig", "PackResult", "pack"],
+    },
 )

@@ -59,7 +59,7 @@ import json
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import ExitStack, nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from time import monotonic
@@ -149,45 +149,26 @@ def parse_rejections(text: str | None) -> dict[int, set[str]]:
     return rejections
 
 
-def pack(
-    rig_argument: str,
-    *,
-    solver_name: str,
-    out: Path,
-    jmax: int | None,
-    target: str | None = None,
-    params: Mapping[str, Any],
-    seed: int = 0,
-    time_limit: float | None = None,
-    timeout: float | None = None,
-    force: bool = False,
-    rejections: Mapping[int, set[str]] | None = None,
-    decide: Callable[[int, str, bool], bool] | None = None,
-    inputs: Iterable[Path] = (),
-    minimum: bool = False,
-    pictures: bool = True,
-    glb: bool = False,
-    exclude: Sequence[str] = (),
-    default_constraints: bool = True,
-) -> PackResult:
-    """Pack one rig and write the session folder ``out`` (see the module docstring).
+@dataclass(frozen=True)
+class PackConfig:
+    """What one ``harness pack`` does: the rig, the solver, the packing and the session folder.
 
     Parameters
     ----------
-    rig_argument : str
+    rig : str
         Rig file or folder (any format `rigs.load` reads), a generator preset name, or a fetched rig's
         name (``faceunits``).
-    solver_name : str
+    solver : str
         Solver plugin (not used with ``minimum``, which solves with CP-SAT).
     out : Path
         Output folder (created; see the module docstring for what it may already hold).
+    params : mapping
+        Packing parameters (``mu``, ``alpha``, ``beta``, ``symmetry``, ``together``, ``regions``, ...).
     jmax : int, optional
         Most expressions (not used with ``minimum``, which covers every shape).
     target : str, optional
         The target character's neutral (an OBJ, or any rig file) with the template's vertices: drives the
         distortion importance (eq. 6), and the expressions are also written on it.
-    params : mapping
-        Packing parameters (``mu``, ``alpha``, ``beta``, ``symmetry``, ``together``, ``regions``, ...).
     seed, time_limit
         Passed to every solve (with ``minimum``: to the proof and each ordered step; default
         `session._minimum.DEFAULT_TIME_LIMIT`).
@@ -196,16 +177,13 @@ def pack(
         the time left, and a solver that overruns it (ignoring its limit, or having none) is stopped with
         its worker process after a short allowance (`session._solver.late_allowance`); once it is
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
-        expression was found by then, a ValueError says so and nothing is written.
+        expression was found by then, an error says so and nothing is written.
     force : bool
         Replace an earlier packing in ``out``, or write beside the files of a folder the harness did not
         write (they are kept).
-    rejections : mapping, optional
+    rejections : mapping
         1-based expression number -> shapes the artist rejects there (sec. 4.5.3), primary or extra.
-    decide : callable, optional
-        Interactive refinement: ``decide(expression, shape, extra_example) -> accept?`` for every proposed
-        shape.
-    inputs : iterable of Path
+    inputs : tuple of Path
         Further input files (e.g. a constraints file) the output folder must stay apart from; the rig, the
         target and a regions file are always.
     minimum : bool
@@ -214,42 +192,80 @@ def pack(
         Render the pictures of every expression.
     glb : bool
         Also write ``expressions.glb``.
-    exclude : sequence of str
+    exclude : tuple of str
         Shapes left out of the whole session.
     default_constraints : bool
         Apply the anatomical rules shipped with `packing` to the shapes whose names match
         (`session._constraints`).
+    """
+
+    rig: str
+    solver: str
+    out: Path
+    params: Mapping[str, Any] = field(default_factory=dict)
+    jmax: int | None = None
+    target: str | None = None
+    seed: int = 0
+    time_limit: float | None = None
+    timeout: float | None = None
+    force: bool = False
+    rejections: Mapping[int, set[str]] = field(default_factory=dict)
+    inputs: tuple[Path, ...] = ()
+    minimum: bool = False
+    pictures: bool = True
+    glb: bool = False
+    exclude: tuple[str, ...] = ()
+    default_constraints: bool = True
+
+
+def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None = None) -> PackResult:
+    """Pack one rig and write the session folder ``config.out`` (see the module docstring).
+
+    Parameters
+    ----------
+    config : PackConfig
+    decide : callable, optional
+        Interactive refinement: ``decide(expression, shape, extra_example) -> accept?`` for every proposed
+        shape (sec. 4.5.3).
 
     Raises
     ------
-    harness._outdir.OutputFolderError
+    harness.OutputFolderError
         For an output folder that may not be used (before any packing is done).
-    ValueError
+    registry.HarnessError
         For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
         or for an expression the session does not have.
     session._solver.SolverFailure
-        A ValueError for a solver that failed on an expression (it raised, answered items the problem does
-        not have, claimed infeasibility, exited or crashed: it solves in a worker process), before anything
-        is written.
+        A solver that failed on an expression (it raised, answered items the problem does not have,
+        claimed infeasibility, exited or crashed: it solves in a worker process), before anything is
+        written.
     """
     import packing
 
-    if minimum and (rejections or decide is not None or params.get("extra_examples") or timeout is not None):
+    params, rejections = config.params, dict(config.rejections)
+
+    if config.minimum and (
+        rejections or decide is not None or params.get("extra_examples") or config.timeout is not None
+    ):
         raise HarnessError(
             "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
             "--extra-examples or --timeout (use --time-limit for the proof)"
         )
-    check_settings([solver_name], [], solver_option="--solver")
+    check_settings([config.solver], [], solver_option="--solver")
     started = monotonic()
     with ExitStack() as held:  # the output folder's lock, once it is claimed
-        with nullcontext() if minimum else IsolatedSolver(solver_name) as isolated:  # starts while loading
-            full_rig = resolve_rig(rig_argument, seed=seed)
-            target_mesh = read_target(target, full_rig)
+        with (
+            nullcontext() if config.minimum else IsolatedSolver(config.solver) as isolated
+        ):  # starts while loading
+            full_rig = resolve_rig(config.rig, seed=config.seed)
+            target_mesh = read_target(config.target, full_rig)
             for name in sorted({name for names in (rejections or {}).values() for name in names}):
                 full_rig.index(name)  # RigError names the rig, the shape and close matches
-            if rejections and jmax is not None and max(rejections) > jmax:
-                raise HarnessError(_no_expression(max(rejections), rejections, f"--jmax {jmax}"))
-            constraints = session_constraints(full_rig, params, exclude=exclude, default=default_constraints)
+            if rejections and config.jmax is not None and max(rejections) > config.jmax:
+                raise HarnessError(_no_expression(max(rejections), rejections, f"--jmax {config.jmax}"))
+            constraints = session_constraints(
+                full_rig, params, exclude=config.exclude, default=config.default_constraints
+            )
             rig, params = constraints.rig, constraints.params
             rejections = {
                 number: kept
@@ -260,16 +276,20 @@ def pack(
                 warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
                 target_vertices = None if target_mesh is None else target_mesh.vertices
                 analysis = packing.analyse(rig, target_vertices, **params)
-            scene = prepare_scene(rig, analysis.params.mu) if pictures else None  # while the solver works
+            scene = (
+                prepare_scene(rig, analysis.params.mu) if config.pictures else None
+            )  # while the solver works
             regions = params.get("regions")
-            protect = [*input_paths(rig_argument), *inputs]
-            protect += [Path(path) for path in (target, regions) if isinstance(path, str | PathLike)]
-            folder = held.enter_context(claim(out, kind="pack", force=force, protect=protect, lock=True))
-            deadline = None if timeout is None else Deadline(isolated, started + timeout)
+            protect = [*input_paths(config.rig), *config.inputs]
+            protect += [Path(path) for path in (config.target, regions) if isinstance(path, str | PathLike)]
+            folder = held.enter_context(
+                claim(config.out, kind="pack", force=config.force, protect=protect, lock=True)
+            )
+            deadline = None if config.timeout is None else Deadline(isolated, started + config.timeout)
             rejected: dict[int, set[str]] = {}  # filled as the artist decides
             found: list[str] = []
-            if minimum:
-                result = minimum_sequence(analysis, time_limit=time_limit, seed=seed)
+            if config.minimum:
+                result = minimum_sequence(analysis, time_limit=config.time_limit, seed=config.seed)
                 expressions = result.expressions
                 overlap = 0.0
                 if not result.proven:
@@ -278,11 +298,11 @@ def pack(
                 refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
                 expressions = packing.sequence(
                     rig,
-                    LoudSolver(refining, solver_name),
+                    LoudSolver(refining, config.solver),
                     analysis=analysis,
-                    jmax=jmax,
-                    time_limit=time_limit,
-                    seed=seed,
+                    jmax=config.jmax,
+                    time_limit=config.time_limit,
+                    seed=config.seed,
                 )
                 overlap = isolated.capabilities.max_overlap
         packing.check(
@@ -290,52 +310,52 @@ def pack(
             expressions,
             pairs=analysis.pairs,
             overlap=overlap,
-            maximal=not minimum,
+            maximal=not config.minimum,
             rejected=rejected,
             **params,
         )
         timed_out = deadline is not None and deadline.expired
         refined = bool(rejections) or decide is not None
-        missing, reason = _coverage(analysis, expressions, refined, timeout if timed_out else None)
+        missing, reason = _coverage(analysis, expressions, refined, config.timeout if timed_out else None)
         if rejections and not timed_out and max(rejections) > len(expressions):
             made = f"the sequence stopped after {len(expressions)} expressions"
             raise HarnessError(_no_expression(max(rejections), rejections, made))
         notes = [*constraints.notes, *analysis.notes, _symmetry_note(analysis)]
-        if minimum:
+        if config.minimum:
             notes.append(result.message())
         if missing:
             notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
         expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
         if timed_out and not expressions:
             raise HarnessError(
-                f"--timeout {format_duration(timeout)} ran out before the first expression was found "
-                f"(loading and analysing {rig_argument} took {format_duration(deadline.started - started)}); "
+                f"--timeout {format_duration(config.timeout)} ran out before the first expression was found "
+                f"(loading and analysing {config.rig} took {format_duration(deadline.started - started)}); "
                 "give a longer --timeout"
             )
         groups = [[*expression.shapes, *expression.extra_examples] for expression in expressions]
         found += [cancellation.message for cancellation in packing.find_cancellations(rig, groups)]
         if timed_out:
             found.append(
-                f"stopped by --timeout {format_duration(timeout)} after {len(expressions)} expressions; "
-                "the expressions found so far are written"
+                f"stopped by --timeout {format_duration(config.timeout)} after {len(expressions)} "
+                "expressions; the expressions found so far are written"
             )
         chosen = analysis.params.as_dict()
         sequence: dict[str, Any] = {
-            "mode": "minimum" if minimum else "sequence",
-            "jmax": None if minimum else jmax,
-            "seed": seed,
-            "time_limit": result.time_limit if minimum else time_limit,
-            "timeout": timeout,
+            "mode": "minimum" if config.minimum else "sequence",
+            "jmax": None if config.minimum else config.jmax,
+            "seed": config.seed,
+            "time_limit": result.time_limit if config.minimum else config.time_limit,
+            "timeout": config.timeout,
             "overlap": overlap,
         }
-        if minimum:
+        if config.minimum:
             sequence["minimum"] = result.summary()
         document = {
-            "rig": rig_argument,
-            "solver": "cpsat" if minimum else solver_name,
+            "rig": config.rig,
+            "solver": "cpsat" if config.minimum else config.solver,
             "params": {key: chosen[key] for key in DOCUMENT_PARAMS},
             "sequence": sequence,
-            "target": None if target is None else str(target),
+            "target": None if config.target is None else str(config.target),
             "pairs": [list(pair) for pair in analysis.pairs],
             "expressions": [
                 {
@@ -354,8 +374,8 @@ def pack(
             rig,
             document,
             target=target_mesh,
-            pictures=pictures,
-            glb=glb,
+            pictures=config.pictures,
+            glb=config.glb,
             notes=[*notes, *found],
             scene=scene,
         )

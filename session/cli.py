@@ -146,7 +146,7 @@ def pack(
     from harness import expand_names, solver_names
     from session._constraints import parse_exclusions
     from session._files import SHEET_FILE
-    from session._pack import EXPRESSIONS_FILE, parse_rejections
+    from session._pack import EXPRESSIONS_FILE, PackConfig, parse_rejections
     from session._pack import pack as pack_rig
 
     if refine and reject:
@@ -172,26 +172,26 @@ def pack(
         "extra_examples": extra_examples,
         **constraint_params(together, apart, constraints, regions),
     }
-    result = pack_rig(
-        rig,
-        solver_name=solver,
+    config = PackConfig(
+        rig=rig,
+        solver=solver,
         out=out,
+        params=params,
         jmax=jmax,
         target=target,
-        params=params,
         seed=seed,
         time_limit=time_limit,
         timeout=timeout,
         force=force,
         rejections=parse_rejections(reject),
-        decide=decide if refine else None,
-        inputs=[constraints] if constraints is not None else [],
+        inputs=(constraints,) if constraints is not None else (),
         minimum=minimum,
         pictures=pictures,
         glb=glb,
         exclude=parse_exclusions(exclude),
         default_constraints=default_constraints,
     )
+    result = pack_rig(config, decide=decide if refine else None)
     by = "--minimum (cpsat)" if minimum else solver
     table = Table(title=escape(f"{rig}: {len(result.document['expressions'])} expressions by {by}"))
     for column, justify in _COLUMNS:

@@ -12,7 +12,7 @@ import pytest
 
 import rigs
 from packing._face_rules import FaceRule, match_rules, name_keys, read_rules
-from session._pack import pack
+from session._pack import PackConfig, pack
 from tests.harness.cli_helpers import assert_one_line_error, invoke
 
 #: Built-in rigs that pack in about a second; ``film`` and ``dense`` take half a minute each.
@@ -49,7 +49,7 @@ def broken_rules(document: dict, names: tuple[str, ...]) -> list[str]:
 
 
 def _pack(rig: str, solver: str, tmp_path: Path, **params) -> dict:
-    result = pack(rig, solver_name=solver, out=tmp_path / "session", jmax=None, params=params, pictures=False)
+    result = pack(PackConfig(rig, solver, tmp_path / "session", params=params, pictures=False))
     return result.document
 
 
