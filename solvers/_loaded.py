@@ -38,7 +38,7 @@ class LoadedSolver:
     Attributes
     ----------
     plugin : Solver
-        The plugin instance; its ``solve`` returns a `Result` (a full `packing.Solution` is accepted too).
+        The plugin instance; its ``solve`` returns a `Result`, and nothing else is accepted.
     """
 
     plugin: Any
@@ -118,11 +118,11 @@ def load(solver: Any) -> LoadedSolver:
 
 
 def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, plugin: Any) -> Solution:
-    """The `Solution` of a plugin's answer (a `Result`, or a `Solution` from a wrapping solver); the
-    plugin's reported version only when the answer names none."""
-    from packing import Solution, Termination
+    """The `Solution` of a plugin's `Result`; the plugin's reported version only when the answer names
+    none."""
+    from packing import Termination
 
-    if not isinstance(answer, Result | Solution):
+    if not isinstance(answer, Result):
         raise MalformedAnswer(f"solve returned {type(answer).__name__}, not a solvers.Result")
     termination = answer.termination
     if not isinstance(termination, Termination):
@@ -130,7 +130,6 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
     items = _items(problem, answer.items)
     build_time = float(answer.build_time or 0.0)
     solve_time = max(elapsed - build_time, 0.0) if answer.solve_time is None else float(answer.solve_time)
-    backend = answer.backend if isinstance(answer, Solution) and answer.backend else name
     return make_solution(
         problem,
         items,
@@ -138,7 +137,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
         bound=None if answer.bound is None else float(answer.bound),
         build_time=build_time,
         solve_time=solve_time,
-        backend=backend,
+        backend=name,
         version=answer.version or _version(plugin),
         message=answer.message,
         fallback=answer.fallback,

@@ -195,12 +195,12 @@ def check_declaration(solver: Any, seed: int = 0) -> None:
 
 
 def check_answer(solver: Any, seed: int = 0) -> None:
-    """``solve`` returns a `Result` (or a full `Solution`) whose items are the problem's, none twice, and
-    whose termination is a `Termination`; the framework turns it into a consistent `Solution`."""
+    """``solve`` returns a `Result` (the one answer a plugin gives) whose items are the problem's, none
+    twice, and whose termination is a `Termination`; the framework turns it into a consistent `Solution`."""
     loaded = _loaded(solver)
     problem = random_problem(10, 30, seed=seed, active=(2, 6))
     raw = loaded.plugin.solve(problem, time_limit=None, seed=seed)
-    assert isinstance(raw, Result | Solution), (
+    assert isinstance(raw, Result), (
         f"{loaded.name}: solve returned {type(raw).__name__}, not a solvers.Result"
     )
     for where, problem, solution in _solutions(loaded, seed):

@@ -6,9 +6,11 @@ import dataclasses
 import numpy as np
 import pytest
 
+import packing
 import solvers
 from packing import Termination
 from solvers import Capabilities, Result
+from solvers._base import make_solution
 from solvers.greedy import GreedyOverlapSolver, GreedySolver
 from solvers.testing import CHECKS, check_solver, parametrize_with_checks
 
@@ -73,6 +75,23 @@ def test_check_solver_catches_an_answer_that_is_not_a_result():
 
     with pytest.raises(AssertionError, match="not a solvers.Result"):
         check_solver(Sloppy)
+
+
+def test_a_plugin_answers_a_result_and_nothing_else():
+    """A `packing.Solution` is the framework's answer, not a plugin's: one returned by a plugin is refused
+    like any other type (its fields would bypass the framework's normalisation)."""
+
+    class Presumptuous(DoNothing):
+        def solve(self, problem, *, time_limit=None, seed=0):
+            return make_solution(
+                problem, (), termination=Termination.COMPLETED, bound=None, build_time=0.0, solve_time=0.0,
+                backend="presumptuous", version="1",
+            )  # fmt: skip
+
+    with pytest.raises(AssertionError, match="solve returned Solution, not a solvers.Result"):
+        check_solver(Presumptuous)
+    solution = solvers.load(Presumptuous).solve(packing.problem_from_incidence(np.eye(2, dtype=bool), [1, 1]))
+    assert solution.termination is Termination.ERROR and "not a solvers.Result" in solution.message
 
 
 def test_check_solver_catches_an_overlapping_packing():
