@@ -107,5 +107,8 @@ def test_bench_load_an_exported_obj_folder(benchmark, speed_target, request):
     )
     assert loaded.names == tuple(sorted(rig.names)) and loaded.n_vertices == rig.n_vertices > 26_000
     order = [rig.names.index(name) for name in loaded.names]
-    assert np.abs(loaded.deltas - rig.deltas[order]).max() < 1e-5
+    # Displacements shorter than the noise floor (relative to the head's size) are zeroed by design, the
+    # rest differ by the files' rounding (2e-6 of jitter and 1e-6 steps per coordinate).
+    lengths = np.linalg.norm(loaded.deltas - rig.deltas[order], axis=-1)
+    assert lengths.max() <= loaded.meta["noise"]["floor"] + 4e-6 * np.sqrt(3)
     speed_target("rigs.load of a 26.7k-vertex, 57-file OBJ export [CPU s]", min(seconds), EXPORT_CPU_SECONDS)
