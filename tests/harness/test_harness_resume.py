@@ -100,10 +100,3 @@ def test_the_dask_executor_records_what_the_local_one_does(grid, reference, comp
     records = harness.read_records(tmp_path)
     assert set(records.loc[records["kind"] == "cell", "status"]) == {"ok"}
     pd.testing.assert_frame_equal(comparable(records), comparable(reference))
-
-
-def test_the_dask_executor_needs_a_reachable_scheduler(grid, tmp_path) -> None:
-    result = CliRunner().invoke(
-        cli, [*grid[:-3], "--solvers", "greedy", "--out", str(tmp_path), "--executor", "dask"]
-    )
-    assert result.exit_code == 2 and "--executor dask needs --scheduler tcp://HOST:PORT" in result.output
