@@ -318,6 +318,15 @@ class DaskExecutor:
     chosen by `_next_cell` so that a Dask worker keeps to one rig group and its caches are reused, and
     submitted to that worker (another one takes it if that worker leaves the cluster). Workers that join
     the cluster during the run get cells within `_POLL` seconds.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of the scheduler of a running cluster; None starts a cluster here (`_local_cluster`).
+    timeout : float, optional
+        Seconds the solver's warm-up may take, and then the cell, before its process is killed.
+    jobs : int
+        Worker processes of the cluster started here (without ``scheduler``), >= 1.
     """
 
     def __init__(self, scheduler: str | None = None, timeout: float | None = None, jobs: int = 1) -> None:
@@ -465,20 +474,24 @@ class DaskExecutor:
 
 def _local_cluster(jobs: int) -> LocalCluster:
     """A Dask cluster on this machine for one run: ``jobs`` worker processes of one thread each, as many
-    as the local executor's, without a memory limit (as the local executor's processes) or dashboard."""
+    as the local executor's, in the same environment (Dask's nanny would otherwise start them with its
+    ``pre-spawn-environ``: ``MALLOC_TRIM_THRESHOLD_`` makes cells a quarter slower, and one BLAS thread),
+    without a memory limit (as the local executor's processes) or dashboard."""
+    import dask
     from distributed import LocalCluster
 
     if jobs < 1:
         raise HarnessError(f"--jobs must be at least 1, got {jobs}")
     try:
-        return LocalCluster(
-            n_workers=jobs,
-            threads_per_worker=1,
-            processes=True,
-            memory_limit=0,
-            silence_logs=logging.ERROR,
-            scheduler_kwargs={"dashboard": False, "dashboard_address": ":0"},  # (its HTTP server on any port)
-        )
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": {}}):
+            return LocalCluster(
+                n_workers=jobs,
+                threads_per_worker=1,
+                processes=True,
+                memory_limit=0,
+                silence_logs=logging.ERROR,
+                scheduler_kwargs={"dashboard": False, "dashboard_address": ":0"},  # (its HTTP server)
+            )
     except (OSError, TimeoutError) as error:
         raise HarnessError(f"cannot start a local Dask cluster of {jobs} workers: {error}") from error
 

@@ -3,7 +3,8 @@ own and without the test solver plugins. A rig given by a relative path reaches 
 worker could not open the path), and a cell the worker cannot set up is lost: the run ends incomplete with
 exit code 1, never with an ``error`` cell in a complete run. A cluster of two worker processes, given with
 --scheduler or started by the run itself, records what the local executor does; cells are handed to the
-workers rig group by rig group."""
+workers rig group by rig group, and the cluster a run starts gives its workers the environment of local
+ones."""
 
 from __future__ import annotations
 
@@ -219,3 +220,20 @@ def test_a_worker_keeps_to_its_rig_group_and_a_free_one_takes_a_group_no_one_is_
     assert _next_cell(None, {plain, stretched}, queue) == 4
     assert _next_cell(None, {None}, queue) == 0
     assert _next_cell(big_eyes, {plain, stretched}, queue[:4]) == 0
+
+
+def _allocator_and_threads() -> dict[str, str | None]:
+    return {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS")}
+
+
+def test_the_cluster_started_for_a_run_keeps_the_environment_of_local_workers(monkeypatch) -> None:
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    cluster = _executors._local_cluster(1)
+    try:
+        with distributed.Client(cluster) as client:
+            [seen] = client.run(_allocator_and_threads).values()
+    finally:
+        cluster.close()
+    assert seen == {"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": None}
