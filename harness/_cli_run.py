@@ -245,9 +245,24 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "paper's claims compare) and the excess distortion. [default: paper: claims; others: none]",
 )
 @constraint_options
-@click.option("--jobs", type=click.IntRange(min=1), default=DEFAULT_JOBS, help="Local worker processes.")
-@click.option("--executor", type=click.Choice(["local", "dask"]), default="local", help="Where cells run.")
-@click.option("--scheduler", help="Dask scheduler address (tcp://HOST:PORT), with --executor dask.")
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=DEFAULT_JOBS,
+    help="Local worker processes; with --executor dask and no --scheduler, the worker processes of the "
+    "Dask cluster started for the run.",
+)
+@click.option(
+    "--executor",
+    type=click.Choice(["local", "dask"]),
+    default="local",
+    help="Where cells run: local worker processes, or Dask (a cluster on this machine, or --scheduler's).",
+)
+@click.option(
+    "--scheduler",
+    help="Dask scheduler address (tcp://HOST:PORT), with --executor dask; without it a cluster of --jobs "
+    "workers is started on this machine for the run.",
+)
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -316,8 +331,8 @@ def run(
         if axis in given:
             given[axis] = tuple(dict.fromkeys(name for names in given[axis] for name in names))
     grid.update(given)
-    if executor == "dask" and not scheduler:
-        raise click.UsageError("--executor dask needs --scheduler tcp://HOST:PORT")
+    if scheduler and executor != "dask":
+        raise click.UsageError("--scheduler is the Dask scheduler's address: give it with --executor dask")
     if resume is not None and out is not None and Path(out) != Path(resume):
         raise click.UsageError("give either --resume OUT or --out OUT, not two different directories")
     if resume is not None and force:
@@ -334,15 +349,11 @@ def run(
 
     def make_executor(timeout: float | None) -> Executor:
         if executor == "dask":
-            return DaskExecutor(scheduler or "", timeout=timeout)
+            return DaskExecutor(scheduler, timeout=timeout, jobs=jobs)
         return LocalExecutor(jobs=jobs, timeout=timeout)
 
     console = terminal()
-    execution = (
-        {"executor": executor, "jobs": jobs}
-        if executor == "local"
-        else {"executor": executor, "scheduler": scheduler}
-    )
+    execution = {"executor": executor, **({"scheduler": scheduler} if scheduler else {"jobs": jobs})}
     try:
         summary = run_grid(
             config,

@@ -22,9 +22,11 @@ together: `harness._cell.started` (the reply says the process has started and im
 Start-up may take `STARTUP_ALLOWANCE` seconds; the warm-up then gets ``timeout``, and the cell the full
 ``timeout`` again.
 
-On a Dask cluster the rig files stay where the harness runs: the harness reads each rig once and scatters
-its content to the cluster (`DaskExecutor`), so a worker never opens a path it may not have (a relative
-path, a rig fetched into the harness machine's cache).
+On a Dask cluster (one given by its scheduler's address, or a `distributed.LocalCluster` started for the
+run) the rig files stay where the harness runs: the harness reads each rig once and scatters its content to
+the cluster (`DaskExecutor`), so a worker never opens a path it may not have (a relative path, a rig fetched
+into the harness machine's cache). Both executors keep a worker on one rig group while it has cells queued
+(`_next_cell`), so that its rig and transfer caches are reused.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ from registry import HarnessError
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 
 if TYPE_CHECKING:
-    from distributed import Future
+    from distributed import Future, LocalCluster
 
     from rigs import Rig
 
@@ -72,6 +74,10 @@ STARTUP_ALLOWANCE = 120.0
 #: What a busy worker is doing for its cell, in order (one reply ends each).
 _PHASES = ("starting", "warming up", "running")
 
+#: Seconds between looks at a Dask cluster's workers while none is idle (a worker that joins the cluster
+#: gets cells within this time).
+_POLL = 1.0
+
 
 class Executor(Protocol):
     """Runs cells and yields each one's outcome (record rows, or `Lost`) as it finishes."""
@@ -84,6 +90,17 @@ class Executor(Protocol):
 def _group(spec: CellSpec) -> Group:
     """Cells that share a template and a target rig (and so the worker's caches)."""
     return spec.rig, spec.rig_seed, spec.warp
+
+
+def _next_cell(last: Group | None, others: set[Group | None], queue: list[CellSpec]) -> int:
+    """Index of the queued cell for a worker whose last cell was of rig group ``last``: one of that group
+    (its rigs and transfer results are cached there), else one of a group no other worker is on
+    (``others``: the groups the other workers run or ran last), else the first."""
+    for wanted in (lambda group: group == last, lambda group: group not in others):
+        for index, spec in enumerate(queue):
+            if wanted(_group(spec)):
+                return index
+    return 0
 
 
 def _timeout_message(timeout: float, finished: int, whole: bool) -> str:
@@ -187,14 +204,8 @@ class LocalExecutor:
             slot.deadline = None if self.timeout is None else time.monotonic() + STARTUP_ALLOWANCE
 
     def _choose(self, slot: _Slot, queue: list[CellSpec]) -> int:
-        """Index of the queued cell for ``slot``: one of the rig group it ran last (its rigs and transfer
-        results are cached there), else one of a group no other worker is on, else the first."""
-        others = {other.group for other in self._slots if other is not slot}
-        for wanted in (lambda group: group == slot.group, lambda group: group not in others):
-            for index, spec in enumerate(queue):
-                if wanted(_group(spec)):
-                    return index
-        return 0
+        """Index of the queued cell for ``slot`` (`_next_cell`)."""
+        return _next_cell(slot.group, {other.group for other in self._slots if other is not slot}, queue)
 
     def _outcome(self, slot: _Slot) -> Outcome | None:
         """The outcome of a busy slot's cell once its worker replied, ended or passed its deadline."""
@@ -279,8 +290,20 @@ def run_isolated(spec_data: dict[str, Any], timeout: float | None, template: Rig
     return [outcome for _, outcome in executor.map([spec])][0]
 
 
+@dataclass
+class _DaskSlot:
+    """One thread of a Dask worker (``address``): the rig group of its last cell and the cell it runs
+    (None while idle)."""
+
+    address: str
+    group: Group | None = None
+    spec: CellSpec | None = None
+
+
 class DaskExecutor:
-    """Cells as tasks on a Dask distributed cluster (``tcp://HOST:PORT``), one task per cell.
+    """Cells as tasks on a Dask distributed cluster, one task per cell: the cluster at ``scheduler``
+    (``tcp://HOST:PORT``), or a `distributed.LocalCluster` of ``jobs`` worker processes of one thread
+    each, started here and closed with the executor.
 
     Records are identical to the local executor's (the same `run_cell` produces them); with a timeout,
     each task runs its cell in a local worker process that can be stopped (see `run_isolated`), and a cell
@@ -290,9 +313,23 @@ class DaskExecutor:
     fails is `Lost`: `run_cell` turns every failure of the cell itself into rows, so an exception here
     comes from the cluster (a lost scheduler cancels every task at once) or from a worker that cannot set
     the cell up; a task that killed its Dask workers (``KilledWorker``) is a crash of the cell.
+
+    Cells are handed out as the local executor hands them to its processes: one per idle worker thread,
+    chosen by `_next_cell` so that a Dask worker keeps to one rig group and its caches are reused, and
+    submitted to that worker (another one takes it if that worker leaves the cluster). Workers that join
+    the cluster during the run get cells within `_POLL` seconds.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of the scheduler of a running cluster; None starts a cluster here (`_local_cluster`).
+    timeout : float, optional
+        Seconds the solver's warm-up may take, and then the cell, before its process is killed.
+    jobs : int
+        Worker processes of the cluster started here (without ``scheduler``), >= 1.
     """
 
-    def __init__(self, scheduler: str, timeout: float | None = None) -> None:
+    def __init__(self, scheduler: str | None = None, timeout: float | None = None, jobs: int = 1) -> None:
         try:
             from distributed import Client
         except ImportError as error:
@@ -300,22 +337,24 @@ class DaskExecutor:
                 "--executor dask needs the 'distributed' package: "
                 "pip install 'expression-packing-harness[dask]'"
             ) from error
+        self._cluster = None if scheduler else _local_cluster(jobs)
         try:
-            self._client = Client(scheduler, timeout="10s")
+            self._client = Client(scheduler or self._cluster, timeout="10s")
         except (OSError, TimeoutError, ValueError) as error:  # (ValueError: a malformed address)
-            raise HarnessError(
-                f"--scheduler {scheduler}: cannot reach the Dask scheduler: {error}"
-            ) from error
+            if self._cluster is not None:
+                self._cluster.close()
+            where = f"--scheduler {scheduler}" if scheduler else "the local Dask cluster"
+            raise HarnessError(f"{where}: cannot reach the Dask scheduler: {error}") from error
         self.timeout = timeout
-        self._futures: list[Future] = []
+        self._slots: list[_DaskSlot] = []
+        self._running: dict[Future, _DaskSlot] = {}
 
     def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
-        """Submit every cell; yield ``(spec, outcome)`` in completion order."""
-        from distributed import as_completed
-
+        """Run the cells; yield ``(spec, outcome)`` in completion order. When the scheduler is lost, the
+        cells not yet sent are lost with the tasks it cancelled."""
         run = uuid.uuid4().hex[:8]
-        by_key = {}
         templates: dict[TemplateKey, Future | Lost | None] = {}
+        queue = []
         for spec in cells:
             key = template_key(spec)
             if key not in templates:
@@ -323,25 +362,85 @@ class DaskExecutor:
             template = templates[key]
             if isinstance(template, Lost):
                 yield spec, template
+            else:
+                queue.append(spec)
+        while queue or self._running:
+            cluster_lost = None
+            if queue:
+                try:
+                    self._hand_out(queue, templates, run)
+                except OSError as error:  # the scheduler went away between two cells
+                    cluster_lost = Lost(f"Dask scheduler lost: {error}")
+            if not self._running and cluster_lost is None:  # no worker yet: wait for one to join
+                time.sleep(_POLL)
                 continue
-            future = self._client.submit(
-                run_isolated,
-                spec.to_dict(),
-                self.timeout,
-                template,
-                key=f"harness-cell-{spec.id}-{run}",
-                pure=False,
-            )
-            by_key[future.key] = spec
-            self._futures.append(future)
-        for future in as_completed(self._futures):
-            spec = by_key[future.key]
-            try:
-                outcome = future.result()
-            except Exception as error:  # noqa: BLE001 - no result of the cell: --resume runs it again
-                outcome = _dask_failure(error)
-            yield spec, outcome
-        self._futures.clear()
+            for future in self._finished():
+                slot = self._running.pop(future)
+                spec, slot.spec = slot.spec, None
+                assert spec is not None
+                try:
+                    outcome = future.result()
+                except Exception as error:  # noqa: BLE001 - no result of the cell: --resume runs it again
+                    outcome = _dask_failure(error)
+                    if self._client.status != "running":
+                        cluster_lost = outcome
+                yield spec, outcome
+            if cluster_lost is not None:
+                yield from ((spec, cluster_lost) for spec in queue)
+                queue.clear()
+
+    def _hand_out(
+        self, queue: list[CellSpec], templates: dict[TemplateKey, Future | Lost | None], run: str
+    ) -> None:
+        """Submit a queued cell to every idle worker thread of the cluster."""
+        self._follow_workers()
+        for slot in [slot for slot in self._slots if slot.spec is None]:
+            if queue:
+                self._submit(slot, queue, templates, run)
+
+    def _finished(self) -> list[Future]:
+        """The running tasks that have ended (finished, failed or cancelled), after waiting up to `_POLL`
+        seconds for the first."""
+        from distributed import wait
+        from distributed.client import FuturesCancelledError
+
+        try:
+            wait(list(self._running), timeout=_POLL, return_when="FIRST_COMPLETED")
+        except (TimeoutError, FuturesCancelledError):  # none ended yet, or one was cancelled
+            pass
+        return [future for future in self._running if future.done()]
+
+    def _follow_workers(self) -> None:
+        """One slot per thread of every worker in the cluster now; a departed worker's busy slots stay
+        until their cells end (the scheduler gives those to another worker)."""
+        threads = self._client.nthreads()
+        self._slots = [slot for slot in self._slots if slot.address in threads or slot.spec is not None]
+        for address, count in threads.items():
+            have = sum(slot.address == address for slot in self._slots)
+            self._slots += [_DaskSlot(address) for _ in range(count - have)]
+
+    def _submit(
+        self,
+        slot: _DaskSlot,
+        queue: list[CellSpec],
+        templates: dict[TemplateKey, Future | Lost | None],
+        run: str,
+    ) -> None:
+        """Submit the queued cell `_next_cell` chooses for an idle slot, to the slot's worker."""
+        others = {other.group for other in self._slots if other is not slot}
+        spec = queue.pop(_next_cell(slot.group, others, queue))
+        future = self._client.submit(
+            run_isolated,
+            spec.to_dict(),
+            self.timeout,
+            templates[template_key(spec)],
+            key=f"harness-cell-{spec.id}-{run}",
+            pure=False,
+            workers=[slot.address],
+            allow_other_workers=True,
+        )
+        slot.spec, slot.group = spec, _group(spec)
+        self._running[future] = slot
 
     def _scattered(self, spec: CellSpec) -> Future | Lost | None:
         """The cluster's copy of a cell's template rig, read here (None for a generated rig, which the
@@ -355,18 +454,46 @@ class DaskExecutor:
 
     def close(self) -> None:
         """Cancel unfinished tasks and disconnect from the scheduler (quietly, if it is gone: the lost
-        cells already say so, a traceback from the client's reconnection attempts would add nothing)."""
+        cells already say so, a traceback from the client's reconnection attempts would add nothing);
+        stop the local cluster if this executor started one."""
         client_log = logging.getLogger("distributed.client")
         level = client_log.level
         client_log.setLevel(logging.CRITICAL)
         try:
-            if self._futures:
-                self._client.cancel(self._futures)
+            if self._running:
+                self._client.cancel(list(self._running))
+                self._running.clear()
         finally:
             try:
                 self._client.close(timeout=10)
             finally:
                 client_log.setLevel(level)
+                if self._cluster is not None:
+                    self._cluster.close(timeout=10)
+
+
+def _local_cluster(jobs: int) -> LocalCluster:
+    """A Dask cluster on this machine for one run: ``jobs`` worker processes of one thread each, as many
+    as the local executor's, in the same environment (Dask's nanny would otherwise start them with its
+    ``pre-spawn-environ``: ``MALLOC_TRIM_THRESHOLD_`` makes cells a quarter slower, and one BLAS thread),
+    without a memory limit (as the local executor's processes) or dashboard."""
+    import dask
+    from distributed import LocalCluster
+
+    if jobs < 1:
+        raise HarnessError(f"--jobs must be at least 1, got {jobs}")
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": {}}):
+            return LocalCluster(
+                n_workers=jobs,
+                threads_per_worker=1,
+                processes=True,
+                memory_limit=0,
+                silence_logs=logging.ERROR,
+                scheduler_kwargs={"dashboard": False, "dashboard_address": ":0"},  # (its HTTP server)
+            )
+    except (OSError, TimeoutError) as error:
+        raise HarnessError(f"cannot start a local Dask cluster of {jobs} workers: {error}") from error
 
 
 def _dask_failure(error: Exception) -> Lost:

@@ -103,13 +103,6 @@ def test_the_dask_executor_records_what_the_local_one_does(grid, reference, comp
     pd.testing.assert_frame_equal(comparable(records), comparable(reference))
 
 
-def test_the_dask_executor_needs_a_reachable_scheduler(grid, tmp_path) -> None:
-    result = CliRunner().invoke(
-        cli, [*grid[:-3], "--solvers", "greedy", "--out", str(tmp_path), "--executor", "dask"]
-    )
-    assert result.exit_code == 2 and "--executor dask needs --scheduler tcp://HOST:PORT" in result.output
-
-
 def _usd_with_sublayer_and_clip(folder: Path) -> tuple[Path, list[Path]]:
     """``face.usda``, which sublayers ``base.usda`` (the rig) and gives the face mesh a value clip
     ``clip.usda``: the argument and the files it composes."""
