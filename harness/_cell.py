@@ -291,6 +291,7 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
     timed = ("presolve_time", "build_time", "solve_time", "extra_time")
     cell_row.update(
         facts,
+        max_overlap=float(solver.capabilities.max_overlap),
         sequence_time=float(sum(row[key] for row in expression_rows for key in timed)),
         n_expressions=len(expressions),
         n_covered=expression_rows[-1]["covered"] if expression_rows else 0,

@@ -2,12 +2,14 @@
 solver's packing beats a bound another one proved (DESIGN.md, "Benchmark verdicts": certificates).
 
 An *instance* is one expression's packing problem within one group of cells (`GROUP_COLUMNS`: the cells that
-solve the same problems with different solvers, one repetition each). Expression 1 is the same instance for
-every solver of a group; expression e > 1 is the same instance for two solvers when they chose the same
-primary shapes (as sets) for each of the expressions 1..e-1, because Algorithm 1 derives each problem from the
-shapes used so far. Extra examples (sec. 6) are never removed from the next problem, so they do not matter.
-In a ``replay`` cell (`harness._replay`) expression e is the reference sequence's instance e whatever the
-solver chose before, so every replay cell of a group shares all its instances.
+solve the same problems with different solvers, one repetition each) among the solvers of one overlap
+allowance (``max_overlap``: a solver that may let items share vertices, such as ``greedy-overlap``, solves a
+relaxation of eq. 3b, whose packings may well beat the bound of the exact problem). Expression 1 is the
+same instance for every solver of a group; expression e > 1 is the same instance for two solvers when they
+chose the same primary shapes (as sets) for each of the expressions 1..e-1, because Algorithm 1 derives
+each problem from the shapes used so far. Extra examples (sec. 6) are never removed from the next problem,
+so they do not matter. In a ``replay`` cell (`harness._replay`) expression e is the reference sequence's
+instance e whatever the solver chose before, so every replay cell of a group shares all its instances.
 
 Two rules, checked on every instance among the ``ok`` cells:
 
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import itertools
 from collections import Counter, defaultdict
+from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
@@ -52,19 +55,24 @@ INCONSISTENT = "inconsistent"
 _PROVING = ("optimal", "time_limit")
 
 Instance = tuple[tuple[object, ...], int, tuple[frozenset[str], ...]]
+#: Overlap allowance of a cell recorded before the ``max_overlap`` column (the same for all of them).
+_UNRECORDED = None
 
 
 def _close(a: float, b: float) -> bool:
     return abs(a - b) <= TOLERANCE * max(1.0, abs(a), abs(b))
 
 
-def instance_keys(expressions: pd.DataFrame) -> pd.Series:
-    """The instance of every expression row: (group values, expression, earlier shapes as sets).
+def instance_keys(expressions: pd.DataFrame, allowances: Mapping[str, float | None]) -> pd.Series:
+    """The instance of every expression row: (group values and overlap allowance, expression, earlier
+    shapes as sets).
 
     Parameters
     ----------
     expressions : DataFrame
         ``kind == "expression"`` rows of a run's records (`harness.read_records`).
+    allowances : mapping
+        Cell id -> the ``max_overlap`` of its cell row.
 
     Returns
     -------
@@ -77,6 +85,7 @@ def instance_keys(expressions: pd.DataFrame) -> pd.Series:
         replay = "mode" in rows and (rows["mode"] == "replay").any()
         for index, row in rows.iterrows():
             group = tuple(None if pd.isna(row[column]) else row[column] for column in GROUP_COLUMNS)
+            group += (allowances.get(row["cell"], _UNRECORDED),)
             keys[index] = (group, int(row["expression"]), tuple(earlier))
             if not replay:
                 earlier.append(frozenset(row["shapes"] or ()))
@@ -91,12 +100,17 @@ def violations(records: pd.DataFrame) -> dict[str, list[str]]:
     dict of str to list of str
         Cell id -> messages (one per contradiction found), for the cells to mark ``inconsistent``.
     """
-    ok = records.loc[(records["kind"] == "cell") & (records["status"] == "ok"), "cell"]
-    expressions = records[(records["kind"] == "expression") & records["cell"].isin(ok)]
+    cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
+    expressions = records[(records["kind"] == "expression") & records["cell"].isin(cells["cell"])]
     found: dict[str, list[str]] = defaultdict(list)
     if expressions.empty:
         return {}
-    for key, rows in expressions.groupby(instance_keys(expressions), sort=False):
+    allowance = cells["max_overlap"] if "max_overlap" in cells else pd.Series(None, index=cells.index)
+    allowances = {
+        cell: None if pd.isna(value) else float(value)
+        for cell, value in zip(cells["cell"], allowance, strict=True)
+    }
+    for key, rows in expressions.groupby(instance_keys(expressions, allowances), sort=False):
         _disagreeing_optima(key, rows, found)
         _refuted_bounds(key, rows, found)
     return dict(found)

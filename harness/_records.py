@@ -74,6 +74,9 @@ min_expressions  int64, null    fewest expressions covering every shape (solvers
                                 the cell's solver has no such mode)
 min_expressions_status string, null  ``optimal`` (proved) or ``feasible`` (time limit) for min_expressions
 backend_version  string         solver backend and version
+max_overlap      float64, null  share of an item's active vertices the solver may let another item share
+                                (``capabilities.max_overlap``; 0 for eq. 3b): a solver with another
+                                allowance solves other problems (null in runs recorded before the column)
 worker           string         ``host:pid`` of the process that ran the cell
 finished         string         ISO 8601 time the cell finished
 ================ ============== ==============================================================================
@@ -209,6 +212,7 @@ _CELL_COLUMNS: dict[str, pa.DataType] = {
     "min_expressions": pa.int64(),
     "min_expressions_status": pa.string(),
     "backend_version": pa.string(),
+    "max_overlap": pa.float64(),
     "worker": pa.string(),
     "finished": pa.string(),
 }

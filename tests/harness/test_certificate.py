@@ -21,9 +21,11 @@ liar-bound = liar_solvers:BoundLiar
 """
 
 
-def _rows(cell: str, solver: str, sequence: list[tuple[list[str], float, str, float | None]]) -> list[dict]:
+def _rows(
+    cell: str, solver: str, sequence: list[tuple[list[str], float, str, float | None]], overlap: float = 0.0
+) -> list[dict]:
     group = dict.fromkeys(GROUP_COLUMNS, 0) | {"rig": "tiny", "warp": "none", "cap": None, "jmax": None}
-    rows = [{**group, "cell": cell, "kind": "cell", "solver": solver, "status": "ok"}]
+    rows = [{**group, "cell": cell, "kind": "cell", "solver": solver, "status": "ok", "max_overlap": overlap}]
     for number, (shapes, objective, termination, bound) in enumerate(sequence, 1):
         rows.append(
             {
@@ -44,7 +46,7 @@ def test_sequences_diverging_after_expression_2_share_only_instances_1_and_2():
         + _rows(c, "z", [second, (["s5"], 0.4, "completed", None), (["s3"], 0.3, "completed", None)])
     )
     expressions = records[records["kind"] == "expression"]
-    keys = instance_keys(expressions)
+    keys = instance_keys(expressions, dict.fromkeys("abc", 0.0))
     by_cell = {cell: list(keys[expressions["cell"] == cell]) for cell in "abc"}
     assert by_cell["a"] == by_cell["b"]  # the same earlier shapes as sets, in any order: all 3 shared
     assert by_cell["a"][:2] == by_cell["c"][:2]  # c chose otherwise in expression 2
@@ -80,6 +82,19 @@ def test_a_packing_above_a_proved_bound_marks_the_bound():
     assert "exact proves the bound 0.8" in found["a"][0] and "greedy's packing reaches 0.9" in found["a"][0]
     within = records.assign(objective=records["objective"].where(records["solver"] != "greedy", 0.8 + 1e-9))
     assert violations(within) == {}
+
+
+def test_a_solver_allowed_to_overlap_solves_other_instances():
+    """``greedy-overlap`` packs a relaxation of eq. 3b: its packing above an exact solver's proof, or its
+    optimum beside theirs, refutes nothing, and exact solvers are still held to each other."""
+    records = pd.DataFrame(
+        _rows("a", "exact", [(["s1"], 0.8, "optimal", 0.8)])
+        + _rows("b", "greedy-overlap", [(["s1", "s2"], 1.3, "completed", None)], overlap=0.1)
+        + _rows("c", "relaxed-exact", [(["s1", "s2"], 1.3, "optimal", 1.3)], overlap=0.1)
+    )
+    assert violations(records) == {}
+    wrong = pd.DataFrame(_rows("d", "other-exact", [(["s2"], 0.7, "optimal", 0.7)]))
+    assert set(violations(pd.concat([records, wrong], ignore_index=True))) == {"a", "d"}  # no majority
 
 
 @pytest.fixture
