@@ -254,7 +254,7 @@ def test_a_fault_of_the_program_is_a_short_traceback_and_a_request_to_report_it(
     def broken(*_: object) -> None:
         raise ZeroDivisionError("a bug, not bad input")
 
-    monkeypatch.setattr(harness._plugins, "expand_names", broken)
+    monkeypatch.setattr(harness, "expand_names", broken)
     with pytest.raises(SystemExit) as ended:
         main(["pack", "tiny", "--out", "unused"])
     stderr = capsys.readouterr().err
@@ -267,7 +267,7 @@ def test_a_keyboard_interrupt_no_signal_raised_is_reported_as_a_fault(monkeypatc
     def interrupting(*_: object) -> None:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(harness._plugins, "expand_names", interrupting)
+    monkeypatch.setattr(harness, "expand_names", interrupting)
     with pytest.raises(SystemExit) as ended:
         main(["pack", "tiny", "--out", "unused"])
     stderr = capsys.readouterr().err
@@ -299,6 +299,6 @@ def test_a_full_disk_anywhere_is_one_line_not_a_fault(monkeypatch) -> None:
     def full(*_: object) -> None:
         raise OSError(errno.ENOSPC, "No space left on device", "/somewhere/file")
 
-    monkeypatch.setattr(harness._plugins, "expand_names", full)
+    monkeypatch.setattr(harness, "expand_names", full)
     result = invoke("pack", "tiny", "--out", "unused")
     assert_one_line_error(result, "No space left on device", "/somewhere/file")
