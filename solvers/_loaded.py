@@ -38,7 +38,9 @@ class LoadedSolver:
     Attributes
     ----------
     plugin : Solver
-        The plugin instance; its ``solve`` returns a `Result`, and nothing else is accepted.
+        The plugin instance; its ``solve`` returns a `Result` (the plugin contract, `solvers.testing`).
+        A solver of the framework that wraps a loaded one (refinement, a deadline, a worker process)
+        answers the `packing.Solution` it was given, which is taken as it is named.
     """
 
     plugin: Any
@@ -118,11 +120,11 @@ def load(solver: Any) -> LoadedSolver:
 
 
 def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, plugin: Any) -> Solution:
-    """The `Solution` of a plugin's `Result`; the plugin's reported version only when the answer names
-    none."""
-    from packing import Termination
+    """The `Solution` of a plugin's `Result` (or of a wrapping solver's `Solution`); the plugin's reported
+    version only when the answer names none."""
+    from packing import Solution, Termination
 
-    if not isinstance(answer, Result):
+    if not isinstance(answer, Result | Solution):
         raise MalformedAnswer(f"solve returned {type(answer).__name__}, not a solvers.Result")
     termination = answer.termination
     if not isinstance(termination, Termination):
@@ -137,7 +139,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
         bound=None if answer.bound is None else float(answer.bound),
         build_time=build_time,
         solve_time=solve_time,
-        backend=name,
+        backend=answer.backend if isinstance(answer, Solution) and answer.backend else name,
         version=answer.version or _version(plugin),
         message=answer.message,
         fallback=answer.fallback,

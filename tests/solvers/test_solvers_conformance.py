@@ -78,8 +78,8 @@ def test_check_solver_catches_an_answer_that_is_not_a_result():
 
 
 def test_a_plugin_answers_a_result_and_nothing_else():
-    """A `packing.Solution` is the framework's answer, not a plugin's: one returned by a plugin is refused
-    like any other type (its fields would bypass the framework's normalisation)."""
+    """A `packing.Solution` is the framework's answer, not a plugin's: the checks refuse a plugin that
+    returns one (only the framework's own wrappers answer Solutions)."""
 
     class Presumptuous(DoNothing):
         def solve(self, problem, *, time_limit=None, seed=0):
@@ -90,8 +90,6 @@ def test_a_plugin_answers_a_result_and_nothing_else():
 
     with pytest.raises(AssertionError, match="solve returned Solution, not a solvers.Result"):
         check_solver(Presumptuous)
-    solution = solvers.load(Presumptuous).solve(packing.problem_from_incidence(np.eye(2, dtype=bool), [1, 1]))
-    assert solution.termination is Termination.ERROR and "not a solvers.Result" in solution.message
 
 
 def test_check_solver_catches_an_overlapping_packing():
@@ -183,7 +181,6 @@ def test_an_exact_plugin_answering_items_outside_its_model_is_an_error():
 
 
 def test_the_sequence_refuses_a_plugin_not_behind_the_framework():
-    import packing
     import rigs
 
     with pytest.raises(TypeError, match="pass solvers.get\\(name\\) or solvers.load\\(plugin\\)"):
