@@ -80,7 +80,7 @@ from session._files import session_files
 from session._mesh import read_target
 from session._minimum import minimum_sequence
 from session._pictures import prepare_scene
-from session._solver import IsolatedSolver, LoudSolver
+from session._solver import IsolatedSolver, LoudSolver, no_answer
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -411,20 +411,12 @@ class Deadline:
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
         """The inner solve with ``time_limit`` reduced to the time left, or nothing once it is spent."""
-        from packing import Solution, Termination
+        from packing import Termination
 
         left = self.end - monotonic()
         if left <= 0:
             self.expired = True
-            return Solution(
-                items=(),
-                shapes=(),
-                objective=0.0,
-                bound=None,
-                termination=Termination.TIME_LIMIT,
-                backend=self.name,
-                message="the --timeout of the whole packing ran out",
-            )
+            return no_answer(self.name, Termination.TIME_LIMIT, "the --timeout of the whole packing ran out")
         limited = time_limit is None or left < time_limit
         solution = self.inner.solve(problem, time_limit=left if limited else time_limit, seed=seed)
         if limited and solution.termination is Termination.TIME_LIMIT:

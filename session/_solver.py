@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, Final
 from registry import HarnessError
 
 if TYPE_CHECKING:
-    from packing import PackingProblem, Solution
+    from packing import PackingProblem, Solution, Termination
     from solvers import Availability, Capabilities, LoadedSolver
 
 #: Solvers loaded in this worker process, by label.
@@ -87,36 +87,35 @@ def solve_in_worker(label: str, problem: PackingProblem, time_limit: float | Non
         return failed(label, f"it called sys.exit({exit_.code!r})", time.perf_counter() - start)
 
 
-def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
-    """The ``Termination.ERROR`` answer of ``backend``, with the reason in ``message``."""
-    from packing import Solution, Termination
+def no_answer(backend: str, termination: Termination, message: str, elapsed: float = 0.0) -> Solution:
+    """An answer of ``backend`` without items: why (``termination``, ``message``) and after how long."""
+    from packing import Solution
 
     return Solution(
         items=(),
         shapes=(),
         objective=0.0,
         bound=None,
-        termination=Termination.ERROR,
+        termination=termination,
         solve_time=elapsed,
         backend=backend,
         message=message,
     )
 
 
+def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
+    """The ``Termination.ERROR`` answer of ``backend``, with the reason in ``message``."""
+    from packing import Termination
+
+    return no_answer(backend, Termination.ERROR, message, elapsed)
+
+
 def _stopped(backend: str, time_limit: float, elapsed: float) -> Solution:
     """The ``Termination.TIME_LIMIT`` answer of ``backend`` stopped for overrunning ``time_limit``."""
-    from packing import Solution, Termination
+    from packing import Termination
 
-    return Solution(
-        items=(),
-        shapes=(),
-        objective=0.0,
-        bound=None,
-        termination=Termination.TIME_LIMIT,
-        solve_time=elapsed,
-        backend=backend,
-        message=f"no answer within its time limit of {time_limit:g}s; stopped after {elapsed:.1f}s",
-    )
+    message = f"no answer within its time limit of {time_limit:g}s; stopped after {elapsed:.1f}s"
+    return no_answer(backend, Termination.TIME_LIMIT, message, elapsed)
 
 
 class IsolatedSolver:
