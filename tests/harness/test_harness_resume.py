@@ -14,7 +14,6 @@ import pytest
 from click.testing import CliRunner
 
 import harness
-import rigs
 from harness.cli import cli
 
 CELLS = 6  # 1 rig x 3 solvers x importance on/off
@@ -101,44 +100,3 @@ def test_the_dask_executor_records_what_the_local_one_does(grid, reference, comp
     records = harness.read_records(tmp_path)
     assert set(records.loc[records["kind"] == "cell", "status"]) == {"ok"}
     pd.testing.assert_frame_equal(comparable(records), comparable(reference))
-
-
-def _usd_with_sublayer_and_clip(folder: Path) -> tuple[Path, list[Path]]:
-    """``face.usda``, which sublayers ``base.usda`` (the rig) and gives the face mesh a value clip
-    ``clip.usda``: the argument and the files it composes."""
-    from pxr import Sdf, Usd
-
-    from tests.rigs.test_rig_inputs import _tiny
-
-    rigs.save(_tiny(), folder / "base.usda")
-    (folder / "clip.usda").write_bytes((folder / "base.usda").read_bytes())
-    path = folder / "face.usda"
-    layer = Sdf.Layer.CreateNew(str(path))
-    layer.subLayerPaths.append("./base.usda")
-    stage = Usd.Stage.Open(layer)
-    face = next(prim for prim in stage.Traverse() if prim.GetTypeName() == "Mesh")
-    clips = Usd.ClipsAPI(stage.OverridePrim(face.GetPath()))
-    clips.SetClipPrimPath(str(face.GetPath()))
-    clips.SetClipAssetPaths([Sdf.AssetPath("./clip.usda")])
-    clips.SetClipActive([(0, 0)])
-    layer.Save()
-    return path, [path, folder / "base.usda", folder / "clip.usda"]
-
-
-def test_a_resume_after_any_file_of_a_usd_rig_changed_is_refused_naming_it(tmp_path, inline) -> None:
-    """A USD rig's files are its layers: the one given, its sublayers and its value clips."""
-    pytest.importorskip("pxr", reason="usd-core is not installed (the usd extra)")
-    from tests.harness.test_resume_guards import _config, _one_line_error, invoke
-    from tests.rigs.test_rig_inputs import touch
-
-    argument, files = _usd_with_sublayer_and_clip(tmp_path / "rig")
-    out = tmp_path / "out"
-    config = _config(argument, solvers=("greedy",), transfers=("delta",))
-    harness.run_grid(config, out, make_executor=inline)
-    for path in files:
-        saved = path.read_bytes()
-        touch(path)
-        line = _one_line_error(invoke("run", "--resume", out))
-        assert f"changed since the run started ({path.name} changed)" in line, line
-        path.write_bytes(saved)
-    assert harness.run_grid(config, out, make_executor=inline, resume=True).already_done == 1

@@ -177,7 +177,7 @@ def test_the_run_folder_may_not_lie_inside_a_rig_folder(rig_file, tmp_path, inli
 
 @pytest.mark.parametrize("form", sorted(RIG_FORMS))
 def test_a_resume_after_any_file_of_a_rig_changed_is_refused_naming_it(form, tmp_path, inline) -> None:
-    """Each of the six forms a rig file takes: every file its read opened is the rig's content."""
+    """Each form a rig file takes: every file its read opened is the rig's content."""
     argument, files = RIG_FORMS[form](tmp_path / "rig")
     out = tmp_path / "out"
     config = _config(argument, solvers=("greedy",), transfers=("delta",))

@@ -78,6 +78,28 @@ def _npz(folder: Path) -> tuple[Path, list[Path]]:
     return path, [path]
 
 
+def _usd_with_sublayer_and_clip(folder: Path) -> tuple[Path, list[Path]]:
+    """``face.usda``, which sublayers ``base.usda`` (the rig) and gives the face mesh a value clip
+    ``clip.usda``: the argument and the files it composes (skipped without the usd extra)."""
+    pytest.importorskip("pxr", reason="usd-core is not installed (the usd extra)")
+    from pxr import Sdf, Usd
+
+    folder.mkdir()
+    rigs.save(_tiny(), folder / "base.usda")
+    (folder / "clip.usda").write_bytes((folder / "base.usda").read_bytes())
+    path = folder / "face.usda"
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.subLayerPaths.append("./base.usda")
+    stage = Usd.Stage.Open(layer)
+    face = next(prim for prim in stage.Traverse() if prim.GetTypeName() == "Mesh")
+    clips = Usd.ClipsAPI(stage.OverridePrim(face.GetPath()))
+    clips.SetClipPrimPath(str(face.GetPath()))
+    clips.SetClipAssetPaths([Sdf.AssetPath("./clip.usda")])
+    clips.SetClipActive([(0, 0)])
+    layer.Save()
+    return path, [path, folder / "base.usda", folder / "clip.usda"]
+
+
 FORMS: dict[str, Callable[[Path], tuple[Path, list[Path]]]] = {
     "neutral-obj": _obj_neutral,
     "obj-folder": _obj_folder,
@@ -85,6 +107,7 @@ FORMS: dict[str, Callable[[Path], tuple[Path, list[Path]]]] = {
     "gltf-percent-uri": _gltf_percent_uri,
     "target-set-json": _target_manifest,
     "npz": _npz,
+    "usd-sublayer-clip": _usd_with_sublayer_and_clip,
 }
 
 
