@@ -5,11 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from harness import VARIATION_FIELDS, format_duration
+from harness import VARIATION_FIELDS, format_duration, terminal
 
 #: Packing settings a run may vary; `harness show` labels rows by those that do.
 _SETTING_COLUMNS: tuple[str, ...] = VARIATION_FIELDS
@@ -23,7 +22,7 @@ def print_summary(out: Path) -> None:
     info = read_run(out)
     records = read_records(out)
     config = info["config"]
-    _console().print(
+    terminal().print(
         f"[bold]{out}[/]: {info['state']}, {info['n_cells']} cells, preset {config.get('preset') or '-'}, "
         f"started {info['started']}, finished {info.get('finished') or '-'}, "
         f"git {(info['git'].get('commit') or '-')[:10]}"
@@ -31,16 +30,16 @@ def print_summary(out: Path) -> None:
     cells = records[records["kind"] == "cell"]
     statuses = cells["status"].value_counts().to_dict()
     missing = info["n_cells"] - len(cells)
-    _console().print(
+    terminal().print(
         "cells: "
         + ", ".join(f"{status} {count}" for status, count in sorted(statuses.items()))
         + (f", not yet run {missing} (harness run --resume {out})" if missing else "")
     )
-    _console().print(_sequence_table(records))
+    terminal().print(_sequence_table(records))
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
     if len(transfers):
-        _console().print(_transfer_table(transfers))
-        _console().print(_claims_table(records))
+        terminal().print(_transfer_table(transfers))
+        terminal().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
         table = Table(title="cells that did not finish ok")
@@ -48,7 +47,7 @@ def print_summary(out: Path) -> None:
             table.add_column(column)
         for row in problems.itertuples():
             table.add_row(*map(escape, (row.rig, row.warp, row.solver, row.status, row.message or "")))
-        _console().print(table)
+        terminal().print(table)
 
 
 def _sequence_table(records: pd.DataFrame) -> Table:
@@ -156,8 +155,3 @@ def _claims_table(records: pd.DataFrame) -> Table:
         colour = colours.get(row.verdict, "yellow")
         table.add_row(escape(row.claim), escape(row.measured), f"[{colour}]{row.verdict}[/]")
     return table
-
-
-def _console() -> Console:
-    """The terminal (made per use, so that its width follows ``COLUMNS``)."""
-    return Console(highlight=False)
