@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
-    from harness._cli_constraints import constraint_options, constraint_params
+    from harness._cli_constraints import check_file_pairs, constraint_options, constraint_params
     from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
     from harness._durations import format_duration, parse_duration
     from harness._environment import commits_since
@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_cli_constraints": ["constraint_options", "constraint_params"],
+        "_cli_constraints": ["check_file_pairs", "constraint_options", "constraint_params"],
         "_cli_types": ["DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
         "_durations": ["format_duration", "parse_duration"],
         "_environment": ["commits_since"],

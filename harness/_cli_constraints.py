@@ -11,14 +11,17 @@ checked against the rig by `packing` (an unknown name is a one-line error with t
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import click
 
 from harness._cli_types import Command
 from registry import HarnessError
+
+if TYPE_CHECKING:
+    from rigs import Rig
 
 #: A file the options read (checked when read, so that a missing file is one line naming it).
 INPUT_FILE = click.Path(dir_okay=False, path_type=Path)
@@ -65,8 +68,33 @@ class ConstraintParams(TypedDict):
     apart: tuple[tuple[str, str], ...]
     regions: str | None
     #: The constraints file each of its pairs came from, so that a name the rig lacks is told naming it
-    #: (`session._constraints.session_constraints` takes it out before packing).
+    #: (`check_file_pairs`; `session._constraints.session_constraints` takes it out before packing).
     constraint_origins: dict[tuple[str, str], str]
+
+
+def check_file_pairs(
+    rig: Rig, pairs: Mapping[str, Iterable[Iterable[str]]], origins: Mapping[tuple[str, str], str]
+) -> None:
+    """Refuse a ``together`` or ``apart`` pair read from a constraints file (``origins``: pair -> file,
+    `constraint_params`) that names a shape ``rig`` lacks, naming the file; the options' pairs are checked
+    by `packing`, naming the option.
+
+    Raises
+    ------
+    HarnessError
+        ``FILE: together A,B: <rig>: no blendshape named 'B'; close matches: ...``.
+    """
+    for kind in ("together", "apart"):
+        for pair in pairs.get(kind, ()):
+            pair = tuple(pair)
+            origin = origins.get(pair)
+            if origin is None:
+                continue
+            for name in pair:
+                try:
+                    rig.index(name)
+                except ValueError as error:  # RigError names the rig, the shape and close matches
+                    raise HarnessError(f"{origin}: {kind} {','.join(pair)}: {error}") from None
 
 
 def constraint_params(
@@ -116,11 +144,12 @@ def grid_constraints(
     apart: Iterable[str],
     constraints: Path | None,
     regions: Path | None,
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], dict[tuple[str, str], str]]:
     """The `harness.RunConfig` fields the constraint options give, only those given: ``together`` and
     ``apart`` as in `constraint_params`, and ``regions`` read from the file (JSON or OBJ face groups, as
     for ``harness pack``) as `harness._grid.regions_tuple` (the content, so a resumed or distributed run
-    does not need the file; each cell checks the indices against its rig).
+    does not need the file; each cell checks the indices against its rig), with the constraints file of
+    each pair read from one (``constraint_origins`` of `constraint_params`, for `check_file_pairs`).
 
     Raises
     ------
@@ -132,12 +161,14 @@ def grid_constraints(
 
     together, apart = tuple(together), tuple(apart)
     given: dict[str, Any] = {}
+    origins: dict[tuple[str, str], str] = {}
     if together or apart or constraints is not None:
         pairs = constraint_params(together, apart, constraints, None)
         given.update(together=pairs["together"], apart=pairs["apart"])
+        origins = pairs["constraint_origins"]
     if regions is not None:
         read = rigs.read_regions(regions, None)
         if not read:
             raise HarnessError(f"{regions}: holds no regions")
         given["regions"] = regions_tuple({name: indices.tolist() for name, indices in read.items()})
-    return given
+    return given, origins

@@ -324,7 +324,8 @@ def run(
         given["symmetry"] = (False,)
     if no_importance:
         given["importance"] = (False,)
-    given.update(grid_constraints(together, apart, constraints, regions))
+    constraint_fields, constraint_origins = grid_constraints(together, apart, constraints, regions)
+    given.update(constraint_fields)
     if variations_name is not None:
         given["variations"] = CLAIM_VARIATIONS if variations_name == "claims" else ()
     for axis in ("distortion", "examples"):
@@ -365,6 +366,7 @@ def run(
             command=["harness", *sys.argv[1:]],
             execution=execution,
             retry_failed=retry_failed,
+            constraint_origins=constraint_origins,
         )
     except KeyboardInterrupt:
         terminal(stderr=True).print(

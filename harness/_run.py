@@ -47,7 +47,7 @@ import sys
 import time
 import warnings
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -169,7 +169,9 @@ def read_run(out: str | Path) -> dict[str, Any]:
     return info
 
 
-def validate_config(config: RunConfig) -> RunConfig:
+def validate_config(
+    config: RunConfig, constraint_origins: Mapping[tuple[str, str], str] | None = None
+) -> RunConfig:
     """Check every name and value of a configuration; expand ``all`` solvers.
 
     Raises
@@ -191,7 +193,7 @@ def validate_config(config: RunConfig) -> RunConfig:
         raise HarnessError(f"--jmax must be at least 1, got {config.jmax}")
     if any(j < 1 for j in config.j_values):
         raise HarnessError(f"--j-values must be positive integers, got {list(config.j_values)}")
-    _check_packing_params(config)
+    _check_packing_params(config, constraint_origins or {})
     plugins.check_settings(solvers, transfers)
     for option, value in (("--time-limit", config.time_limit), ("--timeout", config.timeout)):
         if value is not None and value <= 0:
@@ -199,9 +201,11 @@ def validate_config(config: RunConfig) -> RunConfig:
     return config.with_overrides(solvers=solvers, transfers=transfers)
 
 
-def _check_packing_params(config: RunConfig) -> None:
+def _check_packing_params(config: RunConfig, constraint_origins: Mapping[tuple[str, str], str]) -> None:
     """Let `packing.PackingParams` judge every value of the packing axes (it names the bad one), and let
-    `packing.analyse` judge the artist constraints and regions on every rig, before any cell runs."""
+    `packing.analyse` judge the artist constraints and regions on every rig, before any cell runs; a pair
+    of a constraints file (``constraint_origins``: pair -> file) naming a shape a rig lacks is told naming
+    the file (`harness.check_file_pairs`)."""
     import packing
 
     for values in itertools.product(config.mu, config.alpha, config.beta, config.cap, config.distortion):
@@ -210,6 +214,7 @@ def _check_packing_params(config: RunConfig) -> None:
     if not (config.together or config.apart or config.regions):
         return
     from harness._cell import packing_params
+    from harness._cli_constraints import check_file_pairs
     from harness._rigspec import resolve_rig
 
     options = [name for name in ("together", "apart", "regions") if getattr(config, name)]
@@ -217,6 +222,7 @@ def _check_packing_params(config: RunConfig) -> None:
     spec = config.cells()[0]
     for argument in config.rigs:
         rig = resolve_rig(argument, seed=config.seed[0])
+        check_file_pairs(rig, {"together": config.together, "apart": config.apart}, constraint_origins)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -332,6 +338,7 @@ def run_grid(
     command: list[str] | None = None,
     execution: dict[str, Any] | None = None,
     retry_failed: bool = False,
+    constraint_origins: Mapping[tuple[str, str], str] | None = None,
 ) -> RunSummary:
     """Run (or resume) a grid into ``out``.
 
@@ -355,6 +362,9 @@ def run_grid(
     retry_failed : bool
         With ``resume``: also run again the cells recorded `harness._failures.RETRIED_STATUSES`
         (``--retry-failed``).
+    constraint_origins : mapping, optional
+        The constraints file of each ``together``/``apart`` pair of ``config`` read from one
+        (`harness._cli_constraints.grid_constraints`), named when such a pair names a shape a rig lacks.
 
     Returns
     -------
@@ -380,12 +390,12 @@ def run_grid(
     if previous is not None:
         stored = validate_config(RunConfig.from_dict(previous["config"]))
         if config is not None:
-            changes += options_changed(stored, validate_config(config))
+            changes += options_changed(stored, validate_config(config, constraint_origins))
         config = stored
     elif config is None:
         raise ValueError("run_grid needs a configuration unless it resumes a run")
     else:
-        config = validate_config(config)
+        config = validate_config(config, constraint_origins)
     inputs = check_rig_files(config.rigs, config.warps, no_warp=NO_WARP)
     digests = {
         digest_key(rig, seed): rig_digest(rig, seed, inputs.get(rig))

@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from harness import check_file_pairs
 from registry import HarnessError
 
 if TYPE_CHECKING:
@@ -71,7 +72,7 @@ def session_constraints(
     from packing import match_rules, read_rules
 
     params = dict(params)
-    _check_file_pairs(rig, params, params.pop("constraint_origins", {}))
+    check_file_pairs(rig, params, params.pop("constraint_origins", {}))
     for name in exclude:
         rig.index(name)  # RigError names the rig, the shape and close matches
     together, apart = tuple(params.get("together", ())), tuple(params.get("apart", ()))
@@ -103,21 +104,6 @@ def session_constraints(
     return SessionConstraints(
         rig.subset(kept) if excluded else rig, dict(params), excluded, document, _notes(document, excluded)
     )
-
-
-def _check_file_pairs(rig: Rig, params: Mapping[str, Any], origins: Mapping[tuple[str, str], str]) -> None:
-    """Refuse a pair read from a constraints file (``origins``: pair -> file) that names a shape the rig
-    lacks, naming the file (the options' pairs are checked by `packing`, naming the option)."""
-    for kind in ("together", "apart"):
-        for pair in params.get(kind, ()):
-            origin = origins.get(tuple(pair))
-            if origin is None:
-                continue
-            for name in pair:
-                try:
-                    rig.index(name)
-                except ValueError as error:  # RigError names the rig, the shape and close matches
-                    raise HarnessError(f"{origin}: {kind} {','.join(pair)}: {error}") from None
 
 
 def _notes(document: Mapping[str, Any], excluded: Mapping[str, str]) -> list[str]:

@@ -65,6 +65,16 @@ def test_constraints_and_regions_reach_every_cell_and_run_json(rig_file, tmp_pat
         (("--constraints", "{c}"), {"c": "[1, 2]"}, r"{c}: constraints JSON must be an object"),
         (("--constraints", "{c}"), {"c": '{"alone": []}'}, r"{c}: unknown key 'alone'"),
         (("--constraints", "{c}"), {}, r"{c}: no such file"),
+        (
+            ("--constraints", "{c}"),
+            {"c": '{"apart": [["bump0_L", "bmup1_L"]]}'},
+            r"{c}: apart bump0_L,bmup1_L: .*no blendshape named 'bmup1_L' .*did you mean bump1_L",
+        ),
+        (
+            ("--together", "bump2_L,bump4_L", "--constraints", "{c}"),
+            {"c": '{"together": [["bump0_L", "bmup1_L"]]}'},
+            r"{c}: together bump0_L,bmup1_L: .*no blendshape named 'bmup1_L'",
+        ),
         (("--regions", "{r}"), {"r": "{not json"}, r"{r}: not a readable JSON regions file"),
         (
             ("--regions", "{r}"),
