@@ -309,7 +309,7 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
         Same triangles, names and regions; ``neutral = f(v_0)``, ``deltas[k] = f(v_0 + dv_k) - f(v_0)``
         (exactly 0 where ``dv_k`` is 0), then changed by the spec's character steps (`Character.apply`,
         which keeps static vertices static and records its ground truth in ``provenance.character``).
-        The ``landmarks`` are carried along; ``provenance.warp`` (`rigs.WarpRecord`) holds the ``spec``
+        The ``landmarks`` move with the mesh; ``provenance.warp`` (`rigs.WarpRecord`) holds the ``spec``
         (the preset or spec string, else a label such as ``"scale:1.3,1,1+local:mouth,0.7"``) and its
         ``definition`` (the steps as data), and ``provenance.source`` says it was warped.
 
