@@ -59,7 +59,7 @@ def rig_summary(rig: Rig) -> dict[str, Any]:
     """What ``harness rigs info`` shows, as JSON-ready values."""
     low, high = rig.bounding_box()
     return {
-        "source": str(rig.meta.get("source", "")),
+        "source": rig.provenance.source,
         "n_vertices": rig.n_vertices,
         "n_shapes": rig.n_shapes,
         "n_triangles": rig.n_triangles,
@@ -68,7 +68,7 @@ def rig_summary(rig: Rig) -> dict[str, Any]:
         "empty_shapes": list(_empty_shapes(rig)),
         "degenerate_triangles": int(len(rig.degenerate_triangles())),
         "unreferenced_vertices": rig.n_vertices - int(np.unique(rig.triangles).size),
-        "units": rig.meta.get("units"),
+        "units": rig.provenance.units,
         "bbox": {"min": [float(v) for v in low], "max": [float(v) for v in high]},
         "diagonal": rig.diagonal(),
         "cancelling_twins": [cancellation.message for cancellation in _cancelling_twins(rig)],
@@ -221,6 +221,6 @@ def fetch(name: str, out: Path | None) -> None:
     if out is not None:
         rigs_package.save(rig, out)
     terminal().print(
-        f"{name}: {_one_line(rig)}, cached at {rig.meta.get('source', '?')}"
+        f"{name}: {_one_line(rig)}, cached at {rig.provenance.source or '?'}"
         + (f"; wrote {out}" if out else "")
     )

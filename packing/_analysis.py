@@ -75,7 +75,7 @@ class Analysis:
     timings: dict[str, float] = field(default_factory=dict)
 
     def __repr__(self) -> str:
-        problem, source = self.problem, self.rig.meta.get("source", "rig")
+        problem, source = self.problem, self.rig.provenance.label
         return (
             f"Analysis(rig={source!r}, K={self.rig.n_shapes}, items={problem.n_items}, "
             f"pairs={len(self.symmetry.pairs)}, empty={int(self.empty.sum())}, "
@@ -290,7 +290,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         items=items,
         shape_names=rig.names,
         cap=settings.max_per_expression,
-        meta={"rig": rig.meta.get("source", "rig"), "params": settings.as_dict()},
+        meta={"rig": rig.provenance.label, "params": settings.as_dict()},
         tie_break=tie_break,
         apart=_item_pairs(item_shapes, apart),
     )

@@ -285,15 +285,15 @@ def target_neutral_of(rig: Rig, target: Rig | np.ndarray | None) -> np.ndarray |
         )
         if not same or target.n_vertices != rig.n_vertices:
             raise HarnessError(
-                f"target rig {target.meta.get('source', '?')!r} has other topology than the template "
-                f"{rig.meta.get('source', '?')!r}: {target.n_vertices} vertices and {target.n_triangles} "
+                f"target rig {target.provenance.source or '?'!r} has other topology than the template "
+                f"{rig.provenance.source or '?'!r}: {target.n_vertices} vertices and {target.n_triangles} "
                 f"triangles against {rig.n_vertices} and {rig.n_triangles}, or different triangles"
             )
         return target.neutral
     neutral = np.asarray(target, dtype=np.float64)
     if neutral.shape != rig.neutral.shape:
         raise HarnessError(
-            f"target_neutral has shape {neutral.shape}; the template rig {rig.meta.get('source', '?')!r} "
+            f"target_neutral has shape {neutral.shape}; the template rig {rig.provenance.source or '?'!r} "
             f"has {rig.n_vertices} vertices, so it must be {rig.neutral.shape} (same topology)"
         )
     if not np.isfinite(neutral).all():
@@ -401,7 +401,7 @@ def require_nonempty(rig: Rig, empty: np.ndarray) -> None:
     """Refuse a rig with nothing to pack."""
     if empty.all():
         raise HarnessError(
-            f"rig {rig.meta.get('source', '?')!r}: every one of its {rig.n_shapes} blendshapes is empty "
+            f"rig {rig.provenance.source or '?'!r}: every one of its {rig.n_shapes} blendshapes is empty "
             "(no displacement above the noise floor); there is nothing to pack"
         )
 

@@ -87,8 +87,8 @@ def sequence(
         raise ValueError("sequence: give either analysis or target_neutral/params, not both")
     elif analysis.rig.names != rig.names or analysis.rig.neutral.shape != rig.neutral.shape:
         raise ValueError(
-            f"sequence: the analysis was made for rig {analysis.rig.meta.get('source', '?')!r}, "
-            f"not for {rig.meta.get('source', '?')!r}"
+            f"sequence: the analysis was made for rig {analysis.rig.provenance.source or '?'!r}, "
+            f"not for {rig.provenance.source or '?'!r}"
         )
     if jmax is not None and (isinstance(jmax, bool) or not isinstance(jmax, int) or jmax < 0):
         raise ValueError(f"jmax must be a non-negative integer or None, got {jmax!r}")

@@ -1,5 +1,6 @@
-"""Blendshape rigs: the `Rig` value, loaders and writers, the procedural generator, warps, mirror map and
-left/right names, the registry of rig formats, the frontal camera of a face, atomic file writes.
+"""Blendshape rigs: the `Rig` value and its records (provenance, surface, load report, truth), loaders and
+writers, the procedural generator, warps, mirror map and left/right names, the registry of rig formats, the
+frontal camera of a face, atomic file writes.
 
 Names are attached lazily (lazy_loader): ``import rigs`` costs nothing until a name is used, so that
 listing plugins and presets does not import SciPy's spatial or sparse modules.
@@ -24,6 +25,19 @@ if TYPE_CHECKING:
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
     from rigs._obj import decimal_step, parse_obj
     from rigs._obj_surface import ObjSurface, plain_surface, read_surface, rig_surface
+    from rigs._provenance import (
+        BaseMesh,
+        CharacterRecord,
+        GeneratorSettings,
+        LoadReport,
+        NoiseFloor,
+        Provenance,
+        ShapeChange,
+        Surface,
+        Truth,
+        WarpRecord,
+        Weld,
+    )
     from rigs._regions import read_regions, regions_from_mapping
     from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
     from rigs._safe import read_json
@@ -46,6 +60,19 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_gltf_write": ["glb_bytes"],
         "_obj": ["decimal_step", "parse_obj"],
         "_obj_surface": ["ObjSurface", "plain_surface", "read_surface", "rig_surface"],
+        "_provenance": [
+            "BaseMesh",
+            "CharacterRecord",
+            "GeneratorSettings",
+            "LoadReport",
+            "NoiseFloor",
+            "Provenance",
+            "ShapeChange",
+            "Surface",
+            "Truth",
+            "WarpRecord",
+            "Weld",
+        ],
         "_regions": ["read_regions", "regions_from_mapping"],
         "_safe": ["read_json"],
         "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],

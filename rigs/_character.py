@@ -20,8 +20,8 @@ Only displacements change: the neutral, the triangles and the names stay, and a 
 in a shape still does not (every change multiplies or turns a displacement). A shape whose changed mesh
 would fold (a triangle turning by more than 75 degrees) gets its changes halved until it does not.
 Everything is drawn from ``numpy.random.default_rng`` seeded by the step's seed, the rig's generator
-preset and seed (from ``rig.meta``) and each shape's name, so the same rig and step give the same target
-bit for bit, whatever the order of the shapes.
+preset and seed (``rig.provenance.generator``) and each shape's name, so the same rig and step give the
+same target bit for bit, whatever the order of the shapes.
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ import numpy as np
 
 from registry import HarnessError
 from rigs._face_mesh import LANDMARK_REGIONS, region_centre
+from rigs._provenance import CharacterRecord, GeneratorSettings, ShapeChange
 from rigs._rig import Rig, RigError
 
 #: Face regions of the gain and angle fields: three bands from brow to chin, each on both sides.
@@ -87,7 +88,7 @@ class Character:
     --------
     >>> import rigs
     >>> target = rigs.warp(rigs.generate("tiny"), "alien+character")
-    >>> sorted(target.meta["character"]["traits"])
+    >>> sorted(target.provenance.character.traits)
     ['asymmetry', 'brow_range', 'jaw_weight', 'smile_width']
     """
 
@@ -123,10 +124,11 @@ class Character:
         Returns
         -------
         Rig
-            ``meta["character"]`` holds the parameters, the actor's ``traits``, the ``regions`` and per
-            shape the changes applied: ``log_gains`` and ``angles`` (degrees, one per region), the turning
-            ``axis``, the per-axis trait ``scale`` and the ``damping`` (1 unless the full change would
-            fold a triangle): the ground truth of how the target differs.
+            ``provenance.character`` (`rigs.CharacterRecord`) holds the parameters, the actor's
+            ``traits``, the ``regions`` and per shape the changes applied (`rigs.ShapeChange`):
+            ``log_gains`` and ``angles`` (degrees, one per region), the turning ``axis``, the per-axis
+            trait ``scale`` and the ``damping`` (1 unless the full change would fold a triangle): the
+            ground truth of how the target differs.
 
         Raises
         ------
@@ -134,15 +136,13 @@ class Character:
             For a rig without triangles (the surface normals of the regions need them).
         """
         if rig.n_triangles == 0:
-            raise RigError(f"{rig.meta.get('source', 'rig')}: a character variant needs a triangle mesh")
-        generator_seed = rig.meta.get("seed")
-        if isinstance(generator_seed, bool) or not isinstance(generator_seed, int) or generator_seed < 0:
-            generator_seed = 0  # a rig that was not generated (or says nothing usable)
-        base = [self.seed, _crc(str(rig.meta.get("preset", ""))), generator_seed]
+            raise RigError(f"{rig.provenance.label}: a character variant needs a triangle mesh")
+        generator = rig.provenance.generator or GeneratorSettings(preset="", seed=0)  # (not generated)
+        base = [self.seed, _crc(generator.preset), generator.seed]
         traits = _traits(np.random.default_rng([*base, _crc("traits")]), self.strength)
         weights = region_weights(rig)
         deltas = np.array(rig.deltas, dtype=np.float64, copy=True)
-        shapes: dict[str, dict[str, Any]] = {}
+        shapes: dict[str, ShapeChange] = {}
         side = np.array(
             [traits["asymmetry"] if name.endswith("_L") else -traits["asymmetry"] for name in REGIONS]
         )
@@ -163,22 +163,19 @@ class Character:
                     if _keeps_orientation(rig, k, moving, changed):
                         break
                 deltas[k, moving] = changed
-            shapes[name] = {
-                "damping": damping,
-                "log_gains": [float(damping * value) for value in log_gains],
-                "angles": [float(damping * value) for value in angles],
-                "axis": [float(value) for value in axis],
-                "scale": [float(1.0 + damping * (value - 1.0)) for value in scale],
-            }
-        meta = dict(rig.meta)
-        meta["source"] = f"{rig.meta.get('source', 'rig')} with {self.label()}"
-        meta["character"] = {
-            **self.describe(),
-            "traits": traits,
-            "regions": list(REGIONS),
-            "shapes": shapes,
-        }
-        return replace(rig, deltas=deltas, meta=meta)
+            shapes[name] = ShapeChange(
+                damping=damping,
+                log_gains=tuple(float(damping * value) for value in log_gains),
+                angles=tuple(float(damping * value) for value in angles),
+                axis=(float(axis[0]), float(axis[1]), float(axis[2])),
+                scale=tuple(float(1.0 + damping * (value - 1.0)) for value in scale),
+            )
+        provenance = replace(
+            rig.provenance,
+            source=f"{rig.provenance.label} with {self.label()}",
+            character=CharacterRecord(self.strength, self.seed, traits, REGIONS, shapes),
+        )
+        return replace(rig, deltas=deltas, provenance=provenance)
 
 
 def region_weights(rig: Rig) -> np.ndarray:
@@ -213,11 +210,10 @@ def region_weights(rig: Rig) -> np.ndarray:
 
 
 def _landmark_height(rig: Rig, name: str) -> float | None:
-    """Height (``y``) of a landmark: ``rig.meta["landmarks"]``, else the centroid of its regions
+    """Height (``y``) of a landmark: ``rig.landmarks``, else the centroid of its regions
     (`rigs._face_mesh.LANDMARK_REGIONS`, as the warps locate centres), else None."""
-    landmarks = rig.meta.get("landmarks")
-    if isinstance(landmarks, Mapping) and name in landmarks:
-        return float(landmarks[name][1])
+    if name in rig.landmarks:
+        return rig.landmarks[name][1]
     regions = LANDMARK_REGIONS[name]
     if all(region in rig.regions and len(rig.regions[region]) for region in regions):
         return float(region_centre(rig.neutral, rig.regions, regions)[1])

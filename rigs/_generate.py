@@ -3,7 +3,7 @@
 `generate` builds a face-like, exactly mirror-symmetric surface (`rigs._face_mesh`) and evaluates a
 catalogue of local FACS/ARKit-style blendshapes on it (`rigs._shape_library`). Every component is a smooth
 bump, exactly zero outside its support, so each shape has the static, smoothing and active vertices of the
-paper's Fig. 2 (sec. 4.1). The rig's ``meta["truth"]`` says which shapes are mirror pairs (eqs. 9-10),
+paper's Fig. 2 (sec. 4.1). The rig's ``truth`` says which shapes are mirror pairs (eqs. 9-10),
 motion pairs (eqs. 11-12) and self-symmetric, so symmetry detection (sec. 4.4) can be scored.
 """
 
@@ -17,6 +17,7 @@ import numpy as np
 
 from registry import HarnessError
 from rigs._face_mesh import MOTION_REGION_PAIRS, FaceLayout, FaceMesh, build_face_mesh
+from rigs._provenance import GeneratorSettings, Provenance, Truth
 from rigs._rig import Rig
 from rigs._shape_library import JITTER, MOTIONS, Component, ShapeSpec, Site, catalogue, face_sites, select
 
@@ -142,12 +143,12 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     -------
     Rig
         Units are centimetres. ``regions`` holds the motion-symmetry sketches (``upper_lip``,
-        ``lower_lip``, ``upper_eyelid_L/R``, ``lower_eyelid_L/R``). ``meta`` holds ``source``
-        (``generated:<preset>``), ``preset``, ``seed``, ``units``, ``landmarks`` (``eye_L``, ``eye_R``,
-        ``mouth``, ``nose`` centres) and ``truth``: ``mirror_pairs`` [(left, right)] (sec. 4.4.1 pairs),
-        ``spread_mirror_images`` [(left, right)] (mirror images of a midline site moving sideways, e.g.
-        jawLeft/jawRight: they spread over both halves and are never paired), ``motion_pairs``
-        [(upper, lower)] and ``self_symmetric`` [names].
+        ``lower_lip``, ``upper_eyelid_L/R``, ``lower_eyelid_L/R``). ``landmarks`` holds the
+        ``eye_L``, ``eye_R``, ``mouth`` and ``nose`` centres; ``provenance`` the ``source``
+        (``generated:<preset>``), the ``units`` and the ``generator``'s preset and seed; ``truth``
+        (`rigs.Truth`) the ``mirror_pairs`` (sec. 4.4.1 pairs), the ``spread_mirror_images`` (mirror
+        images of a midline site moving sideways, e.g. jawLeft/jawRight: they spread over both halves and
+        are never paired), the ``motion_pairs`` (upper, lower) and the ``self_symmetric`` names.
 
     Raises
     ------
@@ -157,7 +158,7 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     Examples
     --------
     >>> rig = generate("tiny", seed=3)
-    >>> rig.n_shapes, rig.meta["units"]
+    >>> rig.n_shapes, rig.provenance.units
     (12, 'cm')
 
     Notes
@@ -212,20 +213,27 @@ def generate(preset: str | PresetSpec, seed: int = 0) -> Rig:
     mirror_pairs = [shape.names for shape in chosen if shape.is_pair and shape.names not in spread]
     self_symmetric = [shape.names[0] for shape in chosen if shape.self_symmetric]
 
-    meta = {
-        "source": f"generated:{spec.name}",
-        "preset": spec.name,
-        "seed": int(seed),
-        "units": "cm",
-        "landmarks": {name: [float(value) for value in point] for name, point in mesh.landmarks.items()},
-        "truth": {
-            "mirror_pairs": mirror_pairs,
-            "spread_mirror_images": spread,
-            "motion_pairs": motion_pairs,
-            "self_symmetric": self_symmetric,
-        },
-    }
-    return Rig(mesh.neutral, deltas, mesh.triangles, tuple(names), regions=mesh.regions, meta=meta)
+    truth = Truth(
+        mirror_pairs=tuple(tuple(pair) for pair in mirror_pairs),
+        spread_mirror_images=tuple(tuple(pair) for pair in spread),
+        motion_pairs=tuple(tuple(pair) for pair in motion_pairs),
+        self_symmetric=tuple(self_symmetric),
+    )
+    provenance = Provenance(
+        source=f"generated:{spec.name}",
+        units="cm",
+        generator=GeneratorSettings(preset=spec.name, seed=int(seed)),
+    )
+    return Rig(
+        mesh.neutral,
+        deltas,
+        mesh.triangles,
+        tuple(names),
+        regions=mesh.regions,
+        landmarks=mesh.landmarks,
+        provenance=provenance,
+        truth=truth,
+    )
 
 
 def _on_midline(shape: ShapeSpec, sites: Mapping[str, Site]) -> bool:

@@ -6,8 +6,8 @@ material (skin, teeth, eyelashes), all with the same morph targets; such primiti
 Target names come from ``primitive.extras.targetNames`` when present, else ``mesh.extras.targetNames``
 (the de-facto convention of Blender and most exporters), else ``target_<i>``. What the mesh holds besides
 positions, its texture coordinates (``TEXCOORD_0``), normals (``NORMAL``) and each primitive's material, is
-kept in ``meta["gltf_surface"]`` (`rigs._gltf_surface.GltfSurface`), so that the rig can be written out
-with them. Every other mesh (eyes, teeth) is named in a `RigWarning`.
+kept as the rig's ``surface`` (`rigs.Surface` of a `rigs._gltf_surface.GltfSurface`), so that the rig can be
+written out with them. Every other mesh (eyes, teeth) is named in a `RigWarning`.
 
 The file is untrusted: the document and its node hierarchy are read with every field checked
 (:mod:`rigs._gltf_document`), buffers only from the GLB binary chunk, valid ``data:`` URIs or regular files
@@ -19,6 +19,7 @@ describe (:func:`rigs._safe.check_budget`).
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ from rigs._gltf_document import (
 )
 from rigs._gltf_surface import appearance, surface_of
 from rigs._gltf_weld import collapsed, weld_seams
+from rigs._provenance import Provenance, Surface, Weld
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import check_budget
 
@@ -87,10 +89,10 @@ def load_gltf(
 
     Returns
     -------
-    Rig with ``meta["units"] = "m"`` (glTF's unit), ``meta["format"] = "gltf"``, ``meta["primitives"]``
-    (the primitive indices read), ``meta["gltf_surface"]`` (a `GltfSurface`) when a primitive has texture
-    coordinates, normals or a material, and, after welding,
-    ``meta["weld"] = {"merged": count, "vertex_map": (V,) rig vertex of each glTF vertex}``.
+    Rig whose ``provenance`` (`rigs.Provenance`) says ``units = "m"`` (glTF's unit), ``format = "gltf"``,
+    the ``mesh`` and the ``primitives`` read, the ``transform`` applied and, after welding, the ``weld``
+    (`rigs.Weld`: the count merged and the rig vertex of each glTF vertex); its ``surface`` holds a
+    `GltfSurface` when a primitive has texture coordinates, normals or a material.
 
     Raises
     ------
@@ -152,13 +154,13 @@ def load_gltf(
         for j, label, count in zip(members, labels, counts, strict=True)
     ]
 
-    meta: dict = {
-        "source": source,
-        "format": "gltf",
-        "units": "m",
-        "mesh": str(chosen_mesh.get("name") or mesh_index),
-        "primitives": members,
-    }
+    provenance = Provenance(
+        source=source,
+        format="gltf",
+        units="m",
+        mesh=str(chosen_mesh.get("name") or mesh_index),
+        primitives=tuple(members),
+    )
     surface = surface_of(document, looks, counts, [len(part[2]) for part in parts], triangles)
     parents = node_parents(document, source)
     if transform:
@@ -167,18 +169,23 @@ def load_gltf(
             with np.errstate(over="ignore", invalid="ignore"):  # (overflowing positions: `Rig` refuses them)
                 neutral = neutral @ matrix[:3, :3].T + matrix[:3, 3]
                 deltas = deltas @ matrix[:3, :3].T
-            meta["transform"] = f"world matrix of node {node_name!r}"
+            provenance = replace(provenance, transform=f"world matrix of node {node_name!r}")
             if surface is not None:
                 surface = surface.transformed(matrix[:3, :3])
     if weld:
         corners = triangles
         neutral, deltas, triangles, vertex_map = weld_seams(neutral, deltas, triangles, weld_tolerance)
-        meta["weld"] = {"merged": int(len(vertex_map) - len(neutral)), "vertex_map": vertex_map}
+        provenance = replace(provenance, weld=Weld(int(len(vertex_map) - len(neutral)), vertex_map))
         if surface is not None:
             surface = surface.welded(vertex_map, ~collapsed(vertex_map[corners]))
-    if surface is not None:
-        meta["gltf_surface"] = surface
-    return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=names, meta=meta)
+    return Rig(
+        neutral=neutral,
+        deltas=deltas,
+        triangles=triangles,
+        names=names,
+        provenance=provenance,
+        surface=None if surface is None else Surface(gltf=surface),
+    )
 
 
 def _label(source: str, mesh: dict, mesh_index: int) -> str:

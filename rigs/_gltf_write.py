@@ -24,7 +24,7 @@ def glb_bytes(rig: Rig, *, mesh_name: str = "face") -> bytes:
         import pygltflib as gl
     except ImportError:
         raise RigError(
-            f"{rig.meta.get('source', 'rig')}: writing glTF needs pygltflib "
+            f"{rig.provenance.label}: writing glTF needs pygltflib "
             "(pip install 'expression-packing-harness[gltf]')"
         ) from None
     arrays = [np.asarray(rig.neutral, dtype=np.float32)]

@@ -8,8 +8,8 @@ doubts is named in a `RigWarning`.
 
 Interchange formats are cleaned the same way after reading: displacements shorter than a relative
 noise floor are zeroed (Carrigan et al. 2020, sec. 4.1, needs empty shapes to be truly empty), and the
-report lands in ``meta``: ``meta["noise"]`` (floor and zeroed counts per shape), ``meta["empty_shapes"]``
-(kept, never dropped) and ``meta["degenerate_triangles"]`` (reported, not fatal).
+rig's ``load_report`` (`rigs.LoadReport`) says what was found: the ``noise`` zeroed (floor and counts per
+shape), the ``empty_shapes`` (kept, never dropped), the ``degenerate_triangles`` (reported, not fatal).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ import numpy as np
 
 from rigs._formats import detect_format, format_for_writing, rig_format
 from rigs._inputs import RigInputs, recording
+from rigs._provenance import LoadReport, NoiseFloor
 from rigs._rig import Rig, RigError, RigWarning, vector_lengths
 
 DEFAULT_NOISE_FLOOR = 1e-6
@@ -72,7 +73,7 @@ def load(
         Displacements shorter than ``noise_floor`` times the neutral's bounding-box diagonal are zeroed.
         Default ``1e-6`` for interchange formats; ``.npz`` files are loaded verbatim unless it is given.
     units : str, optional
-        Length unit recorded in ``meta["units"]``, overriding what the file says (OBJ and ``.npz`` say
+        Length unit recorded in ``provenance.units``, overriding what the file says (OBJ and ``.npz`` say
         nothing; glTF says metres; manifests may say).
     **options
         Format options. ``obj-folder``: ``neutral`` (file name, default ``neutral.obj``).
@@ -84,8 +85,8 @@ def load(
 
     Returns
     -------
-    Rig, with ``meta["source"]``, ``meta["format"]``, ``meta["units"]`` where known, and the noise,
-    empty-shape and degenerate-triangle report.
+    Rig, with the ``source``, ``format`` and ``units`` (where known) in its ``provenance`` and the
+    `rigs.LoadReport` of `with_report` in its ``load_report``.
 
     Raises
     ------
@@ -121,18 +122,18 @@ def load(
     if noise_floor < 0:
         raise RigError(f"{path}: noise_floor must be >= 0, got {noise_floor}")
     if units is not None:
-        rig = replace(rig, meta={**rig.meta, "units": units})
+        rig = replace(rig, provenance=replace(rig.provenance, units=units))
     return with_report(rig, noise_floor, origin=str(path))
 
 
 def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: str = "") -> Rig:
-    """``rig`` with sub-floor displacements zeroed and the load report in ``meta``.
+    """``rig`` with sub-floor displacements zeroed and its ``load_report``.
 
     Parameters
     ----------
     rig : Rig
     noise_floor : float
-        Relative to the neutral's bounding-box diagonal; 0 zeroes nothing. When ``meta["decimal_step"]``
+        Relative to the neutral's bounding-box diagonal; 0 zeroes nothing. When ``provenance.decimal_step``
         says the file rounded its coordinates (OBJ written with fixed decimals), the floor is at least
         `ROUNDING_STEPS` such steps, since absolute positions differenced into deltas carry that error.
     origin : str
@@ -140,10 +141,11 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
 
     Returns
     -------
-    Rig whose ``meta`` gains ``noise`` (``relative_floor``, absolute ``floor``, ``rounding_step``,
-    ``zeroed`` per shape), ``empty_shapes`` (names with no displacement left), ``degenerate_triangles``
-    (count), ``identical_shapes`` (groups of names whose displacements are equal at every vertex) and
-    ``case_twins`` (groups of names equal up to case).
+    Rig whose ``load_report`` (`rigs.LoadReport`) holds the ``noise`` (`rigs.NoiseFloor`: relative and
+    absolute floor, rounding step, zeroed count per shape), the ``empty_shapes`` (names with no
+    displacement left), the ``degenerate_triangles`` (count), the ``identical_shapes`` (groups of names
+    whose displacements are equal at every vertex) and the ``case_twins`` (groups of names equal up to
+    case).
 
     Warns
     -----
@@ -158,7 +160,7 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
     O(K N); two passes over the deltas.
     """
 
-    step = float(rig.meta.get("decimal_step", 0.0) or 0.0)
+    step = rig.provenance.decimal_step
     floor = max(noise_floor * rig.diagonal(), ROUNDING_STEPS * step) if noise_floor > 0 else 0.0
     deltas = rig.deltas
     zeroed: dict[str, int] = {}
@@ -170,18 +172,14 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             deltas = np.where(noise[:, :, None], 0.0, deltas)
             zeroed = {rig.names[k]: int(counts[k]) for k in np.flatnonzero(counts)}
     empty = ~deltas.reshape(rig.n_shapes, -1).any(axis=1) if rig.n_shapes else np.zeros(0, dtype=bool)
-    meta = dict(rig.meta)
-    meta["noise"] = {
-        "relative_floor": float(noise_floor),
-        "floor": float(floor),
-        "rounding_step": step,
-        "zeroed": zeroed,
-    }
-    meta["empty_shapes"] = [rig.names[k] for k in np.flatnonzero(empty)]
-    meta["degenerate_triangles"] = int(len(rig.degenerate_triangles()))
-    meta["identical_shapes"] = _identical_shapes(deltas, rig.names, empty)
-    meta["case_twins"] = _case_twins(rig.names)
-    label = origin or str(rig.meta.get("source", "rig"))
+    report = LoadReport(
+        noise=NoiseFloor(float(noise_floor), float(floor), float(step), zeroed),
+        empty_shapes=tuple(rig.names[k] for k in np.flatnonzero(empty)),
+        degenerate_triangles=int(len(rig.degenerate_triangles())),
+        identical_shapes=_identical_shapes(deltas, rig.names, empty),
+        case_twins=_case_twins(rig.names),
+    )
+    label = origin or rig.provenance.label
     problem = _surface_problem(rig)
     if problem:
         warnings.warn(
@@ -189,19 +187,19 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             RigWarning,
             stacklevel=3,
         )
-    for group in meta["identical_shapes"]:
+    for group in report.identical_shapes:
         warnings.warn(
             f"{label}: shapes {', '.join(group)} are identical (the same displacement at every vertex)",
             RigWarning,
             stacklevel=3,
         )
-    for group in meta["case_twins"]:
+    for group in report.case_twins:
         warnings.warn(
             f"{label}: shape names {', '.join(group)} differ only in case (a duplicate export?)",
             RigWarning,
             stacklevel=3,
         )
-    return replace(rig, deltas=deltas, meta=meta)
+    return replace(rig, deltas=deltas, load_report=report)
 
 
 #: Every this many vertices, one is compared first when looking for identical shapes.
@@ -220,7 +218,9 @@ def _surface_problem(rig: Rig) -> str:
     return ""
 
 
-def _identical_shapes(deltas: np.ndarray, names: tuple[str, ...], empty: np.ndarray) -> list[list[str]]:
+def _identical_shapes(
+    deltas: np.ndarray, names: tuple[str, ...], empty: np.ndarray
+) -> tuple[tuple[str, ...], ...]:
     """Groups of two or more non-empty shapes whose displacements are bitwise equal, in rig order.
 
     Shapes are first told apart by a sample of their vertices (`_SAMPLE_STRIDE`), and only those alike
@@ -236,15 +236,15 @@ def _identical_shapes(deltas: np.ndarray, names: tuple[str, ...], empty: np.ndar
         for k in members:
             digest = hashlib.blake2b(np.ascontiguousarray(deltas[k]).data).digest()
             groups.setdefault(digest, []).append(names[k])
-    return [group for group in groups.values() if len(group) > 1]
+    return tuple(tuple(group) for group in groups.values() if len(group) > 1)
 
 
-def _case_twins(names: tuple[str, ...]) -> list[list[str]]:
+def _case_twins(names: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
     """Groups of two or more names equal up to case, in rig order."""
     groups: dict[str, list[str]] = {}
     for name in names:
         groups.setdefault(name.casefold(), []).append(name)
-    return [group for group in groups.values() if len(group) > 1]
+    return tuple(tuple(group) for group in groups.values() if len(group) > 1)
 
 
 def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:

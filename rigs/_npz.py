@@ -2,8 +2,8 @@
 
 The archive holds exactly the keys ``neutral`` (N, 3) float64, ``deltas`` (K, N, 3) float64,
 ``triangles`` (T, 3) int64, ``names`` (K,) unicode, and ``region__<name>`` (int64 vertex indices) for
-each region. Nothing else is stored: ``faces`` (original polygons) and ``meta`` do not survive; every
-array does, bit for bit.
+each region. Nothing else is stored: ``faces`` (original polygons), ``landmarks`` and the records
+(``provenance``, ``surface``, ``truth``) do not survive; every array does, bit for bit.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs._atomic import atomic_write
+from rigs._provenance import Provenance
 from rigs._rig import Rig, RigError
 from rigs._safe import read_bytes
 from rigs._safe_npz import NpzArchive
@@ -52,7 +53,7 @@ def load_npz(path: str | Path) -> Rig:
 
     Returns
     -------
-    Rig with ``meta = {"source": str(path), "format": "npz"}``.
+    Rig with ``provenance = Provenance(source=str(path), format="npz")``.
 
     Raises
     ------
@@ -100,5 +101,5 @@ def load_npz(path: str | Path) -> Rig:
         triangles=arrays["triangles"],
         names=tuple(str(name) for name in names.tolist()),
         regions=regions,
-        meta={"source": str(path), "format": "npz"},
+        provenance=Provenance(source=str(path), format="npz"),
     )

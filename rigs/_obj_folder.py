@@ -20,6 +20,7 @@ import numpy as np
 from rigs._arrow_lines import triangle_lines, vertex_lines
 from rigs._obj import ObjMesh, decimal_step, read_obj
 from rigs._obj_faces import first_difference
+from rigs._provenance import Provenance, Surface
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import UnreadableFile, check_budget, named_path, read_text, regular_file, rig_entries
 from rigs._triangulate import faces_are_triangles, triangulate
@@ -53,10 +54,10 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
     Returns
     -------
     Rig with ``deltas[k] = shape_k - neutral`` (Carrigan et al. 2020, sec. 3), the polygons kept in
-    ``faces`` when any is not a triangle, and ``meta["source"]``, ``meta["format"] = "obj-folder"``,
-    ``meta["units"]`` from ``rig.json`` or ``"unknown"`` (OBJ does not say), and
-    ``meta["decimal_step"]``, the coarsest rounding step of the files' coordinates (`decimal_step`; 0
-    when they are not written with a fixed number of decimals), which the noise floor respects.
+    ``faces`` when any is not a triangle, the neutral OBJ as its ``surface``, and a ``provenance`` with the
+    ``source``, ``format = "obj-folder"``, the ``units`` from ``rig.json`` or ``"unknown"`` (OBJ does not
+    say), and the ``decimal_step``, the coarsest rounding step of the files' coordinates (`decimal_step`;
+    0 when they are not written with a fixed number of decimals), which the noise floor respects.
 
     Raises
     ------
@@ -116,9 +117,9 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         np.subtract(shape.vertices, base.vertices, out=deltas[k])
         step = max(step, decimal_step(shape.vertices))
 
-    meta = {"source": str(folder), "format": "obj-folder", "neutral": neutral_path.name}
-    meta["units"] = manifest.get("units", "unknown")
-    meta["decimal_step"] = step
+    provenance = Provenance(
+        source=str(folder), format="obj-folder", units=manifest.get("units", "unknown"), decimal_step=step
+    )
     return Rig(
         neutral=base.vertices,
         deltas=deltas,
@@ -126,7 +127,8 @@ def load_obj_folder(folder: str | Path, *, neutral: str | Path | None = None) ->
         names=tuple(shape_paths),
         regions=dict(manifest.get("regions", {})),
         faces=None if faces_are_triangles(base.faces) else base.faces,
-        meta=meta,
+        provenance=provenance,
+        surface=Surface(obj=neutral_path, folder=None if outside else folder),
     )
 
 
@@ -381,7 +383,7 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
             raise RigError(f"{folder}: already holds other OBJ files ({listed}); choose an empty folder")
     folder.mkdir(parents=True, exist_ok=True)
     face_text = polygon_lines(rig.faces if rig.faces is not None else rig.triangles)
-    source = rig.meta.get("source", "rig")
+    source = rig.provenance.label
     (folder / "neutral.obj").write_bytes(
         f"# neutral of {source}\n".encode() + vertex_lines(rig.neutral) + face_text
     )
@@ -393,7 +395,7 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
         "neutral": "neutral.obj",
         "shapes": list(rig.names),
         "regions": {name: indices.tolist() for name, indices in rig.regions.items()},
-        "units": rig.meta.get("units", "unknown"),
+        "units": rig.provenance.units or "unknown",
     }
     (folder / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return folder

@@ -273,19 +273,14 @@ def coordinate_block(vertices: np.ndarray, *, step: float = 0.0, single: bool = 
 def rig_surface(rig: Rig) -> ObjSurface | None:
     """The OBJ a rig's vertices come from, when it is known and still matches them, else None.
 
-    ``meta["surface"]`` names it (the Face Units rig keeps its cropped base mesh there); a rig read from
-    a folder of OBJs has its neutral OBJ. The file must have the rig's vertex count and its positions
-    must be the rig's neutral (up to the file's rounding), so that writing the rig's positions into it
-    keeps every other line right.
+    The rig's `rigs.Surface` names it (``surface.obj``): a rig read from a folder of OBJs has its neutral
+    OBJ, the Face Units rig its cropped base mesh. The file must have the rig's vertex count and its
+    positions must be the rig's neutral (up to the file's rounding), so that writing the rig's positions
+    into it keeps every other line right.
     """
-    meta = rig.meta
-    if meta.get("surface"):
-        path, root = Path(meta["surface"]), None
-    elif meta.get("format") == "obj-folder" and meta.get("neutral") and meta.get("source"):
-        root = Path(meta["source"])
-        path = root / meta["neutral"]
-    else:
+    if rig.surface is None or rig.surface.obj is None:
         return None
+    path, root = rig.surface.obj, rig.surface.folder
     if not path.is_file():
         return None
     surface = read_surface(path, root=root)
@@ -293,7 +288,7 @@ def rig_surface(rig: Rig) -> ObjSurface | None:
         return None
     vertex_text = "\n".join(surface.lines[i] for i in surface.vertex_rows)
     positions = parse_obj(vertex_text, str(path), with_faces=False).vertices  # (raises, naming the line)
-    tolerance = max(float(meta.get("decimal_step", 0.0) or 0.0), 1e-6 * rig.diagonal())
+    tolerance = max(rig.provenance.decimal_step, 1e-6 * rig.diagonal())
     return surface if np.abs(positions - rig.neutral).max() <= tolerance else None
 
 
@@ -302,5 +297,5 @@ def plain_surface(rig: Rig) -> ObjSurface:
     triangles), for rigs that do not come from an OBJ."""
     faces = rig.faces if rig.faces is not None else rig.triangles
     lines = ["v 0 0 0"] * rig.n_vertices + polygon_lines(faces).decode("ascii").splitlines()
-    source = str(rig.meta.get("source", "rig"))
+    source = rig.provenance.label
     return ObjSurface(tuple(lines), np.arange(rig.n_vertices), ("",) * rig.n_vertices, source)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from registry import HarnessError
+from rigs._provenance import LoadReport, Provenance, Surface, Truth
 
 
 class RigError(HarnessError):
@@ -148,6 +149,37 @@ def _check_displacements(deltas: np.ndarray, names: tuple[str, ...], source: str
         )
 
 
+#: The record fields of a `Rig` and the type each must have (None allowed where the field is optional).
+_RECORDS: tuple[tuple[str, type, bool], ...] = (
+    ("provenance", Provenance, False),
+    ("surface", Surface, True),
+    ("load_report", LoadReport, True),
+    ("truth", Truth, True),
+)
+
+
+def _check_records(rig: Rig, source: str) -> None:
+    """Raise `RigError` for a record field of the wrong type (say, a plain dict), naming the field."""
+    for name, kind, optional in _RECORDS:
+        value = getattr(rig, name)
+        if not (isinstance(value, kind) or (optional and value is None)):
+            allowed = f"a {kind.__name__}" + (" or None" if optional else "")
+            raise RigError(f"{source}: {name} must be {allowed}, got {type(value).__name__}")
+
+
+def _landmarks(landmarks: Mapping[str, Any], source: str) -> dict[str, tuple[float, float, float]]:
+    """Each landmark as a tuple of three finite floats, refusing any other point."""
+    points: dict[str, tuple[float, float, float]] = {}
+    for name, point in dict(landmarks).items():
+        array = _real_array(point, f"landmark {name!r}", source)
+        if array.shape != (3,):
+            raise RigError(f"{source}: landmark {name!r} must have shape (3,), got {array.shape}")
+        if not np.isfinite(array).all():
+            raise RigError(f"{source}: landmark {name!r} has a non-finite coordinate")
+        points[str(name)] = (float(array[0]), float(array[1]), float(array[2]))
+    return points
+
+
 @dataclass(frozen=True, eq=False)
 class Rig:
     """A blendshape rig: neutral mesh, K delta blendshapes, triangles and optional vertex regions.
@@ -170,8 +202,19 @@ class Rig:
     faces : sequence of int arrays, optional
         The original polygons (quads, n-gons) as loaded, kept for OBJ export. ``None`` means the
         triangles are the faces.
-    meta : mapping, optional
-        Free-form provenance: ``source``, ``units``, generator ``truth``, load reports.
+    landmarks : mapping str -> (x, y, z), optional
+        Named points of the neutral (``eye_L``, ``eye_R``, ``mouth``, ``nose`` of a generated rig), which
+        warps locate their centres by; a warp moves them with the mesh.
+    provenance : Provenance, optional
+        Where the rig came from and how it was read or made (source, format, units, ...).
+    surface : Surface, optional
+        The mesh to draw besides the positions (texture coordinates, normals, materials), when the file
+        held one.
+    load_report : LoadReport, optional
+        What cleaning the rig on load found (noise zeroed, empty and identical shapes, ...); None for a
+        rig not cleaned by `rigs.load`.
+    truth : Truth, optional
+        The symmetry a generated rig was built with (its mirror and motion pairs).
 
     Raises
     ------
@@ -186,10 +229,15 @@ class Rig:
     names: tuple[str, ...]
     regions: Mapping[str, np.ndarray] = field(default_factory=dict)
     faces: tuple[np.ndarray, ...] | None = None
-    meta: Mapping[str, Any] = field(default_factory=dict)
+    landmarks: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
+    provenance: Provenance = field(default_factory=Provenance)
+    surface: Surface | None = None
+    load_report: LoadReport | None = None
+    truth: Truth | None = None
 
     def __post_init__(self) -> None:
-        source = self.meta.get("source", "rig") if isinstance(self.meta, Mapping) else "rig"
+        source = self.provenance.label if isinstance(self.provenance, Provenance) else "rig"
+        _check_records(self, source)
         neutral = _real_array(self.neutral, "neutral", source)
         if neutral.ndim != 2 or neutral.shape[1] != 3:
             raise RigError(f"{source}: neutral must have shape (N, 3), got {neutral.shape}")
@@ -271,7 +319,7 @@ class Rig:
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "regions", regions)
         object.__setattr__(self, "faces", faces)
-        object.__setattr__(self, "meta", dict(self.meta))
+        object.__setattr__(self, "landmarks", _landmarks(self.landmarks, source))
 
     # -- sizes -------------------------------------------------------------------------------------------
     @property
@@ -299,7 +347,7 @@ class Rig:
 
             close = difflib.get_close_matches(name, self.names, n=3)
             hint = f" (did you mean {', '.join(close)}?)" if close else ""
-            raise RigError(f"{self.meta.get('source', 'rig')}: no blendshape named {name!r}{hint}") from None
+            raise RigError(f"{self.provenance.label}: no blendshape named {name!r}{hint}") from None
 
     def indices(self, names: Sequence[str]) -> np.ndarray:
         """Positions of several blendshapes, in the given order."""
@@ -338,5 +386,5 @@ class Rig:
     def __repr__(self) -> str:
         return (
             f"Rig(N={self.n_vertices}, K={self.n_shapes}, T={self.n_triangles}, "
-            f"regions={sorted(self.regions)}, source={self.meta.get('source', '?')!r})"
+            f"regions={sorted(self.regions)}, source={self.provenance.source or '?'!r})"
         )

@@ -31,6 +31,7 @@ from scipy.sparse import csr_matrix
 
 from rigs._obj import DECIMAL, ObjMesh, parse_obj, read_obj
 from rigs._obj_folder import MANIFEST_LIMIT
+from rigs._provenance import BaseMesh, Provenance
 from rigs._rig import LARGEST_COORDINATE, Rig, RigError
 from rigs._safe import (
     check_budget,
@@ -230,14 +231,15 @@ def assemble(
     targets : sequence of (name, label, text)
         Blendshape name, the file's label for messages, and its content.
     source : str
-        Recorded as ``meta["source"]``.
+        Recorded as ``provenance.source``.
     base_label : str
-        The base mesh's file, recorded as ``meta["base"]``.
+        The base mesh's file, recorded with its vertex count and the base vertex of each rig vertex as
+        ``provenance.base`` (`rigs.BaseMesh`).
     crop_rings : int, optional
         Keep only the vertices some target moves plus this many face rings (see :func:`crop`);
         ``None`` keeps the whole base mesh.
     units : str, optional
-        Recorded as ``meta["units"]``.
+        Recorded as ``provenance.units``.
     group_regions : mapping, optional
         OBJ group name -> region name; each becomes a region (its vertices that survive cropping).
 
@@ -284,15 +286,13 @@ def assemble(
         if group in base.groups:
             local = renumber[base.group_vertices(group)]
             regions[region] = local[local >= 0]
-    meta = {
-        "source": source,
-        "format": "makehuman-target",
-        "base": base_label,
-        "units": units or "unknown",
-        "base_vertices": n_base,
-        "base_vertex_ids": kept,
-        "crop_rings": crop_rings,
-    }
+    provenance = Provenance(
+        source=source,
+        format="makehuman-target",
+        units=units or "unknown",
+        base=BaseMesh(file=base_label, n_vertices=n_base, vertex_ids=kept),
+        crop_rings=crop_rings,
+    )
     return Rig(
         neutral=neutral,
         deltas=deltas,
@@ -300,7 +300,7 @@ def assemble(
         names=tuple(name for name, _, _ in targets),
         regions=regions,
         faces=None if faces_are_triangles(faces) else faces,
-        meta=meta,
+        provenance=provenance,
     )
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from rigs._provenance import Provenance
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import named_path, read_bytes, regular_file
 
@@ -69,8 +70,8 @@ def load_usd(path: str | Path, *, mesh: str | None = None) -> Rig:
 
     Returns
     -------
-    Rig with the mesh's world transform applied, ``meta["format"] = "usd"``, ``meta["mesh"]`` (its prim
-    path) and ``meta["units"]`` from the stage's ``metersPerUnit``.
+    Rig with the mesh's world transform applied, ``provenance.format = "usd"``, ``provenance.mesh`` (its
+    prim path) and ``provenance.units`` from the stage's ``metersPerUnit``.
 
     Raises
     ------
@@ -153,19 +154,19 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
     from rigs._triangulate import faces_are_triangles, triangulate
 
     meters = float(UsdGeom.GetStageMetersPerUnit(stage))
-    meta = {
-        "source": source,
-        "format": "usd",
-        "mesh": str(prim.GetPath()),
-        "units": next((unit for value, unit in _UNITS.items() if np.isclose(value, meters)), f"{meters:g} m"),
-    }
+    provenance = Provenance(
+        source=source,
+        format="usd",
+        mesh=str(prim.GetPath()),
+        units=next((unit for value, unit in _UNITS.items() if np.isclose(value, meters)), f"{meters:g} m"),
+    )
     return Rig(
         neutral=neutral,
         deltas=deltas,
         triangles=triangulate(faces, neutral),
         names=tuple(str(name) for name in names),
         faces=None if faces_are_triangles(faces) else faces,
-        meta=meta,
+        provenance=provenance,
     )
 
 
@@ -207,7 +208,7 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
     """Write ``rig`` as a USD stage: ``/Rig`` (a ``SkelRoot``) holding the mesh ``/Rig/Face`` with one
     ``BlendShape`` child per shape (``offsets`` and ``pointIndices`` of its moved vertices only) bound by
     ``skel:blendShapes`` (the names) and ``skel:blendShapeTargets``. ``.usda`` is text, ``.usd`` and
-    ``.usdc`` binary; Y is up and ``metersPerUnit`` follows ``meta["units"]`` when known. Positions and
+    ``.usdc`` binary; Y is up and ``metersPerUnit`` follows ``provenance.units`` when known. Positions and
     offsets are float32, as the schema stores them.
 
     Raises
@@ -223,8 +224,8 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
         raise RigError(f"{path}: cannot create a USD stage there")
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     units = {unit: value for value, unit in _UNITS.items()}
-    if rig.meta.get("units") in units:
-        UsdGeom.SetStageMetersPerUnit(stage, units[rig.meta["units"]])
+    if rig.provenance.units in units:
+        UsdGeom.SetStageMetersPerUnit(stage, units[rig.provenance.units])
     root = UsdSkel.Root.Define(stage, "/Rig")
     stage.SetDefaultPrim(root.GetPrim())
     mesh = UsdGeom.Mesh.Define(stage, "/Rig/Face")

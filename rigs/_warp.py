@@ -21,7 +21,7 @@ Spec forms accepted by `warp`
 - a `Scale`, `LocalScale`, `Character` or `Compose` object.
 
 Named centres (``eye_L``, ``eye_R``, ``eyes`` = both, ``mouth``, ``nose``, or any landmark/region name) come
-from ``rig.meta["landmarks"]`` when present, else from the centroid of the rig's regions (eyelids for an
+from ``rig.landmarks`` when present, else from the centroid of the rig's regions (eyelids for an
 eye, lips for the mouth, a ``nose`` region for the nose), else from a region with the centre's name.
 
 Character-specific targets
@@ -47,6 +47,7 @@ import numpy as np
 from registry import HarnessError
 from rigs._character import Character
 from rigs._face_mesh import LANDMARK_REGIONS, region_centre
+from rigs._provenance import WarpRecord
 from rigs._rig import Rig, RigError
 
 #: Local factors keep the radial stretch ``1 + (f - 1)(g + t g')`` >= 0.35 and the map invertible
@@ -307,11 +308,10 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
     Rig
         Same triangles, names and regions; ``neutral = f(v_0)``, ``deltas[k] = f(v_0 + dv_k) - f(v_0)``
         (exactly 0 where ``dv_k`` is 0), then changed by the spec's character steps (`Character.apply`,
-        which keeps static vertices static and records its ground truth in ``meta["character"]``).
-        ``meta`` gains ``warp`` (the spec as data), its ``landmarks`` are carried along and ``source``
-        says it was warped.
-        ``meta["warp"]`` is ``{"spec": the preset or spec string (else a label such as
-        "scale:1.3,1,1+local:mouth,0.7"), "definition": the steps as a dict}``.
+        which keeps static vertices static and records its ground truth in ``provenance.character``).
+        The ``landmarks`` move with the mesh; ``provenance.warp`` (`rigs.WarpRecord`) holds the ``spec``
+        (the preset or spec string, else a label such as ``"scale:1.3,1,1+local:mouth,0.7"``) and its
+        ``definition`` (the steps as data), and ``provenance.source`` says it was warped.
 
     Raises
     ------
@@ -324,7 +324,7 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
     --------
     >>> import rigs
     >>> target = warp(rigs.generate("tiny"), "big-eyes")
-    >>> target.meta["warp"]["spec"]
+    >>> target.provenance.warp.spec
     'big-eyes'
     """
     parsed = parse_warp(spec)
@@ -334,23 +334,19 @@ def warp(rig: Rig, spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Rig:
     deltas = np.zeros_like(rig.deltas)
     deltas[shape, vertex] = mapped(rig.neutral[vertex] + rig.deltas[shape, vertex]) - neutral[vertex]
 
-    meta = dict(rig.meta)
     label = spec if isinstance(spec, str) else parsed.label()
-    meta["source"] = f"{rig.meta.get('source', 'rig')} warped by {label}"
-    meta["warp"] = {"spec": label, "definition": parsed.describe()}
-    landmarks = rig.meta.get("landmarks")
-    if isinstance(landmarks, Mapping) and landmarks:
-        names = list(landmarks)
-        moved = mapped(np.array([landmarks[name] for name in names], dtype=float))
-        meta["landmarks"] = {
-            name: [float(value) for value in point] for name, point in zip(names, moved, strict=True)
-        }
-    warped = replace(rig, neutral=neutral, deltas=deltas, meta=meta)
+    source = f"{rig.provenance.label} warped by {label}"
+    record = WarpRecord(spec=label, definition=parsed.describe())
+    landmarks = dict(rig.landmarks)
+    if landmarks:
+        landmarks = dict(zip(landmarks, mapped(np.array(list(landmarks.values()))), strict=True))
+    provenance = replace(rig.provenance, source=source, warp=record)
+    warped = replace(rig, neutral=neutral, deltas=deltas, landmarks=landmarks, provenance=provenance)
     characters = parsed.characters() if isinstance(parsed, Compose) else [parsed]
     for character in characters:
         if isinstance(character, Character):
             warped = character.apply(warped)
-    return replace(warped, meta={**warped.meta, "source": meta["source"]})
+    return replace(warped, provenance=replace(warped.provenance, source=source))
 
 
 def parse_warp(spec: str | Warp | Mapping[str, Any] | Sequence[Any]) -> Warp:
@@ -439,9 +435,8 @@ def locate(rig: Rig, center: str | tuple[float, float, float]) -> np.ndarray:
     """
     if not isinstance(center, str):
         return np.asarray(center, dtype=float)
-    landmarks = rig.meta.get("landmarks")
-    if isinstance(landmarks, Mapping) and center in landmarks:
-        return np.asarray(landmarks[center], dtype=float)
+    if center in rig.landmarks:
+        return np.asarray(rig.landmarks[center], dtype=float)
     candidates = [LANDMARK_REGIONS.get(center, (center,)), (center,)]
     for regions in candidates:
         if all(name in rig.regions and len(rig.regions[name]) for name in regions):
@@ -450,7 +445,7 @@ def locate(rig: Rig, center: str | tuple[float, float, float]) -> np.ndarray:
     if candidates[0] != candidates[1]:
         looked_for += f", nor {center!r}"
     raise RigError(
-        f"{rig.meta.get('source', 'rig')}: cannot locate {center!r} for the warp: "
-        f"no meta['landmarks'][{center!r}] and no non-empty region {looked_for}; "
+        f"{rig.provenance.label}: cannot locate {center!r} for the warp: "
+        f"no landmark {center!r} and no non-empty region {looked_for}; "
         f"give the centre as coordinates [x, y, z]"
     )

@@ -99,7 +99,7 @@ def session_constraints(
         document.update(rules=matched.applied, notes=matched.notes)
     kept = [name for name in rig.names if name not in excluded]
     if not kept:
-        raise HarnessError(f"--exclude leaves no shape of {rig.meta.get('source', 'the rig')} to pack")
+        raise HarnessError(f"--exclude leaves no shape of {rig.provenance.source or 'the rig'} to pack")
     excluded = {name: excluded[name] for name in rig.names if name in excluded}
     return SessionConstraints(
         rig.subset(kept) if excluded else rig, dict(params), excluded, document, _notes(document, excluded)

@@ -93,7 +93,7 @@ def session_files(
                 "legend": legend,
             }
         )
-    title = str(document.get("rig", rig.meta.get("source", "rig")))
+    title = str(document.get("rig", rig.provenance.label))
     yield SHEET_FILE, scan_sheet(document, cards, title=title, notes=notes)
 
 
@@ -125,4 +125,4 @@ def _glb(rig: Rig, expressions: Sequence[Mapping[str, Any]]) -> bytes:
 
     names = tuple(expression_name(index, len(expressions)) for index in range(1, len(expressions) + 1))
     posed = replace(rig, deltas=expression_poses(rig, expressions), names=names, regions={})
-    return glb_bytes(posed, mesh_name=str(rig.meta.get("mesh", "face")))
+    return glb_bytes(posed, mesh_name=rig.provenance.mesh or "face")

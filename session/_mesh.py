@@ -132,7 +132,7 @@ def session_meshes(
     if surface is None:
         surface, library = gltf_surface(rig) or (rigs.plain_surface(rig), None)
     exact = precision(rig.neutral, rig.deltas)
-    source = rig.meta.get("source", "rig")
+    source = rig.provenance.label
     yield NEUTRAL_FILE, _obj(surface, rig.neutral, exact, f"neutral of {source}")
     if library is not None:
         yield MATERIALS_FILE, library
@@ -170,7 +170,7 @@ def gltf_surface(rig: Rig) -> tuple[ObjSurface, str | None] | None:
     """
     import rigs
 
-    surface = rig.meta.get("gltf_surface")
+    surface = rig.surface.gltf if rig.surface is not None else None
     if surface is None or not _describes(surface, rig):
         return None
     materials = list(surface.materials)
@@ -187,7 +187,7 @@ def gltf_surface(rig: Rig) -> tuple[ObjSurface, str | None] | None:
     lines += ("vn %.6f %.6f %.6f\n" * len(normals) % tuple(normals.ravel().tolist())).splitlines()
     numbers = (_numbering(rows, len(surface.uvs)) for rows in (uv_rows, normal_rows))
     lines += _face_lines(surface, *numbers, [name for name, _ in materials])
-    source = str(rig.meta.get("source", "rig"))
+    source = rig.provenance.label
     rows = np.arange(first_vertex, first_vertex + rig.n_vertices)
     obj = rigs.ObjSurface(tuple(lines), rows, ("",) * rig.n_vertices, source)
     return obj, (_library(materials, source) if materials else None)

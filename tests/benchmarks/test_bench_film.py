@@ -219,7 +219,7 @@ def test_bench_film_analysis_transient(benchmark, speed_target, preset):
         tracemalloc.stop()
     share = peak / rig.deltas.nbytes
     benchmark.extra_info.update(
-        preset=rig.meta.get("preset", str(preset)),
+        preset=rig.provenance.generator.preset if rig.provenance.generator else str(preset),
         n_shapes=rig.n_shapes,
         transient_mb=round(peak / 2**20),
         deltas_mb=round(rig.deltas.nbytes / 2**20),

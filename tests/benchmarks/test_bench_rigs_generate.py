@@ -23,8 +23,8 @@ def test_bench_generate(benchmark, preset):
         n_vertices_error=(rig.n_vertices - spec.n_vertices) / spec.n_vertices,
         n_shapes=rig.n_shapes,
         mean_active_vertices=float(active.sum(axis=1).mean()),
-        mirror_pairs=len(rig.meta["truth"]["mirror_pairs"]),
-        motion_pairs=len(rig.meta["truth"]["motion_pairs"]),
+        mirror_pairs=len(rig.truth.mirror_pairs),
+        motion_pairs=len(rig.truth.motion_pairs),
     )
     assert rig.n_shapes == spec.n_shapes
 

@@ -60,7 +60,7 @@ def obj_folder(tmp_path_factory):
 def test_bench_load_obj_folder(benchmark, obj_folder):
     rig = benchmark(rigs.load, obj_folder)
     benchmark.extra_info.update(
-        n_vertices=rig.n_vertices, n_shapes=rig.n_shapes, zeroed=sum(rig.meta["noise"]["zeroed"].values())
+        n_vertices=rig.n_vertices, n_shapes=rig.n_shapes, zeroed=sum(rig.load_report.noise.zeroed.values())
     )
     assert rig.n_shapes == 24 and rig.n_triangles == 2 * 59 * 59
 
@@ -110,5 +110,5 @@ def test_bench_load_an_exported_obj_folder(benchmark, speed_target, request):
     # Displacements shorter than the noise floor (relative to the head's size) are zeroed by design, the
     # rest differ by the files' rounding (2e-6 of jitter and 1e-6 steps per coordinate).
     lengths = np.linalg.norm(loaded.deltas - rig.deltas[order], axis=-1)
-    assert lengths.max() <= loaded.meta["noise"]["floor"] + 4e-6 * np.sqrt(3)
+    assert lengths.max() <= loaded.load_report.noise.floor + 4e-6 * np.sqrt(3)
     speed_target("rigs.load of a 26.7k-vertex, 57-file OBJ export [CPU s]", min(seconds), EXPORT_CPU_SECONDS)

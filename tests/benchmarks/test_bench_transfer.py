@@ -112,9 +112,9 @@ def _run(benchmark, speed_target, limit, method, template, target, weights, exam
         peak_traced_mib=round(peak / 2**20, 1),
         ratio_to_reference=round(seconds / _reference(), 2),
     )
-    print(f"\n{method.name} on {template.meta.get('source')}: {benchmark.extra_info}")
+    print(f"\n{method.name} on {template.provenance.source}: {benchmark.extra_info}")
     assert peak <= MEMORY_LIMIT
-    speed_target(f"{method.name} on {template.meta.get('source')} [s]", seconds, limit)
+    speed_target(f"{method.name} on {template.provenance.source} [s]", seconds, limit)
     return result
 
 

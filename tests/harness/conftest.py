@@ -202,7 +202,9 @@ def make_rig(n: int = 16) -> rigs.Rig:
             delta[:, 2] = np.exp(-((distance / 0.22) ** 2)) * (0.3 + 0.05 * k)
             deltas.append(delta)
             names.append(f"bump{k}_{side}")
-    return rigs.Rig(neutral, np.array(deltas), triangles, names, meta={"source": "harness test sheet"})
+    return rigs.Rig(
+        neutral, np.array(deltas), triangles, names, provenance=rigs.Provenance(source="harness test sheet")
+    )
 
 
 @pytest.fixture(scope="session")

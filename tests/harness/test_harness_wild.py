@@ -75,9 +75,11 @@ def test_asymmetric_capture_keeps_its_mirror_pairs(tiny, tmp_path) -> None:
     # The mirror map matches reflected vertices to the mirrored surface (rigs.mirror_map with triangles), so a
     # smoothly asymmetric capture keeps the mirror pairs of the symmetric rig.
     neutral = tiny.neutral + _smooth_asymmetry(tiny.neutral, 0.02, seed=1)
-    capture = replace(tiny, neutral=neutral, regions={}, meta={})
+    capture = replace(
+        tiny, neutral=neutral, regions={}, landmarks={}, provenance=rigs.Provenance(), truth=None
+    )
     document, output = pack(rigs.save(capture, tmp_path / "capture.npz"), tmp_path / "out")
-    mirror_pairs = {frozenset(pair) for pair in tiny.meta["truth"]["mirror_pairs"]}
+    mirror_pairs = {frozenset(pair) for pair in tiny.truth.mirror_pairs}
     assert mirror_pairs and {frozenset(pair) for pair in document["pairs"]} == mirror_pairs
     assert f"{len(document['pairs'])} symmetry pairs kept together" in output
     assert sorted(n for e in document["expressions"] for n in e["shapes"]) == sorted(tiny.names)
@@ -92,7 +94,10 @@ def test_rigs_with_one_or_two_shapes(tiny, tmp_path, count) -> None:
 
 
 def test_a_warp_the_rig_file_has_no_regions_for_is_one_line_error_before_any_cell(tiny, tmp_path) -> None:
-    path = rigs.save(replace(tiny, regions={}, meta={}), tmp_path / "bare.npz")
+    path = rigs.save(
+        replace(tiny, regions={}, landmarks={}, provenance=rigs.Provenance(), truth=None),
+        tmp_path / "bare.npz",
+    )
     out = tmp_path / "run"
     result = invoke("run", "--rigs", path, "--solvers", "cpsat,greedy", "--warps", "big-eyes", "--out", out)
     assert_one_line_error(

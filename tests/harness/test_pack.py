@@ -243,7 +243,10 @@ def test_bad_constraints_are_one_line_errors(tmp_path) -> None:
 
 
 def test_regions_file_gives_motion_symmetry_to_a_rig_without_regions(tiny, tmp_path) -> None:
-    bare = rigs.save(replace(tiny, regions={}, meta={}), tmp_path / "bare.npz")
+    bare = rigs.save(
+        replace(tiny, regions={}, landmarks={}, provenance=rigs.Provenance(), truth=None),
+        tmp_path / "bare.npz",
+    )
     _, without = pack(bare, tmp_path / "without")
     regions = tmp_path / "regions.json"
     regions.write_text(json.dumps({name: indices.tolist() for name, indices in tiny.regions.items()}))

@@ -93,7 +93,7 @@ def test_rules_match_any_naming_of_the_arkit_shapes(faceunits, tmp_path) -> None
         f"blendShape1.{name[0].upper()}{name[1:-4]}_L" if name.endswith("Left") else f"head_{name}"
         for name in faceunits.names
     )
-    rig = replace(faceunits, names=renamed, meta={**faceunits.meta, "source": "renamed"})
+    rig = replace(faceunits, names=renamed, provenance=replace(faceunits.provenance, source="renamed"))
     path = rigs.save(rig, tmp_path / "renamed.npz")
     document, _ = _cli_pack(tmp_path, path, "--solver", "greedy")
     original, _ = _cli_pack(tmp_path / "original", "faceunits", "--solver", "greedy")

@@ -76,7 +76,7 @@ def faceunits_session(faceunits, tmp_path_factory) -> tuple[Path, dict, str]:
 
 def test_faceunits_session_keeps_the_source_uvs_and_faces(faceunits, faceunits_session) -> None:
     out, document, _ = faceunits_session
-    source = Path(faceunits.meta["surface"])
+    source = Path(faceunits.surface.obj)
     assert source == surface_path()
     uvs, faces = lines_of(source, "vt"), lines_of(source, "f")
     assert len(uvs) > faceunits.n_vertices and len(faces) > 1000  # the base mesh's UVs and quads

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from packing import PackingProblem, Solution, Termination
-from rigs import Rig
+from rigs import Provenance, Rig
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ def face_rig(
         triangles=triangles,
         names=tuple(bump.name for bump in bumps),
         regions=region_indices,
-        meta={"source": "face_rig"},
+        provenance=Provenance(source="face_rig"),
     )
 
 

@@ -40,7 +40,13 @@ SHAPES = {
 
 @pytest.fixture
 def square() -> Rig:
-    return Rig(SQUARE, np.array(list(SHAPES.values())), TRIANGLES, tuple(SHAPES), meta={"source": "square"})
+    return Rig(
+        SQUARE,
+        np.array(list(SHAPES.values())),
+        TRIANGLES,
+        tuple(SHAPES),
+        provenance=rigs.Provenance(source="square"),
+    )
 
 
 # Hand computation --------------------------------------------------------------------------------------
@@ -147,7 +153,13 @@ def test_target_rig_is_accepted_like_its_neutral(square):
 def test_target_with_other_topology_is_refused(square):
     with pytest.raises(ValueError, match=r"target_neutral has shape \(3, 3\).*4 vertices"):
         packing.importance(square, STRETCHED[:3])
-    other = Rig(STRETCHED, square.deltas, TRIANGLES[:, ::-1], square.names, meta={"source": "other.npz"})
+    other = Rig(
+        STRETCHED,
+        square.deltas,
+        TRIANGLES[:, ::-1],
+        square.names,
+        provenance=rigs.Provenance(source="other.npz"),
+    )
     with pytest.raises(ValueError, match="target rig 'other.npz' has other topology"):
         packing.importance(square, other)
 
@@ -189,7 +201,9 @@ def test_unknown_used_shape_is_named(square):
 
 
 def test_rig_whose_every_shape_is_empty_is_refused():
-    rig = Rig(SQUARE, np.zeros((2, 4, 3)), TRIANGLES, ("x", "y"), meta={"source": "flat.npz"})
+    rig = Rig(
+        SQUARE, np.zeros((2, 4, 3)), TRIANGLES, ("x", "y"), provenance=rigs.Provenance(source="flat.npz")
+    )
     with pytest.raises(ValueError, match="rig 'flat.npz': every one of its 2 blendshapes is empty"):
         packing.importance(rig, STRETCHED)
     with pytest.raises(ValueError, match="every one of its 2 blendshapes is empty"):

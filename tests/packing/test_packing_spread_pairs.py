@@ -38,11 +38,11 @@ def test_faceunits_never_pairs_shapes_spread_over_both_halves(faceunits):
 @pytest.mark.parametrize("preset", PRESETS)
 def test_generated_spread_images_are_refused_and_true_pairs_kept(preset):
     rig = rigs.generate(preset)
-    truth = rig.meta["truth"]
+    truth = rig.truth
     analysis = _analyse(rig, motion_symmetry=False)
-    assert {frozenset(p) for p in analysis.pairs} == {frozenset(p) for p in truth["mirror_pairs"]}
+    assert {frozenset(p) for p in analysis.pairs} == {frozenset(p) for p in truth.mirror_pairs}
     refused = {frozenset(rig.names[k] for k in pair) for pair in analysis.symmetry.overlapping}
-    assert refused == {frozenset(p) for p in truth["spread_mirror_images"]}
+    assert refused == {frozenset(p) for p in truth.spread_mirror_images}
 
 
 def test_a_larger_allowance_pairs_them_again():
@@ -56,7 +56,7 @@ def test_no_expression_of_a_generated_rig_keeps_a_spread_image_pair_together(pre
     rig = rigs.generate(preset)
     analysis = _analyse(rig)
     expressions = packing.sequence(rig, solvers.get(solver), analysis=analysis)
-    spread = [set(pair) for pair in rig.meta["truth"]["spread_mirror_images"]]
+    spread = [set(pair) for pair in rig.truth.spread_mirror_images]
     for expression in expressions:
         held = set(expression.shapes) | set(expression.extra_examples)
         assert not any(pair <= held for pair in spread), (expression.index, held)
@@ -67,7 +67,7 @@ def test_no_expression_of_a_generated_rig_keeps_a_spread_image_pair_together(pre
 def test_cancelling_twins_are_exactly_the_spread_images(preset):
     rig = rigs.generate(preset)
     found = {frozenset(c.shapes) for c in packing.cancelling_twins(rig)}
-    assert found == {frozenset(pair) for pair in rig.meta["truth"]["spread_mirror_images"]}
+    assert found == {frozenset(pair) for pair in rig.truth.spread_mirror_images}
     for cancellation in packing.cancelling_twins(rig):
         assert cancellation.ratio < packing.CANCEL_RATIO
         assert "cancel" in cancellation.message and cancellation.expression is None
@@ -97,7 +97,7 @@ def test_no_faceunits_expression_holds_a_cancelling_pair(faceunits, extra_exampl
 
 def test_pairs_are_cross_checked_against_left_right_names():
     rig = rigs.generate("male")
-    (a_left, a_right), (b_left, b_right) = rig.meta["truth"]["mirror_pairs"][:2]
+    (a_left, a_right), (b_left, b_right) = rig.truth.mirror_pairs[:2]
     names = list(rig.names)
     ia, ib = names.index(a_right), names.index(b_right)
     names[ia], names[ib] = b_right, a_right  # the right halves of two pairs swap names

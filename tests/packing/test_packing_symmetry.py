@@ -191,12 +191,12 @@ def test_unknown_parameter_is_named(face):
 @pytest.mark.parametrize("preset", ["tiny", "arkit52", "male", "toon", "female", "digidouble"])
 def test_detector_recovers_the_generated_truth(preset):
     rig = rigs.generate(preset, seed=0)
-    truth = rig.meta["truth"]
-    expected = _as_sets(truth["mirror_pairs"]) | _as_sets(truth["motion_pairs"])
+    truth = rig.truth
+    expected = _as_sets(truth.mirror_pairs) | _as_sets(truth.motion_pairs)
     found = _as_sets(packing.find_symmetry_pairs(rig))
     false = found - expected
     assert not false, f"{preset}: false pairs {sorted(map(sorted, false))}"
     recovered = len(found & expected) / max(len(expected), 1)
     assert recovered >= 0.95, f"{preset}: missed {sorted(map(sorted, expected - found))}"
     analysis = packing.analyse(rig, rig.neutral)
-    assert set(truth["self_symmetric"]) <= set(analysis.self_symmetric) | set(analysis.empty_names)
+    assert set(truth.self_symmetric) <= set(analysis.self_symmetric) | set(analysis.empty_names)

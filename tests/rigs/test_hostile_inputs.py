@@ -963,7 +963,7 @@ gltf_case(
     "sibling-lines",
     sibling_primitive(lambda p: p.update(mode=1)),
     warning=r"primitive 1: mode 1 \(LINES\) has no triangles; left out",
-    check=lambda rig: rig.n_vertices == 6 and rig.meta["primitives"] == [0],
+    check=lambda rig: rig.n_vertices == 6 and rig.provenance.primitives == (0,),
 )
 gltf_case(
     "second-mesh-with-targets",
@@ -972,7 +972,7 @@ gltf_case(
         or document["meshes"][0]["primitives"][0]["targets"].pop()
     ),
     warning=r"only one mesh is read; left out: 'Teeth' \(1 morph target\)",
-    check=lambda rig: rig.meta["mesh"] == "Face" and rig.names == ("jawOpen", "smile"),
+    check=lambda rig: rig.provenance.mesh == "Face" and rig.names == ("jawOpen", "smile"),
 )
 
 # == GLB containers ========================================================================================

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 
 import numpy as np
 import pytest
@@ -18,7 +19,11 @@ def tiny_rig() -> Rig:
     deltas = np.zeros((2, 4, 3))
     deltas[0, 3] = [0, 0, 0.2]
     return Rig(
-        neutral=NEUTRAL, deltas=deltas, triangles=TRIANGLES, names=("lift", "rest"), meta={"units": "cm"}
+        neutral=NEUTRAL,
+        deltas=deltas,
+        triangles=TRIANGLES,
+        names=("lift", "rest"),
+        provenance=rigs.Provenance(units="cm"),
     )
 
 
@@ -62,10 +67,15 @@ def test_unknown_suffix_empty_folder_and_unknown_option(tmp_path):
 
 def test_units_override_and_report(tmp_path):
     rig = rigs.load(rigs.save(tiny_rig(), tmp_path / "a.npz"), units="mm")
-    assert rig.meta["units"] == "mm"
-    assert rig.meta["empty_shapes"] == ["rest"]
-    assert rig.meta["degenerate_triangles"] == 0
-    assert rig.meta["noise"] == {"relative_floor": 0.0, "floor": 0.0, "rounding_step": 0.0, "zeroed": {}}
+    assert rig.provenance.units == "mm"
+    assert rig.load_report.empty_shapes == ("rest",)
+    assert rig.load_report.degenerate_triangles == 0
+    assert asdict(rig.load_report.noise) == {
+        "relative_floor": 0.0,
+        "floor": 0.0,
+        "rounding_step": 0.0,
+        "zeroed": {},
+    }
 
 
 def test_save_chooses_by_suffix_or_format(tmp_path):
@@ -83,4 +93,4 @@ def test_obj_folder_and_npz_agree(tmp_path):
     from_npz = rigs.load(rigs.save(rig, tmp_path / "a.npz"))
     from_objs = rigs.load(rigs.save(rig, tmp_path / "objs"))
     np.testing.assert_allclose(from_objs.deltas, from_npz.deltas, atol=1e-15)
-    assert from_objs.names == from_npz.names and from_objs.meta["units"] == "cm"
+    assert from_objs.names == from_npz.names and from_objs.provenance.units == "cm"

@@ -152,8 +152,8 @@ def test_morph_targets_round_trip_from_every_buffer_kind(tmp_path, how, name):
     np.testing.assert_array_equal(rig.deltas, target_deltas())
     np.testing.assert_array_equal(rig.triangles, TRIANGLES)
     assert rig.names == ("jawOpen", "smile", "idle")
-    assert rig.meta["units"] == "m" and rig.meta["format"] == "gltf" and rig.meta["mesh"] == "Face"
-    assert rig.meta["empty_shapes"] == ["idle"]
+    assert rig.provenance.units == "m" and rig.provenance.format == "gltf" and rig.provenance.mesh == "Face"
+    assert rig.load_report.empty_shapes == ("idle",)
 
 
 def test_sparse_targets_and_primitive_extras(tmp_path):
@@ -192,7 +192,7 @@ def test_quantised_positions_with_node_transform(tmp_path):
     rig = rigs.load(builder.save(tmp_path / "quantised.glb"))
     np.testing.assert_allclose(rig.neutral, NEUTRAL + [0, 0, 5], atol=2 / 32767)
     np.testing.assert_allclose(rig.deltas, 2 * target_deltas(), atol=1e-12)
-    assert rig.meta["transform"] == "world matrix of node '1'"
+    assert rig.provenance.transform == "world matrix of node '1'"
     local = rigs.load(tmp_path / "quantised.glb", transform=False)
     np.testing.assert_allclose(local.neutral, scaled, atol=1 / 32767)
 
@@ -217,7 +217,7 @@ def test_primitive_option_picks_within_the_mesh(tmp_path):
     ):
         rigs.load(path)
     assert rigs.load(path, primitive=0).names == ("a", "b", "c")
-    assert rigs.load(path, primitive=1).meta["mesh"] == "Face"
+    assert rigs.load(path, primitive=1).provenance.mesh == "Face"
     assert rigs.load(path, primitive=1).names == ("x", "y")
     with pytest.raises(RigError, match=r"prims\.glb: mesh 'Face' has no primitive 2"):
         rigs.load(path, mesh="Face", primitive=2)
@@ -259,7 +259,7 @@ def test_weld_option_through_load(tmp_path):
     builder = Builder()
     builder.mesh("Face", neutral, deltas, triangles)
     rig = rigs.load(builder.save(tmp_path / "seam.glb"), weld=True)
-    assert rig.n_vertices == 6 and rig.meta["weld"]["merged"] == 1
+    assert rig.n_vertices == 6 and rig.provenance.weld.merged == 1
     np.testing.assert_array_equal(rig.triangles, TRIANGLES)
     assert rigs.load(tmp_path / "seam.glb").n_vertices == 7
 
@@ -307,7 +307,7 @@ def test_texture_coordinates_normals_and_materials_are_kept(tmp_path):
     builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES, names=["jawOpen", "smile", "idle"])
     dressed(builder)
     rig = rigs.load(builder.save(tmp_path / "dressed.glb"))
-    surface = rig.meta["gltf_surface"]
+    surface = rig.surface.gltf
     assert rig.n_vertices == 9 and rig.n_triangles == 5
     np.testing.assert_array_equal(surface.corners, rig.triangles)
     np.testing.assert_array_equal(surface.vertex_map, np.arange(9))
@@ -333,7 +333,7 @@ def test_normals_follow_the_node_transform_and_survive_welding(tmp_path):
     turn = Rotation.from_euler("xyz", [30, -50, 10], degrees=True)
     builder.gltf.nodes = [Node(mesh=0, rotation=turn.as_quat().tolist(), scale=[1.0, 3.0, 0.5])]
     rig = rigs.load(builder.save(tmp_path / "turned.glb"), weld=True)
-    surface = rig.meta["gltf_surface"]
+    surface = rig.surface.gltf
     linear = turn.as_matrix() * [1.0, 3.0, 0.5]
     expected = np.vstack([NORMALS, NORMALS[[1]]]) @ np.linalg.inv(linear)
     np.testing.assert_allclose(
@@ -360,7 +360,7 @@ def test_malformed_texture_coordinates_and_materials_are_left_out_with_a_warning
     assert "TEXCOORD_0: accessor 5 has 4 elements, expected 6; TEXCOORD_0 left out" in messages
     assert "NORMAL: accessor 6 is 'VEC2'" in messages and "NORMAL left out" in messages
     assert "material 3 does not exist (the file has 0); left out" in messages
-    assert "gltf_surface" not in rig.meta
+    assert rig.surface is None
     np.testing.assert_array_equal(rig.neutral, NEUTRAL)
 
 

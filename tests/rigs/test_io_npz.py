@@ -19,7 +19,7 @@ def small_rig(n_shapes: int = 3, seed: int = 0, **changes) -> Rig:
         triangles=np.array([[0, 1, 2], [2, 3, 4], [3, 4, 5]]),
         names=tuple(f"s{k}" for k in range(n_shapes)),
         regions={"upper_lip": [0, 1], "lower_lip": [4, 5]},
-        meta={"source": "test", "units": "cm"},
+        provenance=rigs.Provenance(source="test", units="cm"),
     )
     values.update(changes)
     return Rig(**values)
@@ -45,7 +45,7 @@ def test_round_trip_is_bit_exact_with_exactly_the_documented_keys(tmp_path):
         )
     loaded = rigs.load(path)
     assert_same_arrays(loaded, rig)
-    assert loaded.meta["format"] == "npz" and loaded.meta["source"] == str(path)
+    assert loaded.provenance.format == "npz" and loaded.provenance.source == str(path)
     assert loaded.faces is None
     assert [p.name for p in tmp_path.iterdir()] == ["rig.npz"]
 
@@ -57,9 +57,9 @@ def test_npz_is_loaded_verbatim_without_noise_floor(tmp_path):
     rig = small_rig(n_shapes=2, deltas=deltas)
     loaded = rigs.load(rigs.save(rig, tmp_path / "tiny.npz"))
     assert loaded.deltas[0, 1, 0] == 1e-12
-    assert loaded.meta["empty_shapes"] == []
+    assert loaded.load_report.empty_shapes == ()
     cleaned = rigs.load(tmp_path / "tiny.npz", noise_floor=1e-6)
-    assert cleaned.meta["empty_shapes"] == ["s0"] and cleaned.meta["noise"]["zeroed"] == {"s0": 1}
+    assert cleaned.load_report.empty_shapes == ("s0",) and cleaned.load_report.noise.zeroed == {"s0": 1}
 
 
 def test_empty_rig_and_unicode_names_round_trip(tmp_path):

@@ -180,7 +180,9 @@ def test_folder_gives_deltas_names_from_stems_and_keeps_quads(tmp_path):
     np.testing.assert_allclose(rig.deltas[1, 5], [0, 0, 0.3])
     assert np.count_nonzero(rig.deltas) == 2
     assert rig.n_triangles == 12 and len(rig.faces) == 6
-    assert rig.meta["format"] == "obj-folder" and rig.meta["units"] == "unknown"
+    assert rig.provenance.format == "obj-folder" and rig.provenance.units == "unknown"
+    assert rig.surface.obj == folder / "neutral.obj" and rig.surface.folder == folder
+    assert rigs.rig_surface(rig).n_vertices == rig.n_vertices
 
 
 def test_round_trip_through_writer_keeps_order_regions_units_and_faces(tmp_path):
@@ -192,7 +194,7 @@ def test_round_trip_through_writer_keeps_order_regions_units_and_faces(tmp_path)
         names=("zeta", "alpha", "mid"),
         regions={"upper_lip": [1, 2], "lower_lip": [9]},
         faces=tuple(QUADS),
-        meta={"source": "generated", "units": "cm"},
+        provenance=rigs.Provenance(source="generated", units="cm"),
     )
     loaded = rigs.load(rigs.save(rig, tmp_path / "out"))
     assert loaded.names == rig.names
@@ -201,7 +203,7 @@ def test_round_trip_through_writer_keeps_order_regions_units_and_faces(tmp_path)
     np.testing.assert_array_equal(loaded.triangles, rig.triangles)
     assert [f.tolist() for f in loaded.faces] == [f.tolist() for f in QUADS]
     assert {k: v.tolist() for k, v in loaded.regions.items()} == {"upper_lip": [1, 2], "lower_lip": [9]}
-    assert loaded.meta["units"] == "cm"
+    assert loaded.provenance.units == "cm"
     assert rigs.load(tmp_path / "out" / "rig.json").names == rig.names
 
 
@@ -211,17 +213,17 @@ def test_noise_below_the_floor_is_zeroed_and_reported(tmp_path):
     shapes = {"jaw": moved(9, [0, -0.5, 0]) + jitter, "still": GRID + jitter}
     rig = rigs.load(write_folder(tmp_path / "noisy", shapes))
     assert np.count_nonzero(np.linalg.norm(rig.deltas[rig.index("jaw")], axis=1)) == 1
-    assert rig.meta["empty_shapes"] == ["still"]
-    assert rig.meta["noise"]["zeroed"]["still"] == 12
-    assert rig.meta["noise"]["zeroed"]["jaw"] == 11
-    assert rig.meta["noise"]["floor"] == pytest.approx(1e-6 * np.linalg.norm([3, 2, 0]))
+    assert rig.load_report.empty_shapes == ("still",)
+    assert rig.load_report.noise.zeroed["still"] == 12
+    assert rig.load_report.noise.zeroed["jaw"] == 11
+    assert rig.load_report.noise.floor == pytest.approx(1e-6 * np.linalg.norm([3, 2, 0]))
     kept = rigs.load(tmp_path / "noisy", noise_floor=0)
-    assert kept.meta["empty_shapes"] == [] and np.count_nonzero(kept.deltas[kept.index("still")]) > 0
+    assert kept.load_report.empty_shapes == () and np.count_nonzero(kept.deltas[kept.index("still")]) > 0
 
 
 def test_empty_blendshape_is_kept_and_listed(tmp_path):
     rig = rigs.load(write_folder(tmp_path / "r", {"neutralCopy": GRID, "raise": moved(0, [0, 0, 1])}))
-    assert rig.names == ("neutralCopy", "raise") and rig.meta["empty_shapes"] == ["neutralCopy"]
+    assert rig.names == ("neutralCopy", "raise") and rig.load_report.empty_shapes == ("neutralCopy",)
 
 
 def test_named_neutral_and_shapes_with_other_uv_indices_or_no_faces(tmp_path):

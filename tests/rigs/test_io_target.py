@@ -57,7 +57,7 @@ def test_folder_gives_sparse_deltas_names_from_stems_and_reports_empty(tmp_path)
     np.testing.assert_array_equal(rig.deltas[0, 25], [0, -0.25, 0])
     np.testing.assert_array_equal(rig.deltas[2, 49], [0, 0.1, 0])
     assert np.count_nonzero(np.abs(rig.deltas).sum(axis=2)) == 3
-    assert rig.meta["empty_shapes"] == ["empty"] and rig.meta["format"] == "makehuman-target"
+    assert rig.load_report.empty_shapes == ("empty",) and rig.provenance.format == "makehuman-target"
     assert len(rig.faces) == 37
 
 
@@ -66,7 +66,7 @@ def test_crop_keeps_moved_vertices_plus_face_rings(tmp_path):
     full = rigs.load(folder)
     for rings in (0, 1, 2):
         rig = rigs.load(folder, crop_rings=rings)
-        kept = rig.meta["base_vertex_ids"]
+        kept = rig.provenance.base.vertex_ids
         np.testing.assert_array_equal(rig.neutral, full.neutral[kept])
         np.testing.assert_array_equal(rig.deltas, full.deltas[:, kept])
         outside = np.setdiff1d(np.arange(full.n_vertices), kept)
@@ -74,10 +74,10 @@ def test_crop_keeps_moved_vertices_plus_face_rings(tmp_path):
         corners = np.concatenate(rig.faces) if rig.faces else np.zeros(0, dtype=int)
         assert corners.max(initial=-1) < rig.n_vertices
     # Vertices 24, 25 are neighbours in row 3 of the grid; 49 is a tooth corner.
-    assert rigs.load(folder, crop_rings=0).meta["base_vertex_ids"].tolist() == [24, 25, 49]
+    assert rigs.load(folder, crop_rings=0).provenance.base.vertex_ids.tolist() == [24, 25, 49]
     one_ring = rigs.load(folder, crop_rings=1)
     expected = sorted({x + y * SIDE for y in (2, 3, 4) for x in (2, 3, 4, 5)} | {49, 50, 51})
-    assert one_ring.meta["base_vertex_ids"].tolist() == expected
+    assert one_ring.provenance.base.vertex_ids.tolist() == expected
     assert len(one_ring.faces) == 6 + 1
 
 
@@ -117,7 +117,7 @@ def test_zip_json_and_gz_forms_give_the_same_rig(tmp_path):
         manifest = folder / "set.json"
         manifest.write_text(json.dumps({"base": "base.obj", "targets": listed, "units": "dm"}))
         loaded = rigs.load(manifest)
-        assert loaded.names == reference.names and loaded.meta["units"] == "dm"
+        assert loaded.names == reference.names and loaded.provenance.units == "dm"
         np.testing.assert_array_equal(loaded.deltas, reference.deltas)
     manifest.write_text(
         json.dumps({"base": "base.obj", "targets": {"eyeBlink": "targets/blink.target"}, "crop_rings": 0})

@@ -1,5 +1,5 @@
 """What a load notes about a rig it keeps: identical shapes, names equal up to case, a neutral that is no
-surface. Each is named in one `RigWarning` and in ``meta``."""
+surface. Each is named in one `RigWarning` and in the rig's ``load_report``."""
 
 from __future__ import annotations
 
@@ -28,13 +28,13 @@ def _load(rig: rigs.Rig, tmp_path) -> tuple[rigs.Rig, list[str]]:
 
 def test_identical_shapes_are_named(tmp_path) -> None:
     loaded, said = _load(_rig(names=("lift", "rest", "copy", "again")), tmp_path)
-    assert loaded.meta["identical_shapes"] == [["lift", "copy", "again"]]
+    assert loaded.load_report.identical_shapes == (("lift", "copy", "again"),)
     assert any("face.npz: shapes lift, copy, again are identical" in line for line in said)
 
 
 def test_names_equal_up_to_case_are_named(tmp_path) -> None:
     loaded, said = _load(_rig(names=("jawOpen", "rest", "JawOpen")), tmp_path)
-    assert loaded.meta["case_twins"] == [["jawOpen", "JawOpen"]]
+    assert loaded.load_report.case_twins == (("jawOpen", "JawOpen"),)
     assert any("shape names jawOpen, JawOpen differ only in case" in line for line in said)
 
 
@@ -54,5 +54,5 @@ def test_a_neutral_that_is_no_surface_is_noted(triangles, neutral, said, tmp_pat
 
 def test_a_plain_rig_loads_without_notes(tmp_path, recwarn) -> None:
     loaded = rigs.load(rigs.save(_rig(names=("lift", "rest")), tmp_path / "face.npz"), noise_floor=1e-6)
-    assert loaded.meta["identical_shapes"] == [] and loaded.meta["case_twins"] == []
+    assert loaded.load_report.identical_shapes == () and loaded.load_report.case_twins == ()
     assert not [w for w in recwarn if issubclass(w.category, RigWarning)]

@@ -45,7 +45,7 @@ def mirror_image_truth(rig: rigs.Rig) -> set[frozenset[str]]:
     assert distance.max() == 0.0
     return {
         frozenset(pair)
-        for pair in rig.meta["truth"]["mirror_pairs"]
+        for pair in rig.truth.mirror_pairs
         if np.array_equal(rig.deltas[rig.index(pair[1])], rig.deltas[rig.index(pair[0])][mirror] * REFLECT)
     }
 

@@ -84,7 +84,7 @@ def test_face_units_twins_are_every_left_and_right_arkit_shape():
 def test_generated_mirror_pairs_are_name_twins(preset):
     rig = rigs.generate(preset)
     twins = set(mirror_name_pairs(rig.names))
-    assert {tuple(pair) for pair in rig.meta["truth"]["mirror_pairs"]} <= twins
+    assert {tuple(pair) for pair in rig.truth.mirror_pairs} <= twins
 
 
 stems = st.from_regex(r"[a-z]{2,7}([A-Z][a-z]{1,6}){0,2}", fullmatch=True)

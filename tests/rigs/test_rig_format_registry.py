@@ -29,7 +29,7 @@ def read_points(path: Path) -> Rig:
         triangles = np.asarray(document["triangles"], dtype=np.int64)
     except (ValueError, KeyError, TypeError) as error:
         raise RigError(f"{path}: not a points rig: {error}") from None
-    return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=tuple(shapes), meta={})
+    return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=tuple(shapes))
 
 
 def write_points(rig: Rig, path: Path) -> Path:
@@ -72,7 +72,7 @@ def grid_rig() -> Rig:
     deltas = np.zeros((2, 36, 3))
     deltas[0, :8, 2] = 0.5
     deltas[1, -8:, 2] = 0.5
-    return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=("browUp", "chinUp"), meta={})
+    return Rig(neutral=neutral, deltas=deltas, triangles=triangles, names=("browUp", "chinUp"))
 
 
 def test_a_registered_format_is_detected_read_and_written(tmp_path, points_format) -> None:
@@ -81,7 +81,7 @@ def test_a_registered_format_is_detected_read_and_written(tmp_path, points_forma
     rig = rigs.load(path)
     assert rig.names == ("browUp", "chinUp")
     np.testing.assert_array_equal(rig.deltas, grid_rig().deltas)
-    assert rig.meta["empty_shapes"] == []  # the load report of every interchange format
+    assert rig.load_report.empty_shapes == ()  # the load report of every interchange format
     with pytest.raises(RigError, match=r"face\.points: unknown option 'weld' for points \(accepted: none\)"):
         rigs.load(path, weld=True)
 

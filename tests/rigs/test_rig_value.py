@@ -28,7 +28,7 @@ def square_rig(**changes) -> Rig:
         triangles=TRIANGLES,
         names=("up", "down"),
         regions={"corner": [2]},
-        meta={"source": "square.npz"},
+        provenance=rigs.Provenance(source="square.npz"),
     )
     values.update(changes)
     return Rig(**values)
@@ -69,6 +69,10 @@ def test_valid_rig_has_sizes_and_frozen_read_only_arrays():
         ({"regions": {"lip": np.array([True, False])}}, "region 'lip' mask has shape (2,)"),
         ({"faces": (np.array([0, 1]),)}, "face 0 [0, 1] is not a polygon of this mesh"),
         ({"faces": (np.array([0, 1, 2, 7]),)}, "face 0 [0, 1, 2, 7] is not a polygon of this mesh"),
+        ({"landmarks": {"nose": [0.5, 0.5]}}, "square.npz: landmark 'nose' must have shape (3,), got (2,)"),
+        ({"landmarks": {"nose": [0.5, np.nan, 0.0]}}, "landmark 'nose' has a non-finite coordinate"),
+        ({"provenance": {"source": "x.npz"}}, "rig: provenance must be a Provenance, got dict"),
+        ({"load_report": {"empty_shapes": []}}, "load_report must be a LoadReport or None, got dict"),
     ],
 )
 def test_invalid_rig_names_field_and_value(changes, message):
@@ -152,3 +156,18 @@ def test_vector_lengths_are_the_same_on_any_number_of_threads(monkeypatch, shape
 def test_bounding_box_is_the_columnwise_extent(points: np.ndarray) -> None:
     low, high = rigs.bounding_box(points)
     assert np.array_equal(low, points.min(axis=0)) and np.array_equal(high, points.max(axis=0))
+
+
+def test_records_ride_along_when_a_rig_is_derived():
+    truth = rigs.Truth(mirror_pairs=(("up", "down"),))
+    rig = square_rig(landmarks={"nose": np.array([0.5, 0.5, 0.1])}, truth=truth)
+    assert rig.landmarks == {"nose": (0.5, 0.5, 0.1)}
+    derived = rig.subset(["down"])
+    assert derived.provenance.source == "square.npz" and derived.truth is truth
+    assert derived.landmarks == rig.landmarks and derived.surface is None and derived.load_report is None
+    assert "source='square.npz'" in repr(derived)
+
+
+def test_a_surface_holds_an_obj_file_or_a_gltf_surface():
+    with pytest.raises(ValueError, match="either an OBJ file or a glTF surface"):
+        rigs.Surface()

@@ -15,7 +15,7 @@ pytest.importorskip("pxr", reason="usd-core is not installed (pip install 'expre
 def test_round_trip_keeps_names_deltas_and_triangles(tmp_path, suffix):
     rig = rigs.generate("tiny")
     loaded = rigs.load(rigs.save(rig, tmp_path / f"rig{suffix}"), noise_floor=0.0)
-    assert loaded.names == rig.names and loaded.meta["format"] == "usd"
+    assert loaded.names == rig.names and loaded.provenance.format == "usd"
     assert np.abs(loaded.deltas - rig.deltas).max() < 1e-6 * rig.diagonal()  # float32, as the schema stores
     assert np.abs(loaded.neutral - rig.neutral).max() < 1e-6 * rig.diagonal()
     assert np.array_equal(loaded.triangles, rig.triangles)
@@ -24,7 +24,7 @@ def test_round_trip_keeps_names_deltas_and_triangles(tmp_path, suffix):
 def test_sparse_offsets_and_units_survive(tmp_path, faceunits):
     path = rigs.save(faceunits, tmp_path / "faceunits.usdc")
     loaded = rigs.load(path, noise_floor=0.0)
-    assert loaded.names == faceunits.names and loaded.meta["units"] == "dm"
+    assert loaded.names == faceunits.names and loaded.provenance.units == "dm"
     assert np.abs(loaded.deltas - faceunits.deltas).max() < 1e-6
     from pxr import Usd, UsdSkel
 

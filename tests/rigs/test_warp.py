@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from dataclasses import asdict, replace
 from functools import cache
 
 import numpy as np
@@ -79,15 +79,22 @@ def test_alien_keeps_orientation_on_paper_sized_rigs(preset):
 def test_warped_rig_is_a_valid_rig_with_the_same_topology(name):
     original, target = rig_of("tiny"), warped("tiny", name)
     rebuilt = Rig(
-        target.neutral, target.deltas, target.triangles, target.names, target.regions, meta=target.meta
+        target.neutral,
+        target.deltas,
+        target.triangles,
+        target.names,
+        target.regions,
+        landmarks=target.landmarks,
+        provenance=target.provenance,
+        truth=target.truth,
     )
     assert rebuilt.n_vertices == original.n_vertices and rebuilt.n_shapes == original.n_shapes
     assert np.array_equal(target.triangles, original.triangles) and target.names == original.names
     assert all(np.array_equal(target.regions[key], original.regions[key]) for key in original.regions)
     assert not np.allclose(target.neutral, original.neutral)
-    meta = json.loads(json.dumps(target.meta))
-    assert meta["warp"]["spec"] == name and meta["truth"] == json.loads(json.dumps(original.meta["truth"]))
-    assert meta["source"] == f"generated:tiny warped by {name}" and meta["units"] == "cm"
+    provenance = json.loads(json.dumps(asdict(target.provenance)))
+    assert provenance["warp"]["spec"] == name and target.truth == original.truth
+    assert provenance["source"] == f"generated:tiny warped by {name}" and provenance["units"] == "cm"
 
 
 def test_deltas_are_differences_of_warped_meshes_and_static_stays_static():
@@ -113,7 +120,7 @@ def test_symmetric_warps_keep_the_rig_exactly_mirror_symmetric(name):
     distance, image = cKDTree(original.neutral).query(original.neutral * REFLECT)
     assert distance.max() == 0.0
     assert np.array_equal(target.neutral[image], target.neutral * REFLECT)
-    pairs = target.meta["truth"]["mirror_pairs"]
+    pairs = target.truth.mirror_pairs
     for left, right in pairs:
         assert np.array_equal(
             target.deltas[target.index(right)], target.deltas[target.index(left)][image] * REFLECT
@@ -125,17 +132,15 @@ def test_big_eyes_enlarges_the_eyes_and_leaves_the_chin():
     lids = np.concatenate([original.regions["upper_eyelid_L"], original.regions["lower_eyelid_L"]])
     spread = np.ptp(target.neutral[lids], axis=0) / np.ptp(original.neutral[lids], axis=0)
     assert spread[0] > 1.1 and spread[1] > 1.1
-    chin = original.neutral[:, 1] < original.meta["landmarks"]["mouth"][1] - 2.0
+    chin = original.neutral[:, 1] < original.landmarks["mouth"][1] - 2.0
     assert np.array_equal(target.neutral[chin], original.neutral[chin])
 
 
 def test_composition_carries_later_centres_along():
     original = rig_of("female")
     target = warp(original, [{"kind": "scale", "factors": [1.0, 1.5, 1.0]}, "big-mouth"])
-    moved = np.array(target.meta["landmarks"]["mouth"])
-    assert np.allclose(
-        moved, point_map("scale:1,1.5,1", original)(np.array(original.meta["landmarks"]["mouth"]))
-    )
+    moved = np.array(target.landmarks["mouth"])
+    assert np.allclose(moved, point_map("scale:1,1.5,1", original)(np.array(original.landmarks["mouth"])))
     lips = np.concatenate([original.regions["upper_lip"], original.regions["lower_lip"]])
     assert np.linalg.norm(target.neutral[lips].mean(axis=0) - moved) < 1.0
 
@@ -184,26 +189,26 @@ def test_spec_forms_agree(spec, equivalent):
 def test_recorded_label_reproduces_the_warp(spec):
     rig = rig_of("tiny")
     first = warp(rig, spec)
-    again = warp(rig, first.meta["warp"]["spec"])
-    assert parse_warp(first.meta["warp"]["spec"]) == parse_warp(spec)
+    again = warp(rig, first.provenance.warp.spec)
+    assert parse_warp(first.provenance.warp.spec) == parse_warp(spec)
     assert np.array_equal(first.neutral, again.neutral) and np.array_equal(first.deltas, again.deltas)
 
 
 def test_explicit_centre_and_radius_work_on_a_rig_without_landmarks_or_regions():
-    plain = replace(rig_of("tiny"), regions={}, meta={"source": "plain.npz"})
-    mouth = rig_of("tiny").meta["landmarks"]["mouth"]
+    plain = replace(rig_of("tiny"), regions={}, landmarks={}, provenance=rigs.Provenance(source="plain.npz"))
+    mouth = rig_of("tiny").landmarks["mouth"]
     target = warp(plain, {"kind": "local", "center": mouth, "factor": 0.7, "radius": 2.5})
     moved = np.linalg.norm(target.neutral - plain.neutral, axis=1) > 0
     assert moved.any() and (np.linalg.norm(plain.neutral[moved] - mouth, axis=1) < 2.5).all()
 
 
 @pytest.mark.parametrize("name", ["alien", "big-nose"])
-def test_a_rig_saved_without_meta_warps_identically_from_its_regions(name):
-    """The native format keeps regions but not meta: named centres then come from the regions, and the
+def test_a_rig_saved_without_landmarks_warps_identically_from_its_regions(name):
+    """The native format keeps regions but not landmarks: named centres then come from the regions, and the
     generated landmarks are exactly those region centroids."""
     rig = rig_of("female")
-    without = replace(rig, meta={"source": "female.npz"})
-    for landmark, point in rig.meta["landmarks"].items():
+    without = replace(rig, landmarks={}, truth=None, provenance=rigs.Provenance(source="female.npz"))
+    for landmark, point in rig.landmarks.items():
         assert np.array_equal(locate(without, landmark), point)
     target, reference = warp(without, name), warped("female", name)
     assert np.array_equal(target.neutral, reference.neutral) and np.array_equal(
@@ -239,10 +244,8 @@ def test_bad_specs_raise_one_clear_error(spec, message):
 
 
 def test_unlocatable_centre_names_what_is_missing():
-    plain = replace(rig_of("tiny"), regions={}, meta={"source": "scan.obj"})
-    with pytest.raises(
-        RigError, match=r"scan\.obj: cannot locate 'nose' for the warp: no meta\['landmarks'\]"
-    ):
+    plain = replace(rig_of("tiny"), regions={}, landmarks={}, provenance=rigs.Provenance(source="scan.obj"))
+    with pytest.raises(RigError, match=r"scan\.obj: cannot locate 'nose' for the warp: no landmark 'nose'"):
         warp(plain, "big-nose")
     with pytest.raises(RigError, match="no non-empty region 'upper_eyelid_L' and 'lower_eyelid_L'"):
         warp(plain, "big-eyes")

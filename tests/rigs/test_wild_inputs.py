@@ -68,7 +68,7 @@ def test_warp_finds_the_eyes_from_eyeball_regions(tiny) -> None:
         side: np.union1d(tiny.regions[f"upper_eyelid_{side}"], tiny.regions[f"lower_eyelid_{side}"])
         for side in ("L", "R")
     }
-    rig = replace(tiny, regions={f"eye_{side}": indices for side, indices in eyes.items()}, meta={})
+    rig = replace(tiny, regions={f"eye_{side}": indices for side, indices in eyes.items()}, landmarks={})
     np.testing.assert_allclose(locate(rig, "eye_L"), tiny.neutral[eyes["L"]].mean(axis=0))
     warped = rigs.warp(rig, "big-eyes")
     assert not np.allclose(warped.neutral, rig.neutral)
@@ -102,8 +102,8 @@ def test_obj_rounded_to_six_decimals_in_metres_keeps_an_empty_shape_empty(tiny, 
     _write(folder / "jawOpen.obj", neutral + 0.01 * tiny.deltas[tiny.index("jawOpen")], tiny.triangles)
     assert np.abs(np.round(untouched, 6) - np.round(neutral, 6)).max() > 0  # rounding steps do differ
     rig = rigs.load(folder)
-    assert rig.meta["noise"]["rounding_step"] == pytest.approx(1e-6)
-    assert rig.meta["empty_shapes"] == ["untouched"]
+    assert rig.load_report.noise.rounding_step == pytest.approx(1e-6)
+    assert rig.load_report.empty_shapes == ("untouched",)
     assert not rig.deltas[rig.index("untouched")].any()
     moved = np.linalg.norm(0.01 * tiny.deltas[tiny.index("jawOpen")], axis=1) > 2e-6
     assert np.array_equal(np.linalg.norm(rig.deltas[rig.index("jawOpen")], axis=1) > 0, moved)
@@ -221,7 +221,7 @@ def _split_glb(rig: rigs.Rig, path, parts: int = 2):
 
 def test_gltf_primitives_per_material_are_read_as_one_mesh(tiny, tmp_path) -> None:
     rig = rigs.load(_split_glb(tiny, tmp_path / "head.glb", parts=3))
-    assert rig.meta["primitives"] == [0, 1, 2] and rig.n_triangles == tiny.n_triangles
+    assert rig.provenance.primitives == (0, 1, 2) and rig.n_triangles == tiny.n_triangles
     assert rig.names == tiny.names
     welded = rigs.load(tmp_path / "head.glb", weld=True)
     assert welded.n_vertices == tiny.n_vertices
@@ -232,7 +232,7 @@ def test_gltf_primitives_per_material_are_read_as_one_mesh(tiny, tmp_path) -> No
         rtol=1e-5,
     )
     assert (moved >= np.linalg.norm(welded.deltas, axis=2).sum(axis=1) - 1e-6).all()
-    assert rigs.load(tmp_path / "head.glb", primitive=1).meta["primitives"] == [1]
+    assert rigs.load(tmp_path / "head.glb", primitive=1).provenance.primitives == (1,)
 
 
 def test_a_blendshape_obj_path_is_not_taken_for_the_neutral(tiny, tmp_path) -> None:

@@ -31,7 +31,7 @@ def _sheet(n_columns: int = 24, n_rows: int = 28, n_shapes: int = 10, seed: int 
     falloff = np.clip(1.0 - distance**2, 0.0, None) ** 3
     deltas = amplitude[:, None, None] * falloff[..., None] * directions[:, None, :]
     names = tuple(f"bump{k}" for k in range(n_shapes))
-    return Rig(neutral, deltas, triangles, names, meta={"source": "sheet"})
+    return Rig(neutral, deltas, triangles, names, provenance=rigs.Provenance(source="sheet"))
 
 
 def _bulge(positions: np.ndarray) -> np.ndarray:
