@@ -47,7 +47,7 @@ class NeutralLayout:
     def of(cls, data: bytes, face_start: int, vertex_count: int) -> NeutralLayout:
         """The layout of a neutral's ``data`` whose face section starts at ``face_start``, after all of its
         ``vertex_count`` vertices."""
-        run = None if b"\\" in data[:face_start] else _vertex_run(data, face_start)
+        run = None if data.find(b"\\", 0, face_start) >= 0 else _vertex_run(data, face_start)
         if run is not None:
             start, stop = run
             lines = data.count(b"\n", start, stop)
