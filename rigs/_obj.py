@@ -18,6 +18,7 @@ import numpy as np
 
 from rigs._obj_block import DECIMAL, BlockPart, is_plain, line_block, numbered_lines, plain_block
 from rigs._obj_faces import INDEX_KINDS, Polygons
+from rigs._obj_layout import CONTINUATION_LOOK, NeutralLayout
 from rigs._rig import RigError
 from rigs._safe import UnreadableFile, read_bytes, size_text
 
@@ -30,8 +31,6 @@ BLOCK_BYTES = 2**20
 _ROUNDING_DECIMALS = range(3, 10)
 #: Coordinates sampled per file by `decimal_step`.
 _STEP_SAMPLE = 3000
-#: Trailing characters looked at to tell whether a line is continued past a block's end.
-_CONTINUATION_LOOK = 4096
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,17 +48,18 @@ class ObjMesh:
     face_digest : bytes
         A digest of the corners of the ``f`` lines as written, for a fast identical-connectivity check
         (empty without ``f`` lines).
-    face_section : bytes or memoryview
-        The file from its first ``f`` line on (set by a full read of a file whose faces follow all its
-        vertices and whose lines end in line feeds), so that blendshape files written with the same face
-        section are recognised without reading it.
+    layout : NeutralLayout or None
+        Where the file's text holds its vertex lines and its face section (set by a full read of a file
+        whose faces follow all its vertices and whose lines end in line feeds), so that blendshape files
+        that repeat its face section are recognised without reading it, and those that repeat the rest of
+        its text too are read by their vertex lines alone.
     """
 
     vertices: np.ndarray
     faces: Polygons = field(default_factory=Polygons.empty)
     groups: dict[str, np.ndarray] = field(default_factory=dict)
     face_digest: bytes = b""
-    face_section: bytes | memoryview = b""
+    layout: NeutralLayout | None = None
 
     def group_vertices(self, name: str) -> np.ndarray:
         """Sorted vertex indices used by the faces of group ``name``."""
@@ -89,7 +89,9 @@ def parse_obj(
         When False, faces are not decoded (``faces`` is empty) but ``face_digest`` is still made.
     faces_of : ObjMesh, optional
         A fully read mesh (the neutral) whose face digest is reused when this file ends with its face
-        section and has no face line before it (``with_faces=False`` only).
+        section and has no face line before it (``with_faces=False`` only); when the file also repeats the
+        neutral's text around a run of plain ``v x y z`` lines, only those are read
+        (`rigs._obj_layout.NeutralLayout`).
 
     Raises
     ------
@@ -101,14 +103,10 @@ def parse_obj(
         vertices.
     """
     data = text.encode("utf-8", errors="surrogatepass") if isinstance(text, str) else bytes(text)
-    tail = faces_of.face_section if faces_of is not None and not with_faces else b""
-    if tail and len(data) > len(tail) and data.endswith(tail):
-        head = data[: len(data) - len(tail)]
-        if head.endswith(b"\n") and not head[-_CONTINUATION_LOOK:-1].rstrip(b" \t\r").endswith(b"\\"):
-            reader = _Reader(source, with_faces=False)
-            reader.read(head)
-            if not reader.face_count:
-                return ObjMesh(reader.vertices(), face_digest=faces_of.face_digest)  # type: ignore[union-attr]
+    if faces_of is not None and faces_of.layout is not None and not with_faces:
+        shape = _shape(data, source, faces_of, faces_of.layout)
+        if shape is not None:
+            return shape
     reader = _Reader(source, with_faces=with_faces)
     reader.read(data)
     return reader.mesh(data)
@@ -149,6 +147,23 @@ def read_obj(
         ) from None
 
 
+def _shape(data: bytes, source: str, neutral: ObjMesh, layout: NeutralLayout) -> ObjMesh | None:
+    """A blendshape file ``data`` that ends with the face section of its ``neutral`` (laid out as
+    ``layout``) and has no face line before it, read by its vertex lines alone; None for any other file (to
+    be read whole)."""
+    face_start = layout.faces_at(data)
+    if face_start is None:
+        return None
+    vertices = layout.shape_vertices(data, face_start, source)
+    if vertices is None:
+        reader = _Reader(source, with_faces=False)
+        reader.read(data[:face_start])
+        if reader.face_count:
+            return None
+        vertices = reader.vertices()
+    return ObjMesh(vertices, face_digest=neutral.face_digest)
+
+
 def _blocks(data: bytes) -> Iterator[bytes]:
     """``data`` in blocks of about `BLOCK_BYTES`, each cut after a line end (LF, CRLF or CR) that does not
     continue its line with ``\\``, with CRLF and CR line ends turned into LF."""
@@ -173,7 +188,7 @@ def _cut(data: bytes, at: int, carriage: bool) -> int:
                 end = lone
         if end < 0:
             break
-        if not data[max(at, end - _CONTINUATION_LOOK) : end].rstrip(b" \t\r").endswith(b"\\"):
+        if not data[max(at, end - CONTINUATION_LOOK) : end].rstrip(b" \t\r").endswith(b"\\"):
             return end + 1
         at = end + 1
     return len(data)
@@ -290,11 +305,11 @@ class _Reader:
             for name in dict.fromkeys(names):  # (a name given twice lists each face twice)
                 found.setdefault(name, []).append(np.repeat(np.arange(start, stop), names.count(name)))
         groups = {name: np.concatenate(parts) for name, parts in found.items()}
-        section: bytes | memoryview = b""
+        layout = None
         if self.first_face is not None and self.first_face[1] == len(vertices) and b"\r" not in data:
-            section = memoryview(data)[self.first_face[0] :]  # (not a copy: the file's own bytes)
+            layout = NeutralLayout.of(data, self.first_face[0], len(vertices))
         digest = self.digest.digest() if self.face_count else b""
-        return ObjMesh(vertices, faces, groups, digest, section)
+        return ObjMesh(vertices, faces, groups, digest, layout)
 
     def _polygons(self, data: bytes) -> Polygons:
         """The polygons, once every index is known to lie in its list (``data``: the file, for messages)."""

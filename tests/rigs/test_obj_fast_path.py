@@ -1,8 +1,9 @@
-"""The one fast path of the OBJ reader reads exactly what the line-by-line reader reads, or steps aside.
+"""The fast paths of the OBJ reader read exactly what the line-by-line reader reads, or step aside.
 
 A plain block of lines whose vertex lines are all ``v x y z`` is read in one go (numpy finds the lines,
 Arrow reads the vertex lines); a blendshape file ending with its neutral's face section reuses the neutral's
-face digest. Whatever a file holds, the result (positions, face digest, faces, groups, or the error raised)
+face digest, and one that repeats the rest of the neutral's text around its ``v`` lines is read by those
+lines alone. Whatever a file holds, the result (positions, face digest, faces, groups, or the error raised)
 must be the line-by-line reader's.
 """
 
@@ -21,6 +22,7 @@ from rigs import RigError
 from rigs._obj import parse_obj
 from rigs._obj_block import plain_vertex_block
 from rigs._obj_faces import INDEX_KINDS, face_corners, plain_corners
+from rigs._obj_layout import NeutralLayout
 from rigs._obj_surface import parse_surface
 
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(4) for x in range(4)], dtype=float)
@@ -38,11 +40,13 @@ NEUTRAL = parse_obj(NEUTRAL_TEXT, "neutral.obj")
 
 
 def _reading(fast: bool, read, kept):
-    """``kept`` of what ``read()`` gives, or the error it raises; with ``fast=False`` the fast path
-    ``rigs._obj_block.plain_block`` steps aside, leaving the line-by-line reader."""
+    """``kept`` of what ``read()`` gives, or the error it raises; with ``fast=False`` the fast paths
+    (``rigs._obj_block.plain_block``, and a blendshape file's vertex lines read alone) step aside, leaving
+    the line-by-line reader."""
     with contextlib.ExitStack() as stack:
         if not fast:
             stack.enter_context(mock.patch("rigs._obj.plain_block", return_value=None))
+            stack.enter_context(mock.patch.object(NeutralLayout, "shape_vertices", return_value=None))
         try:
             found = read()
         except RigError as error:
@@ -166,7 +170,8 @@ def _full_read(text: str, *, fast: bool):
     def kept(mesh):
         groups = {name: indices.tolist() for name, indices in mesh.groups.items()}
         faces = [face.tolist() for face in mesh.faces]
-        return mesh.vertices.tolist(), faces, groups, mesh.face_digest, mesh.face_section
+        layout = mesh.layout and (mesh.layout.face_start, mesh.layout.run)
+        return mesh.vertices.tolist(), faces, groups, mesh.face_digest, layout
 
     return _reading(fast, lambda: parse_obj(text, "mesh.obj"), kept)
 
