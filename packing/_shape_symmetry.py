@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 import scipy.sparse as sp
 
 from packing._binary import largest_lengths, sparse_masks
-from packing._symmetry_candidates import candidate_pairs, image_cell_sums, vertex_cells
+from packing._symmetry_candidates import (
+    BOUND_SLACK,
+    Candidates,
+    candidate_pairs,
+    image_cell_sums,
+    vertex_cells,
+)
 from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
 
 
@@ -129,13 +137,8 @@ def shape_symmetry(
     cells = vertex_cells(neutral, active, cols, candidates)
     image = image_cell_sums(field, mirrored, candidates, cells)
     del mirrored  # (nnz,) arrays no longer needed once summed per cell
-    first, second = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
-    overlap, summed = _pair_sums(field, cols, mirror, first, second)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(overlap > 0, (own[first] + image_own[second] + summed) / overlap, np.inf)
-    first, second, score = _mutual_scores(first, second, error, n_shapes)
-    passing = score < tol * np.minimum(largest[first], largest[second])
-    matched = match_pairs(first[passing], second[passing], score[passing])
+    found = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
+    matched = _match_by_bounds(field, cols, mirror, own, image_own, found, tol * largest)
     if not matched:
         return [], self_symmetric, []
     share = _off_axis_overlap(active, np.array([pair[:2] for pair in matched]), axis_distance)
@@ -147,19 +150,86 @@ def shape_symmetry(
     return pairs, self_symmetric, overlapping
 
 
-def _mutual_scores(
-    first: np.ndarray, second: np.ndarray, error: np.ndarray, n_shapes: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The pairs ``k < m`` of a symmetric set of ordered pairs with their score ``max(eps_km, eps_mk)``.
+#: Candidate pairs whose errors `_match_by_bounds` evaluates at once.
+EVALUATION_BATCH = 256
 
-    ``(first, second)`` are row-major and hold ``(m, k)`` for each ``(k, m)``, with ``error`` the eq. 9
-    error of each.
+
+def _match_by_bounds(
+    field: SymmetryField,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    own: np.ndarray,
+    image_own: np.ndarray,
+    found: Candidates,
+    threshold: np.ndarray,
+) -> list[tuple[int, int, float]]:
+    """`match_pairs` over the candidate pairs that pass eq. 10, the errors of eq. 9 evaluated only where the
+    matching needs them.
+
+    ``own`` and ``image_own`` are ``sum_n |b_k dv_k|`` and ``sum_n |p(b_m) P_m|`` of each shape, ``threshold``
+    is ``tol * max_n |dv_k^n|``. Each unordered pair k < m gets a floor of its score ``max(eps_km,
+    eps_mk)`` from the candidate bounds: ``(numerator - s) / shared`` in each direction, with ``s`` =
+    `BOUND_SLACK` ``(own_k + image_own_m)`` far above the rounding of either side. The pairs are taken by
+    increasing floor, `EVALUATION_BATCH` at a time, skipping those with a shape already matched; an
+    evaluated pair is matched once its score is below the floor of every pair not yet evaluated (so no
+    such pair can come before it in the order of `match_pairs`: by score, then indices). The matching,
+    and each matched pair's score, are those of `match_pairs` over every candidate; on generated film
+    rigs about a sixth of the candidates are evaluated.
     """
-    key = first * n_shapes + second
-    transposed = np.searchsorted(key, second * n_shapes + first)
-    upper = first < second
-    score = np.maximum(error[upper], error[transposed[upper]])
-    return first[upper], second[upper], score
+    key = found.first * own.size + found.second
+    transposed = np.searchsorted(key, found.second * own.size + found.first)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slack = BOUND_SLACK * (own[found.first] + image_own[found.second])
+        floor = (found.numerator - slack) / found.shared
+    upper = np.flatnonzero(found.first < found.second)
+    first, second = found.first[upper], found.second[upper]
+    floor = np.maximum(floor[upper], floor[transposed[upper]])
+    limit = np.minimum(threshold[first], threshold[second])
+    order = np.lexsort((second, first, floor)).tolist()
+    taken = np.zeros(own.size, dtype=bool)
+    evaluated: list[tuple[float, int, int]] = []  # a heap of (score, k, m) below the threshold
+    matched: list[tuple[int, int, float]] = []
+    position = 0
+    while True:  # loops over candidate pairs (a few per shape), not vertices
+        while position < len(order) and taken[[first[order[position]], second[order[position]]]].any():
+            position += 1
+        while evaluated and taken[list(evaluated[0][1:])].any():
+            heapq.heappop(evaluated)
+        lowest = floor[order[position]] if position < len(order) else np.inf
+        if evaluated and evaluated[0][0] < lowest:
+            score, a, b = heapq.heappop(evaluated)
+            taken[[a, b]] = True
+            matched.append((a, b, score))
+            continue
+        if position == len(order):
+            return matched
+        batch = []
+        while position < len(order) and len(batch) < EVALUATION_BATCH:
+            if not taken[[first[order[position]], second[order[position]]]].any():
+                batch.append(order[position])
+            position += 1
+        pairs = np.array(batch)
+        scores = _scores(field, cols, mirror, own, image_own, first[pairs], second[pairs])
+        for pair, score in zip(pairs.tolist(), scores.tolist(), strict=True):
+            if score < limit[pair]:
+                heapq.heappush(evaluated, (score, int(first[pair]), int(second[pair])))
+
+
+def _scores(
+    field: SymmetryField,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    own: np.ndarray,
+    image_own: np.ndarray,
+    first: np.ndarray,
+    second: np.ndarray,
+) -> np.ndarray:
+    """``max(eps_km, eps_mk)`` of eq. 9 for the pairs (k, m) (infinite where a mirrored mask misses)."""
+    k, m = np.concatenate([first, second]), np.concatenate([second, first])
+    overlap, summed = _pair_sums(field, cols, mirror, k, m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(overlap > 0, (own[k] + image_own[m] + summed) / overlap, np.inf)
+    return np.maximum(error[: first.size], error[first.size :])
 
 
 #: Shared active vertices closer to the symmetry plane than this share of a pair's farthest active vertex

@@ -86,6 +86,26 @@ class CellSums:
     totals: np.ndarray
 
 
+@dataclass(frozen=True)
+class Candidates:
+    """Ordered pairs (k, m), row-major, that may pass eq. 10 in both directions, with bounds on eq. 9.
+
+    Attributes
+    ----------
+    first, second : (P,) int arrays
+        k and m of each pair; (m, k) is a pair whenever (k, m) is.
+    numerator : (P,) array
+        A lower bound on the numerator of ``eps_km`` (eq. 9), up to the rounding of its sums.
+    shared : (P,) array
+        An upper bound on its denominator ``|b_k & p(b_m)|`` (a whole number, at least 1).
+    """
+
+    first: np.ndarray
+    second: np.ndarray
+    numerator: np.ndarray
+    shared: np.ndarray
+
+
 def candidate_pairs(
     field: SymmetryField,
     rows: np.ndarray,
@@ -95,8 +115,8 @@ def candidate_pairs(
     largest: np.ndarray,
     tol: float,
     cell: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Ordered pairs (k, m), row-major, that may pass eq. 10 in both directions; a superset of those that do.
+) -> Candidates:
+    """Ordered pairs (k, m) that may pass eq. 10 in both directions; a superset of those that do.
 
     With ``x_n = b_k^n dv_k^n - p(b_m)^n P_m^n`` the numerator of eq. 9 is ``sum_n |x_n|``, and for any
     partition of the vertices into cells c it is at least ``sum_c |sum_{n in c} x_n| = sum_c |A_kc - P_mc|``
@@ -124,10 +144,16 @@ def candidate_pairs(
     cell : (N,) int array
         Cell of each vertex (`vertex_cells`).
 
+    Returns
+    -------
+    Candidates
+        The pairs kept, with the larger of the two numerator bounds and ``U_km``.
+
     Notes
     -----
-    The bounds are summed into two (K, K) arrays (a float and an int32 one) in runs of about `COMBO_CHUNK`
-    combinations: O(K^2 + C) memory and O(combinations) time for the C present (cell, shape).
+    Each cell adds the (shapes present) x (mirrored shapes present) block of its terms into two (K, K)
+    arrays (a float and an int32 one), about `COMBO_CHUNK` terms at a time: O(K^2 + C) memory and
+    O(combinations) time for the C present (cell, shape), with one vectorised step per cell.
     """
     n_shapes = candidates.size
     n_cells = int(cell.max()) + 1
@@ -135,30 +161,33 @@ def candidate_pairs(
     image_sums, image_counts, image_present = image.sums, image.counts, image.present
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
-    shape_total = np.bincount(shape_present % n_shapes, weights=shape_norms, minlength=n_shapes)
-    image_total = np.bincount(image_present % n_shapes, weights=image_norms, minlength=n_shapes)
+    shape_of, image_of = shape_present % n_shapes, image_present % n_shapes
+    shape_total = np.bincount(shape_of, weights=shape_norms, minlength=n_shapes)
+    image_total = np.bincount(image_of, weights=image_norms, minlength=n_shapes)
 
-    # Every (cell, k, m) with k present in the cell and m's mirror image present in it, a run of cells at a
-    # time (about `COMBO_CHUNK` of them), added into the (K, K) gap and shared-count bounds.
-    per_cell_a = np.bincount(shape_present // n_shapes, minlength=n_cells)
-    per_cell_p = np.bincount(image_present // n_shapes, minlength=n_cells)
-    first_a, first_p = np.cumsum(per_cell_a) - per_cell_a, np.cumsum(per_cell_p) - per_cell_p
-    combos = per_cell_a * per_cell_p
+    # Per cell, the block of every k present with every m whose mirror image is present, added into the
+    # (K, K) gap and shared-count bounds (the indices of a block are distinct, so `+=` adds each term once).
+    shape_first = np.searchsorted(shape_present, np.arange(n_cells + 1) * n_shapes)
+    image_first = np.searchsorted(image_present, np.arange(n_cells + 1) * n_shapes)
     gaps = np.zeros(n_shapes * n_shapes)
     shared = np.zeros(n_shapes * n_shapes, dtype=np.int32)
-    marks = np.searchsorted(np.cumsum(combos), np.arange(COMBO_CHUNK, combos.sum(), COMBO_CHUNK))
-    bounds = np.unique(np.concatenate([[0], marks, [n_cells]])).tolist()
-    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
-        run = combos[start:stop]
-        cell_of = np.repeat(np.arange(start, stop), run)
-        local = np.arange(int(run.sum())) - np.repeat(np.cumsum(run) - run, run)
-        a = first_a[cell_of] + local // per_cell_p[cell_of]
-        p = first_p[cell_of] + local % per_cell_p[cell_of]
-        pair = (shape_present[a] % n_shapes) * n_shapes + image_present[p] % n_shapes
-        difference = np.take(shape_sums, a, axis=0) - np.take(image_sums, p, axis=0)
-        gap = np.sqrt(np.einsum("ij,ij->i", difference, difference)) - shape_norms[a] - image_norms[p]
-        np.add.at(gaps, pair, gap)
-        np.add.at(shared, pair, np.minimum(shape_counts[a], image_counts[p]))
+    shape_columns, image_columns = shape_sums.T.copy(), image_sums.T.copy()
+    for index in np.flatnonzero((np.diff(shape_first) > 0) & (np.diff(image_first) > 0)).tolist():
+        images = slice(image_first[index], image_first[index + 1])
+        per_block = max(1, COMBO_CHUNK // (images.stop - images.start))
+        for low in range(shape_first[index], shape_first[index + 1], per_block):
+            shapes = slice(low, min(low + per_block, shape_first[index + 1]))
+            squared = np.zeros((shapes.stop - shapes.start, images.stop - images.start))
+            for shape_axis, image_axis in zip(shape_columns, image_columns, strict=True):
+                difference = np.subtract.outer(shape_axis[shapes], image_axis[images])
+                difference *= difference
+                squared += difference
+            gap = np.sqrt(squared, out=squared)
+            gap -= shape_norms[shapes, None]
+            gap -= image_norms[None, images]
+            pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
+            gaps[pair] += gap.ravel()
+            shared[pair] += np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
 
     # The bounds of the pairs present in some cell together, a block of shapes k at a time.
     smallest = np.zeros(n_shapes)
@@ -167,20 +196,24 @@ def candidate_pairs(
     smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
     n_active = np.bincount(rows, minlength=n_shapes)
     n_image = image.totals
-    kept = []
-    per_block = max(1, COMBO_CHUNK // n_shapes) * n_shapes
-    for low in range(0, shared.size, per_block):
-        present = low + np.flatnonzero(shared[low : low + per_block])
+    kept, bounds = [], []
+    per_block = max(1, COMBO_CHUNK // n_shapes)
+    for low in range(0, n_shapes, per_block):
+        present = low * n_shapes + np.flatnonzero(shared[low * n_shapes : (low + per_block) * n_shapes])
         k, m = present // n_shapes, present % n_shapes
         count = shared[present].astype(np.float64)
         numerator = shape_total[k] + image_total[m] + gaps[present]
         outside = (n_active[k] - count) * smallest[k] + (n_image[m] - count) * smallest[m]
         limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
         scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
-        kept.append(present[(numerator < limit + scale) & (outside < limit + scale) & (k != m)])
-    both = np.concatenate(kept)
-    both = both[np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)]
-    return both // n_shapes, both % n_shapes
+        keep = (numerator < limit + scale) & (outside < limit + scale) & (k != m)
+        kept.append(present[keep])
+        bounds.append(np.maximum(numerator, outside)[keep])
+    both, bound = np.concatenate(kept), np.concatenate(bounds)
+    mutual = np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
+    both, bound = both[mutual], bound[mutual]
+    first, second = both // n_shapes, both % n_shapes
+    return Candidates(first, second, bound, shared[both].astype(np.float64))
 
 
 def _cell_sums(
