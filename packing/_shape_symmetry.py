@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -169,25 +170,43 @@ def _match_by_bounds(
     ``own`` and ``image_own`` are ``sum_n |b_k dv_k|`` and ``sum_n |p(b_m) P_m|`` of each shape, ``threshold``
     is ``tol * max_n |dv_k^n|``. Each unordered pair k < m gets a floor of its score ``max(eps_km,
     eps_mk)`` from the candidate bounds: ``(numerator - s) / shared`` in each direction, with ``s`` =
-    `BOUND_SLACK` ``(own_k + image_own_m)`` far above the rounding of either side. The pairs are taken by
-    increasing floor, `EVALUATION_BATCH` at a time, skipping those with a shape already matched; an
-    evaluated pair is matched once its score is below the floor of every pair not yet evaluated (so no
-    such pair can come before it in the order of `match_pairs`: by score, then indices). The matching,
-    and each matched pair's score, are those of `match_pairs` over every candidate; on generated film
-    rigs about a sixth of the candidates are evaluated.
+    `BOUND_SLACK` ``(own_k + image_own_m)`` far above the rounding of either side, and `match_lazily`
+    scores the pairs in order of their floors. The matching, and each matched pair's score, are those of
+    `match_pairs` over every candidate; on generated film rigs about a sixth of the candidates are scored.
     """
     key = found.first * own.size + found.second
     transposed = np.searchsorted(key, found.second * own.size + found.first)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        slack = BOUND_SLACK * (own[found.first] + image_own[found.second])
-        floor = (found.numerator - slack) / found.shared
+    slack = BOUND_SLACK * (own[found.first] + image_own[found.second])
+    floor = (found.numerator - slack) / found.shared
     upper = np.flatnonzero(found.first < found.second)
     first, second = found.first[upper], found.second[upper]
     floor = np.maximum(floor[upper], floor[transposed[upper]])
     limit = np.minimum(threshold[first], threshold[second])
+
+    def scores_of(pairs: np.ndarray) -> np.ndarray:
+        return _scores(field, cols, mirror, own, image_own, first[pairs], second[pairs])
+
+    return match_lazily(first, second, floor, limit, scores_of, own.size)
+
+
+def match_lazily(
+    first: np.ndarray,
+    second: np.ndarray,
+    floor: np.ndarray,
+    limit: np.ndarray,
+    scores_of: Callable[[np.ndarray], np.ndarray],
+    n_shapes: int,
+) -> list[tuple[int, int, float]]:
+    """`match_pairs` over the pairs whose score is below their ``limit``, scoring only the pairs it needs.
+
+    ``floor`` is at most each pair's score, ``scores_of(pairs)`` the scores of some pairs (positions). The
+    pairs are scored by increasing floor, `EVALUATION_BATCH` at a time, skipping those with a shape already
+    matched; a scored pair is matched once its score is below the floor of every pair not yet scored, so no
+    such pair can come before it in the order of `match_pairs` (by score, then indices).
+    """
     order = np.lexsort((second, first, floor)).tolist()
-    taken = np.zeros(own.size, dtype=bool)
-    evaluated: list[tuple[float, int, int]] = []  # a heap of (score, k, m) below the threshold
+    taken = np.zeros(n_shapes, dtype=bool)
+    evaluated: list[tuple[float, int, int]] = []  # a heap of (score, k, m) below the limit
     matched: list[tuple[int, int, float]] = []
     position = 0
     while True:  # loops over candidate pairs (a few per shape), not vertices
@@ -209,8 +228,7 @@ def _match_by_bounds(
                 batch.append(order[position])
             position += 1
         pairs = np.array(batch)
-        scores = _scores(field, cols, mirror, own, image_own, first[pairs], second[pairs])
-        for pair, score in zip(pairs.tolist(), scores.tolist(), strict=True):
+        for pair, score in zip(pairs.tolist(), scores_of(pairs).tolist(), strict=True):
             if score < limit[pair]:
                 heapq.heappush(evaluated, (score, int(first[pair]), int(second[pair])))
 
