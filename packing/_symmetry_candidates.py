@@ -70,9 +70,7 @@ def image_cell_sums(
         mirrored_rows, mirrored_cols, cell, field, candidates, int(cell.max()) + 1, source
     )
     n_image = np.bincount(mirrored_rows, minlength=candidates.size)
-    return CellSums(
-        reflect(sums, field.reflection), counts, present, n_image
-    )  # R is linear: sum of reflections
+    return CellSums(sums, counts, present, n_image)
 
 
 @dataclass(frozen=True)
@@ -157,7 +155,8 @@ def candidate_pairs(
     """
     n_shapes = candidates.size
     n_cells = int(cell.max()) + 1
-    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field, candidates, n_cells)
+    reflected_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field, candidates, n_cells)
+    shape_sums = reflect(reflected_sums, field.reflection)  # R R = I: the sums of the displacements
     image_sums, image_counts, image_present = image.sums, image.counts, image.present
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
@@ -225,12 +224,13 @@ def _cell_sums(
     n_cells: int,
     source: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Summed displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
+    """Summed reflected displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
 
-    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the displacement of the field's active
-    entry ``source[i]`` (of entry i without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
-    ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order. Every entry is
-    summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
+    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the reflected displacement of the field's
+    active entry ``source[i]`` (of entry i without ``source``), read from the compact
+    `SymmetryField.reflected` rather than from the rig's deltas. Returns the sums ``(P, 3)``, counts
+    ``(P,)`` and keys ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order.
+    Every entry is summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
     """
     n_shapes = selected.size
     key = np.take(cell, cols).astype(np.int32 if n_cells * n_shapes < np.iinfo(np.int32).max else np.int64)
@@ -240,8 +240,8 @@ def _cell_sums(
     present = np.flatnonzero(counts)
     present = present[selected[present % n_shapes]]
     sums = np.empty((present.size, 3))
-    offsets, coordinates = field.offsets(source), field.displacements.reshape(-1)
     for axis in range(3):
-        column = np.take(coordinates, offsets + axis)
+        column = field.reflected[:, axis]
+        column = column if source is None else np.take(column, source)
         sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
     return sums, counts[present], present
