@@ -14,6 +14,8 @@ from packing._symmetry_candidates import (
     Candidates,
     candidate_pairs,
     image_cell_sums,
+    self_candidates,
+    shape_cell_sums,
     vertex_cells,
 )
 from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
@@ -130,15 +132,17 @@ def shape_symmetry(
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
     mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
     image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|
-    self_error = _self_errors(field, rows, cols, mirror, eligible, own + image_own)
-    self_symmetric = eligible & (self_error < tol * largest)
 
-    # Pairs among the rest: only those that per-cell bounds cannot rule out are evaluated exactly.
-    candidates = eligible & ~self_symmetric
-    cells = vertex_cells(neutral, active, cols, candidates)
-    image = image_cell_sums(field, mirrored, candidates, cells)
+    # Only the shapes and pairs that per-cell bounds cannot rule out are evaluated exactly.
+    cells = vertex_cells(neutral, active, cols, eligible)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    image = image_cell_sums(field, mirrored, eligible, cells)
     del mirrored  # (nnz,) arrays no longer needed once summed per cell
-    found = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
+    probed = np.flatnonzero(eligible & self_candidates(field, rows, shapes, image, largest, tol))
+    self_error = _self_errors(field, rows, cols, mirror, probed, own + image_own)
+    self_symmetric = eligible & (self_error < tol * largest)
+    candidates = eligible & ~self_symmetric
+    found = candidate_pairs(field, rows, shapes, image, candidates, largest, tol)
     matched = _match_by_bounds(field, cols, mirror, own, image_own, found, tol * largest)
     if not matched:
         return [], self_symmetric, []
@@ -282,27 +286,29 @@ def _self_errors(
     rows: np.ndarray,
     cols: np.ndarray,
     mirror: np.ndarray,
-    eligible: np.ndarray,
+    shapes: np.ndarray,
     outside: np.ndarray,
 ) -> np.ndarray:
-    """(K,) ``eps_kk`` of eq. 9 (infinite where ``b_k & p(b_k)`` is empty), over the active (k, n) whose
-    mirror vertex is active in k too; ``outside`` is ``own_k + mirrored_k``. Corrections are summed for the
-    ``eligible`` shapes only (the others are never self-symmetric). The entries are probed a run of whole
-    shapes at a time (about `PROBE_CHUNK` entries), so each shape's sum is that of one run."""
+    """(K,) ``eps_kk`` of eq. 9 of the ascending ``shapes`` (infinite where ``b_k & p(b_k)`` is empty, and
+    for the other shapes), over the active (k, n) whose mirror vertex is active in k too; ``outside`` is
+    ``own_k + mirrored_k``. The entries are probed a run of whole shapes at a time (about `PROBE_CHUNK`
+    entries), so each shape's sum is that of one run, over its entries in ascending order."""
     n_shapes = outside.size
     indptr = field.active.indptr
     diagonal = np.zeros(n_shapes, dtype=np.int64)  # |b_k & p(b_k)|
     corrections = np.zeros(n_shapes)
-    marks = np.searchsorted(indptr, np.arange(PROBE_CHUNK, rows.size, PROBE_CHUNK))
-    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
-    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
-        start, stop = int(indptr[first_shape]), int(indptr[stop_shape])
-        run_rows = rows[start:stop]
-        image_entry = field.image_entries(run_rows, cols[start:stop], mirror)
-        found = image_entry >= 0
-        diagonal += np.bincount(run_rows[found], minlength=n_shapes)
-        both = np.flatnonzero(found & eligible[run_rows])
-        correction = field.correction(both + start, image_entry[both])
+    counts = indptr[shapes + 1] - indptr[shapes]
+    ends = np.cumsum(counts)
+    marks = np.searchsorted(ends, np.arange(PROBE_CHUNK, int(counts.sum()), PROBE_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [shapes.size]])).tolist()
+    for low, high in zip(bounds[:-1], bounds[1:], strict=True):
+        run = counts[low:high]
+        entry = np.repeat(indptr[shapes[low:high]] - np.cumsum(run) + run, run) + np.arange(int(run.sum()))
+        run_rows = rows[entry]
+        image_entry = field.image_entries(run_rows, cols[entry], mirror)
+        both = np.flatnonzero(image_entry >= 0)
+        diagonal += np.bincount(run_rows[both], minlength=n_shapes)
+        correction = field.correction(entry[both], image_entry[both])
         corrections += np.bincount(run_rows[both], weights=correction, minlength=n_shapes)
     total = outside + corrections
     return np.divide(total, diagonal, out=np.full(n_shapes, np.inf), where=diagonal > 0)

@@ -104,15 +104,95 @@ class Candidates:
     shared: np.ndarray
 
 
+def shape_cell_sums(
+    field: SymmetryField, rows: np.ndarray, cols: np.ndarray, selected: np.ndarray, cell: np.ndarray
+) -> CellSums:
+    """The summed displacements ``A_kc`` and active counts ``a_kc`` of the ``selected`` shapes per (cell,
+    shape), and each shape's count of active entries ``|b_k|``."""
+    reflected, counts, present = _cell_sums(rows, cols, cell, field, selected, int(cell.max()) + 1)
+    totals = np.bincount(rows, minlength=selected.size)
+    return CellSums(reflect(reflected, field.reflection), counts, present, totals)  # R R = I
+
+
+def self_candidates(
+    field: SymmetryField,
+    rows: np.ndarray,
+    shapes: CellSums,
+    image: CellSums,
+    largest: np.ndarray,
+    tol: float,
+) -> np.ndarray:
+    """(K,) bool: the shapes whose ``eps_kk`` may pass eq. 10 (self-symmetric ones among them), by the
+    bounds of `candidate_pairs` for ``m = k``: only their self errors need to be evaluated."""
+    n_shapes = largest.size
+    common, in_shape, in_image = np.intersect1d(
+        shapes.present, image.present, assume_unique=True, return_indices=True
+    )
+    k = common % n_shapes
+    shape_sums, image_sums = shapes.sums[in_shape], image.sums[in_image]
+    gap = np.linalg.norm(shape_sums - image_sums, axis=1)
+    gap -= np.linalg.norm(shape_sums, axis=1)
+    gap -= np.linalg.norm(image_sums, axis=1)
+    shared = np.bincount(
+        k, weights=np.minimum(shapes.counts[in_shape], image.counts[in_image]), minlength=n_shapes
+    )
+    gaps = np.bincount(k, weights=gap, minlength=n_shapes)
+    every = np.arange(n_shapes)
+    keep, _ = _bounds(every, every, shared, gaps, _Totals.of(field, rows, shapes, image), largest, tol)
+    return keep & (shared > 0)
+
+
+@dataclass(frozen=True)
+class _Totals:
+    """Per shape: ``sum_c |A_kc|``, ``sum_c |P_kc|``, ``|b_k|``, ``|p(b_k)|``, the smallest active length."""
+
+    shape: np.ndarray
+    image: np.ndarray
+    n_active: np.ndarray
+    n_image: np.ndarray
+    smallest: np.ndarray
+
+    @classmethod
+    def of(cls, field: SymmetryField, rows: np.ndarray, shapes: CellSums, image: CellSums) -> _Totals:
+        n_shapes = shapes.totals.size
+        shape = np.bincount(shapes.present % n_shapes, np.linalg.norm(shapes.sums, axis=1), n_shapes)
+        mirrored = np.bincount(image.present % n_shapes, np.linalg.norm(image.sums, axis=1), n_shapes)
+        smallest = np.zeros(n_shapes)
+        starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
+        starts = starts[starts < rows.size]
+        smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
+        return cls(shape, mirrored, shapes.totals, image.totals, smallest)
+
+
+def _bounds(
+    k: np.ndarray,
+    m: np.ndarray,
+    count: np.ndarray,
+    gaps: np.ndarray,
+    totals: _Totals,
+    largest: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Whether each pair (k, m) with ``U_km = count`` and summed gaps ``gaps`` may pass eq. 10, and the larger
+    of its two numerator bounds (`candidate_pairs`)."""
+    numerator = totals.shape[k] + totals.image[m] + gaps
+    outside = (totals.n_active[k] - count) * totals.smallest[k] + (
+        totals.n_image[m] - count
+    ) * totals.smallest[m]
+    limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
+    scale = BOUND_SLACK * (totals.shape[k] + totals.image[m] + limit)
+    keep = (numerator < limit + scale) & (outside < limit + scale)
+    return keep, np.maximum(numerator, outside)
+
+
 def candidate_pairs(
     field: SymmetryField,
     rows: np.ndarray,
-    cols: np.ndarray,
+    shapes: CellSums,
     image: CellSums,
     candidates: np.ndarray,
     largest: np.ndarray,
     tol: float,
-    cell: np.ndarray,
 ) -> Candidates:
     """Ordered pairs (k, m) that may pass eq. 10 in both directions; a superset of those that do.
 
@@ -129,18 +209,17 @@ def candidate_pairs(
     Parameters
     ----------
     field : SymmetryField
-    rows, cols : (nnz,) int arrays
-        The active entries.
-    image : CellSums
-        The mirrored shapes' sums (`image_cell_sums`).
+    rows : (nnz,) int array
+        The shape of each active entry.
+    shapes, image : CellSums
+        The shapes' sums (`shape_cell_sums`) and the mirrored shapes' sums (`image_cell_sums`), over the
+        same cells, of at least the ``candidates``.
     candidates : (K,) bool array
         Shapes that may be paired.
     largest : (K,) array
         ``max_n |dv_k^n|`` of each shape.
     tol : float
         Factor of eq. 10.
-    cell : (N,) int array
-        Cell of each vertex (`vertex_cells`).
 
     Returns
     -------
@@ -154,15 +233,19 @@ def candidate_pairs(
     O(combinations) time for the C present (cell, shape), with one vectorised step per cell.
     """
     n_shapes = candidates.size
-    n_cells = int(cell.max()) + 1
-    reflected_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field, candidates, n_cells)
-    shape_sums = reflect(reflected_sums, field.reflection)  # R R = I: the sums of the displacements
-    image_sums, image_counts, image_present = image.sums, image.counts, image.present
+    totals = _Totals.of(field, rows, shapes, image)
+    chosen = candidates[shapes.present % n_shapes]
+    shape_sums, shape_counts, shape_present = (
+        shapes.sums[chosen],
+        shapes.counts[chosen],
+        shapes.present[chosen],
+    )
+    chosen = candidates[image.present % n_shapes]
+    image_sums, image_counts, image_present = image.sums[chosen], image.counts[chosen], image.present[chosen]
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
     shape_of, image_of = shape_present % n_shapes, image_present % n_shapes
-    shape_total = np.bincount(shape_of, weights=shape_norms, minlength=n_shapes)
-    image_total = np.bincount(image_of, weights=image_norms, minlength=n_shapes)
+    n_cells = int(max(shape_present.max(initial=0), image_present.max(initial=0))) // n_shapes + 1
 
     # Per cell, the block of every k present with every m whose mirror image is present, added into the
     # (K, K) gap and shared-count bounds (the indices of a block are distinct, so `+=` adds each term once).
@@ -189,25 +272,15 @@ def candidate_pairs(
             shared[pair] += np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
 
     # The bounds of the pairs present in some cell together, a block of shapes k at a time.
-    smallest = np.zeros(n_shapes)
-    starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
-    starts = starts[starts < rows.size]
-    smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
-    n_active = np.bincount(rows, minlength=n_shapes)
-    n_image = image.totals
     kept, bounds = [], []
     per_block = max(1, COMBO_CHUNK // n_shapes)
     for low in range(0, n_shapes, per_block):
         present = low * n_shapes + np.flatnonzero(shared[low * n_shapes : (low + per_block) * n_shapes])
         k, m = present // n_shapes, present % n_shapes
-        count = shared[present].astype(np.float64)
-        numerator = shape_total[k] + image_total[m] + gaps[present]
-        outside = (n_active[k] - count) * smallest[k] + (n_image[m] - count) * smallest[m]
-        limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
-        scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
-        keep = (numerator < limit + scale) & (outside < limit + scale) & (k != m)
+        keep, bound = _bounds(k, m, shared[present].astype(np.float64), gaps[present], totals, largest, tol)
+        keep &= k != m
         kept.append(present[keep])
-        bounds.append(np.maximum(numerator, outside)[keep])
+        bounds.append(bound[keep])
     both, bound = np.concatenate(kept), np.concatenate(bounds)
     mutual = np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
     both, bound = both[mutual], bound[mutual]

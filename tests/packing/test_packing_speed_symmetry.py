@@ -187,7 +187,8 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     mirrored = symmetry_field.mirrored_entries(active, rows, cols, mirror)
     cells = candidates.vertex_cells(rig.neutral, active, cols, eligible)
     image = candidates.image_cell_sums(field, mirrored, eligible, cells)
-    found = candidates.candidate_pairs(field, rows, cols, image, eligible, largest, 0.4, cells)
+    shapes = candidates.shape_cell_sums(field, rows, cols, eligible, cells)
+    found = candidates.candidate_pairs(field, rows, shapes, image, eligible, largest, 0.4)
     kept = set(zip(found.first.tolist(), found.second.tolist(), strict=True))
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept

@@ -11,7 +11,13 @@ from hypothesis import strategies as st
 import packing._shape_symmetry as symmetry
 import rigs
 from packing._binary import entries, sparse_masks
-from packing._symmetry_candidates import candidate_pairs, image_cell_sums, vertex_cells
+from packing._symmetry_candidates import (
+    candidate_pairs,
+    image_cell_sums,
+    self_candidates,
+    shape_cell_sums,
+    vertex_cells,
+)
 from packing._symmetry_field import SymmetryField, mirrored_entries, row_sums
 from tests.packing.test_packing_speed_symmetry import inputs
 
@@ -59,10 +65,33 @@ def test_floors_of_the_candidate_bounds_are_below_the_exact_scores():
     image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
     cells = vertex_cells(rig.neutral, active, cols, eligible)
     image = image_cell_sums(field, mirrored, eligible, cells)
-    found = candidate_pairs(field, rows, cols, image, eligible, norms.max(axis=1), 0.4, cells)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    found = candidate_pairs(field, rows, shapes, image, eligible, norms.max(axis=1), 0.4)
     overlap, summed = symmetry._pair_sums(field, cols, mirror, found.first, found.second)
     error = np.where(overlap > 0, (own[found.first] + image_own[found.second] + summed) / overlap, np.inf)
     slack = symmetry.BOUND_SLACK * (own[found.first] + image_own[found.second])
     floor = (found.numerator - slack) / found.shared
     assert found.first.size > 100 and np.all(floor <= error)
     assert np.all(overlap <= found.shared)
+
+
+def test_self_candidates_keep_every_self_symmetric_shape():
+    """The bounds for ``m = k`` never rule out a shape whose exact ``eps_kk`` passes eq. 10, and rule out
+    most of the others."""
+    rig = rigs.generate("female")
+    norms, masks, mirror, normal, eligible, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    own = row_sums(rows, field.lengths, rig.n_shapes)
+    mirrored = mirrored_entries(active, rows, cols, mirror)
+    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
+    cells = vertex_cells(rig.neutral, active, cols, eligible)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    image = image_cell_sums(field, mirrored, eligible, cells)
+    largest = norms.max(axis=1)
+    kept = self_candidates(field, rows, shapes, image, largest, 0.4)
+    every = symmetry._self_errors(field, rows, cols, mirror, np.flatnonzero(eligible), own + image_own)
+    self_symmetric = eligible & (every < 0.4 * largest)
+    assert self_symmetric.any() and not (self_symmetric & ~kept).any()
+    assert (kept & eligible).sum() < 0.5 * eligible.sum()
