@@ -164,9 +164,9 @@ def distortion_strength(distortion: np.ndarray, masks: np.ndarray, triangles: np
         (np.ones(3 * n_triangles), (triangles.ravel(), np.repeat(np.arange(n_triangles), 3))),
         shape=(n_vertices, n_triangles),
     )
-    touched = (active.astype(np.float64) @ corners).tocoo()  # (K, T): active corners of each triangle
-    summed = np.bincount(touched.row, weights=distortion[touched.col], minlength=active.shape[0])
-    return _normalised(summed)
+    touched = active.astype(np.float64) @ corners  # (K, T): active corners of each triangle
+    touched.data[:] = 1.0  # (each row summed in its stored order, as a bincount over its entries would)
+    return _normalised(touched @ distortion)
 
 
 def cosine_similarities(deltas: np.ndarray) -> np.ndarray:

@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
+import heapq
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 
 from packing._binary import largest_lengths, sparse_masks
-from packing._symmetry_candidates import candidate_pairs, image_cell_sums, vertex_cells
+from packing._symmetry_candidates import (
+    BOUND_SLACK,
+    Candidates,
+    candidate_pairs,
+    image_cell_sums,
+    self_candidates,
+    shape_cell_sums,
+    vertex_cells,
+)
 from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
 
 
@@ -121,21 +132,18 @@ def shape_symmetry(
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
     mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
     image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|
-    self_error = _self_errors(field, rows, cols, mirror, eligible, own + image_own)
-    self_symmetric = eligible & (self_error < tol * largest)
 
-    # Pairs among the rest: only those that per-cell bounds cannot rule out are evaluated exactly.
-    candidates = eligible & ~self_symmetric
-    cells = vertex_cells(neutral, active, cols, candidates)
-    image = image_cell_sums(field, mirrored, candidates, cells)
+    # Only the shapes and pairs that per-cell bounds cannot rule out are evaluated exactly.
+    cells = vertex_cells(neutral, active, cols, eligible)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    image = image_cell_sums(field, mirrored, eligible, cells)
     del mirrored  # (nnz,) arrays no longer needed once summed per cell
-    first, second = candidate_pairs(field, rows, cols, image, candidates, largest, tol, cells)
-    overlap, summed = _pair_sums(field, cols, mirror, first, second)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(overlap > 0, (own[first] + image_own[second] + summed) / overlap, np.inf)
-    first, second, score = _mutual_scores(first, second, error, n_shapes)
-    passing = score < tol * np.minimum(largest[first], largest[second])
-    matched = match_pairs(first[passing], second[passing], score[passing])
+    probed = np.flatnonzero(eligible & self_candidates(field, rows, shapes, image, largest, tol))
+    self_error = _self_errors(field, rows, cols, mirror, probed, own + image_own)
+    self_symmetric = eligible & (self_error < tol * largest)
+    candidates = eligible & ~self_symmetric
+    found = candidate_pairs(field, rows, shapes, image, candidates, largest, tol)
+    matched = _match_by_bounds(field, cols, mirror, own, image_own, found, tol * largest)
     if not matched:
         return [], self_symmetric, []
     share = _off_axis_overlap(active, np.array([pair[:2] for pair in matched]), axis_distance)
@@ -147,19 +155,103 @@ def shape_symmetry(
     return pairs, self_symmetric, overlapping
 
 
-def _mutual_scores(
-    first: np.ndarray, second: np.ndarray, error: np.ndarray, n_shapes: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The pairs ``k < m`` of a symmetric set of ordered pairs with their score ``max(eps_km, eps_mk)``.
+#: Candidate pairs whose errors `_match_by_bounds` evaluates at once.
+EVALUATION_BATCH = 256
 
-    ``(first, second)`` are row-major and hold ``(m, k)`` for each ``(k, m)``, with ``error`` the eq. 9
-    error of each.
+
+def _match_by_bounds(
+    field: SymmetryField,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    own: np.ndarray,
+    image_own: np.ndarray,
+    found: Candidates,
+    threshold: np.ndarray,
+) -> list[tuple[int, int, float]]:
+    """`match_pairs` over the candidate pairs that pass eq. 10, the errors of eq. 9 evaluated only where the
+    matching needs them.
+
+    ``own`` and ``image_own`` are ``sum_n |b_k dv_k|`` and ``sum_n |p(b_m) P_m|`` of each shape, ``threshold``
+    is ``tol * max_n |dv_k^n|``. Each unordered pair k < m gets a floor of its score ``max(eps_km,
+    eps_mk)`` from the candidate bounds: ``(numerator - s) / shared`` in each direction, with ``s`` =
+    `BOUND_SLACK` ``(own_k + image_own_m)`` far above the rounding of either side, and `match_lazily`
+    scores the pairs in order of their floors. The matching, and each matched pair's score, are those of
+    `match_pairs` over every candidate; on generated film rigs about a sixth of the candidates are scored.
     """
-    key = first * n_shapes + second
-    transposed = np.searchsorted(key, second * n_shapes + first)
-    upper = first < second
-    score = np.maximum(error[upper], error[transposed[upper]])
-    return first[upper], second[upper], score
+    key = found.first * own.size + found.second
+    transposed = np.searchsorted(key, found.second * own.size + found.first)
+    slack = BOUND_SLACK * (own[found.first] + image_own[found.second])
+    floor = (found.numerator - slack) / found.shared
+    upper = np.flatnonzero(found.first < found.second)
+    first, second = found.first[upper], found.second[upper]
+    floor = np.maximum(floor[upper], floor[transposed[upper]])
+    limit = np.minimum(threshold[first], threshold[second])
+
+    def scores_of(pairs: np.ndarray) -> np.ndarray:
+        return _scores(field, cols, mirror, own, image_own, first[pairs], second[pairs])
+
+    return match_lazily(first, second, floor, limit, scores_of, own.size)
+
+
+def match_lazily(
+    first: np.ndarray,
+    second: np.ndarray,
+    floor: np.ndarray,
+    limit: np.ndarray,
+    scores_of: Callable[[np.ndarray], np.ndarray],
+    n_shapes: int,
+) -> list[tuple[int, int, float]]:
+    """`match_pairs` over the pairs whose score is below their ``limit``, scoring only the pairs it needs.
+
+    ``floor`` is at most each pair's score, ``scores_of(pairs)`` the scores of some pairs (positions). The
+    pairs are scored by increasing floor, `EVALUATION_BATCH` at a time, skipping those with a shape already
+    matched; a scored pair is matched once its score is below the floor of every pair not yet scored, so no
+    such pair can come before it in the order of `match_pairs` (by score, then indices).
+    """
+    order = np.lexsort((second, first, floor)).tolist()
+    taken = np.zeros(n_shapes, dtype=bool)
+    evaluated: list[tuple[float, int, int]] = []  # a heap of (score, k, m) below the limit
+    matched: list[tuple[int, int, float]] = []
+    position = 0
+    while True:  # loops over candidate pairs (a few per shape), not vertices
+        while position < len(order) and taken[[first[order[position]], second[order[position]]]].any():
+            position += 1
+        while evaluated and taken[list(evaluated[0][1:])].any():
+            heapq.heappop(evaluated)
+        lowest = floor[order[position]] if position < len(order) else np.inf
+        if evaluated and evaluated[0][0] < lowest:
+            score, a, b = heapq.heappop(evaluated)
+            taken[[a, b]] = True
+            matched.append((a, b, score))
+            continue
+        if position == len(order):
+            return matched
+        batch = []
+        while position < len(order) and len(batch) < EVALUATION_BATCH:
+            if not taken[[first[order[position]], second[order[position]]]].any():
+                batch.append(order[position])
+            position += 1
+        pairs = np.array(batch)
+        for pair, score in zip(pairs.tolist(), scores_of(pairs).tolist(), strict=True):
+            if score < limit[pair]:
+                heapq.heappush(evaluated, (score, int(first[pair]), int(second[pair])))
+
+
+def _scores(
+    field: SymmetryField,
+    cols: np.ndarray,
+    mirror: np.ndarray,
+    own: np.ndarray,
+    image_own: np.ndarray,
+    first: np.ndarray,
+    second: np.ndarray,
+) -> np.ndarray:
+    """``max(eps_km, eps_mk)`` of eq. 9 for the pairs (k, m) (infinite where a mirrored mask misses)."""
+    k, m = np.concatenate([first, second]), np.concatenate([second, first])
+    overlap, summed = _pair_sums(field, cols, mirror, k, m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(overlap > 0, (own[k] + image_own[m] + summed) / overlap, np.inf)
+    return np.maximum(error[: first.size], error[first.size :])
 
 
 #: Shared active vertices closer to the symmetry plane than this share of a pair's farthest active vertex
@@ -194,27 +286,29 @@ def _self_errors(
     rows: np.ndarray,
     cols: np.ndarray,
     mirror: np.ndarray,
-    eligible: np.ndarray,
+    shapes: np.ndarray,
     outside: np.ndarray,
 ) -> np.ndarray:
-    """(K,) ``eps_kk`` of eq. 9 (infinite where ``b_k & p(b_k)`` is empty), over the active (k, n) whose
-    mirror vertex is active in k too; ``outside`` is ``own_k + mirrored_k``. Corrections are summed for the
-    ``eligible`` shapes only (the others are never self-symmetric). The entries are probed a run of whole
-    shapes at a time (about `PROBE_CHUNK` entries), so each shape's sum is that of one run."""
+    """(K,) ``eps_kk`` of eq. 9 of the ascending ``shapes`` (infinite where ``b_k & p(b_k)`` is empty, and
+    for the other shapes), over the active (k, n) whose mirror vertex is active in k too; ``outside`` is
+    ``own_k + mirrored_k``. The entries are probed a run of whole shapes at a time (about `PROBE_CHUNK`
+    entries), so each shape's sum is that of one run, over its entries in ascending order."""
     n_shapes = outside.size
     indptr = field.active.indptr
     diagonal = np.zeros(n_shapes, dtype=np.int64)  # |b_k & p(b_k)|
     corrections = np.zeros(n_shapes)
-    marks = np.searchsorted(indptr, np.arange(PROBE_CHUNK, rows.size, PROBE_CHUNK))
-    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
-    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
-        start, stop = int(indptr[first_shape]), int(indptr[stop_shape])
-        run_rows = rows[start:stop]
-        image_entry = field.image_entries(run_rows, cols[start:stop], mirror)
-        found = image_entry >= 0
-        diagonal += np.bincount(run_rows[found], minlength=n_shapes)
-        both = np.flatnonzero(found & eligible[run_rows])
-        correction = field.correction(both + start, image_entry[both])
+    counts = indptr[shapes + 1] - indptr[shapes]
+    ends = np.cumsum(counts)
+    marks = np.searchsorted(ends, np.arange(PROBE_CHUNK, int(counts.sum()), PROBE_CHUNK))
+    bounds = np.unique(np.concatenate([[0], marks, [shapes.size]])).tolist()
+    for low, high in zip(bounds[:-1], bounds[1:], strict=True):
+        run = counts[low:high]
+        entry = np.repeat(indptr[shapes[low:high]] - np.cumsum(run) + run, run) + np.arange(int(run.sum()))
+        run_rows = rows[entry]
+        image_entry = field.image_entries(run_rows, cols[entry], mirror)
+        both = np.flatnonzero(image_entry >= 0)
+        diagonal += np.bincount(run_rows[both], minlength=n_shapes)
+        correction = field.correction(entry[both], image_entry[both])
         corrections += np.bincount(run_rows[both], weights=correction, minlength=n_shapes)
     total = outside + corrections
     return np.divide(total, diagonal, out=np.full(n_shapes, np.inf), where=diagonal > 0)

@@ -70,9 +70,7 @@ def image_cell_sums(
         mirrored_rows, mirrored_cols, cell, field, candidates, int(cell.max()) + 1, source
     )
     n_image = np.bincount(mirrored_rows, minlength=candidates.size)
-    return CellSums(
-        reflect(sums, field.reflection), counts, present, n_image
-    )  # R is linear: sum of reflections
+    return CellSums(sums, counts, present, n_image)
 
 
 @dataclass(frozen=True)
@@ -86,17 +84,117 @@ class CellSums:
     totals: np.ndarray
 
 
+@dataclass(frozen=True)
+class Candidates:
+    """Ordered pairs (k, m), row-major, that may pass eq. 10 in both directions, with bounds on eq. 9.
+
+    Attributes
+    ----------
+    first, second : (P,) int arrays
+        k and m of each pair; (m, k) is a pair whenever (k, m) is.
+    numerator : (P,) array
+        A lower bound on the numerator of ``eps_km`` (eq. 9), up to the rounding of its sums.
+    shared : (P,) array
+        An upper bound on its denominator ``|b_k & p(b_m)|`` (a whole number, at least 1).
+    """
+
+    first: np.ndarray
+    second: np.ndarray
+    numerator: np.ndarray
+    shared: np.ndarray
+
+
+def shape_cell_sums(
+    field: SymmetryField, rows: np.ndarray, cols: np.ndarray, selected: np.ndarray, cell: np.ndarray
+) -> CellSums:
+    """The summed displacements ``A_kc`` and active counts ``a_kc`` of the ``selected`` shapes per (cell,
+    shape), and each shape's count of active entries ``|b_k|``."""
+    reflected, counts, present = _cell_sums(rows, cols, cell, field, selected, int(cell.max()) + 1)
+    totals = np.bincount(rows, minlength=selected.size)
+    return CellSums(reflect(reflected, field.reflection), counts, present, totals)  # R R = I
+
+
+def self_candidates(
+    field: SymmetryField,
+    rows: np.ndarray,
+    shapes: CellSums,
+    image: CellSums,
+    largest: np.ndarray,
+    tol: float,
+) -> np.ndarray:
+    """(K,) bool: the shapes whose ``eps_kk`` may pass eq. 10 (self-symmetric ones among them), by the
+    bounds of `candidate_pairs` for ``m = k``: only their self errors need to be evaluated."""
+    n_shapes = largest.size
+    common, in_shape, in_image = np.intersect1d(
+        shapes.present, image.present, assume_unique=True, return_indices=True
+    )
+    k = common % n_shapes
+    shape_sums, image_sums = shapes.sums[in_shape], image.sums[in_image]
+    gap = np.linalg.norm(shape_sums - image_sums, axis=1)
+    gap -= np.linalg.norm(shape_sums, axis=1)
+    gap -= np.linalg.norm(image_sums, axis=1)
+    shared = np.bincount(
+        k, weights=np.minimum(shapes.counts[in_shape], image.counts[in_image]), minlength=n_shapes
+    )
+    gaps = np.bincount(k, weights=gap, minlength=n_shapes)
+    every = np.arange(n_shapes)
+    keep, _ = _bounds(every, every, shared, gaps, _Totals.of(field, rows, shapes, image), largest, tol)
+    return keep & (shared > 0)
+
+
+@dataclass(frozen=True)
+class _Totals:
+    """Per shape: ``sum_c |A_kc|``, ``sum_c |P_kc|``, ``|b_k|``, ``|p(b_k)|``, the smallest active length."""
+
+    shape: np.ndarray
+    image: np.ndarray
+    n_active: np.ndarray
+    n_image: np.ndarray
+    smallest: np.ndarray
+
+    @classmethod
+    def of(cls, field: SymmetryField, rows: np.ndarray, shapes: CellSums, image: CellSums) -> _Totals:
+        n_shapes = shapes.totals.size
+        shape = np.bincount(shapes.present % n_shapes, np.linalg.norm(shapes.sums, axis=1), n_shapes)
+        mirrored = np.bincount(image.present % n_shapes, np.linalg.norm(image.sums, axis=1), n_shapes)
+        smallest = np.zeros(n_shapes)
+        starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
+        starts = starts[starts < rows.size]
+        smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
+        return cls(shape, mirrored, shapes.totals, image.totals, smallest)
+
+
+def _bounds(
+    k: np.ndarray,
+    m: np.ndarray,
+    count: np.ndarray,
+    gaps: np.ndarray,
+    totals: _Totals,
+    largest: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Whether each pair (k, m) with ``U_km = count`` and summed gaps ``gaps`` may pass eq. 10, and the larger
+    of its two numerator bounds (`candidate_pairs`)."""
+    numerator = totals.shape[k] + totals.image[m] + gaps
+    outside = (totals.n_active[k] - count) * totals.smallest[k] + (
+        totals.n_image[m] - count
+    ) * totals.smallest[m]
+    limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
+    scale = BOUND_SLACK * (totals.shape[k] + totals.image[m] + limit)
+    keep = (numerator < limit + scale) & (outside < limit + scale)
+    return keep, np.maximum(numerator, outside)
+
+
 def candidate_pairs(
     field: SymmetryField,
     rows: np.ndarray,
-    cols: np.ndarray,
+    shapes: CellSums,
     image: CellSums,
     candidates: np.ndarray,
     largest: np.ndarray,
     tol: float,
-    cell: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Ordered pairs (k, m), row-major, that may pass eq. 10 in both directions; a superset of those that do.
+) -> Candidates:
+    """Ordered pairs (k, m) that may pass eq. 10 in both directions; a superset of those that do.
 
     With ``x_n = b_k^n dv_k^n - p(b_m)^n P_m^n`` the numerator of eq. 9 is ``sum_n |x_n|``, and for any
     partition of the vertices into cells c it is at least ``sum_c |sum_{n in c} x_n| = sum_c |A_kc - P_mc|``
@@ -111,76 +209,83 @@ def candidate_pairs(
     Parameters
     ----------
     field : SymmetryField
-    rows, cols : (nnz,) int arrays
-        The active entries.
-    image : CellSums
-        The mirrored shapes' sums (`image_cell_sums`).
+    rows : (nnz,) int array
+        The shape of each active entry.
+    shapes, image : CellSums
+        The shapes' sums (`shape_cell_sums`) and the mirrored shapes' sums (`image_cell_sums`), over the
+        same cells, of at least the ``candidates``.
     candidates : (K,) bool array
         Shapes that may be paired.
     largest : (K,) array
         ``max_n |dv_k^n|`` of each shape.
     tol : float
         Factor of eq. 10.
-    cell : (N,) int array
-        Cell of each vertex (`vertex_cells`).
+
+    Returns
+    -------
+    Candidates
+        The pairs kept, with the larger of the two numerator bounds and ``U_km``.
 
     Notes
     -----
-    The bounds are summed into two (K, K) arrays (a float and an int32 one) in runs of about `COMBO_CHUNK`
-    combinations: O(K^2 + C) memory and O(combinations) time for the C present (cell, shape).
+    Each cell adds the (shapes present) x (mirrored shapes present) block of its terms into two (K, K)
+    arrays (a float and an int32 one), about `COMBO_CHUNK` terms at a time: O(K^2 + C) memory and
+    O(combinations) time for the C present (cell, shape), with one vectorised step per cell.
     """
     n_shapes = candidates.size
-    n_cells = int(cell.max()) + 1
-    shape_sums, shape_counts, shape_present = _cell_sums(rows, cols, cell, field, candidates, n_cells)
-    image_sums, image_counts, image_present = image.sums, image.counts, image.present
+    totals = _Totals.of(field, rows, shapes, image)
+    chosen = candidates[shapes.present % n_shapes]
+    shape_sums, shape_counts, shape_present = (
+        shapes.sums[chosen],
+        shapes.counts[chosen],
+        shapes.present[chosen],
+    )
+    chosen = candidates[image.present % n_shapes]
+    image_sums, image_counts, image_present = image.sums[chosen], image.counts[chosen], image.present[chosen]
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
-    shape_total = np.bincount(shape_present % n_shapes, weights=shape_norms, minlength=n_shapes)
-    image_total = np.bincount(image_present % n_shapes, weights=image_norms, minlength=n_shapes)
+    shape_of, image_of = shape_present % n_shapes, image_present % n_shapes
+    n_cells = int(max(shape_present.max(initial=0), image_present.max(initial=0))) // n_shapes + 1
 
-    # Every (cell, k, m) with k present in the cell and m's mirror image present in it, a run of cells at a
-    # time (about `COMBO_CHUNK` of them), added into the (K, K) gap and shared-count bounds.
-    per_cell_a = np.bincount(shape_present // n_shapes, minlength=n_cells)
-    per_cell_p = np.bincount(image_present // n_shapes, minlength=n_cells)
-    first_a, first_p = np.cumsum(per_cell_a) - per_cell_a, np.cumsum(per_cell_p) - per_cell_p
-    combos = per_cell_a * per_cell_p
+    # Per cell, the block of every k present with every m whose mirror image is present, added into the
+    # (K, K) gap and shared-count bounds (the indices of a block are distinct, so `+=` adds each term once).
+    shape_first = np.searchsorted(shape_present, np.arange(n_cells + 1) * n_shapes)
+    image_first = np.searchsorted(image_present, np.arange(n_cells + 1) * n_shapes)
     gaps = np.zeros(n_shapes * n_shapes)
     shared = np.zeros(n_shapes * n_shapes, dtype=np.int32)
-    marks = np.searchsorted(np.cumsum(combos), np.arange(COMBO_CHUNK, combos.sum(), COMBO_CHUNK))
-    bounds = np.unique(np.concatenate([[0], marks, [n_cells]])).tolist()
-    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
-        run = combos[start:stop]
-        cell_of = np.repeat(np.arange(start, stop), run)
-        local = np.arange(int(run.sum())) - np.repeat(np.cumsum(run) - run, run)
-        a = first_a[cell_of] + local // per_cell_p[cell_of]
-        p = first_p[cell_of] + local % per_cell_p[cell_of]
-        pair = (shape_present[a] % n_shapes) * n_shapes + image_present[p] % n_shapes
-        difference = np.take(shape_sums, a, axis=0) - np.take(image_sums, p, axis=0)
-        gap = np.sqrt(np.einsum("ij,ij->i", difference, difference)) - shape_norms[a] - image_norms[p]
-        np.add.at(gaps, pair, gap)
-        np.add.at(shared, pair, np.minimum(shape_counts[a], image_counts[p]))
+    shape_columns, image_columns = shape_sums.T.copy(), image_sums.T.copy()
+    for index in np.flatnonzero((np.diff(shape_first) > 0) & (np.diff(image_first) > 0)).tolist():
+        images = slice(image_first[index], image_first[index + 1])
+        per_block = max(1, COMBO_CHUNK // (images.stop - images.start))
+        for low in range(shape_first[index], shape_first[index + 1], per_block):
+            shapes = slice(low, min(low + per_block, shape_first[index + 1]))
+            squared = np.zeros((shapes.stop - shapes.start, images.stop - images.start))
+            for shape_axis, image_axis in zip(shape_columns, image_columns, strict=True):
+                difference = np.subtract.outer(shape_axis[shapes], image_axis[images])
+                difference *= difference
+                squared += difference
+            gap = np.sqrt(squared, out=squared)
+            gap -= shape_norms[shapes, None]
+            gap -= image_norms[None, images]
+            pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
+            gaps[pair] += gap.ravel()
+            shared[pair] += np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
 
     # The bounds of the pairs present in some cell together, a block of shapes k at a time.
-    smallest = np.zeros(n_shapes)
-    starts = np.unique(np.searchsorted(rows, np.arange(n_shapes)))
-    starts = starts[starts < rows.size]
-    smallest[rows[starts]] = np.minimum.reduceat(field.lengths, starts)
-    n_active = np.bincount(rows, minlength=n_shapes)
-    n_image = image.totals
-    kept = []
-    per_block = max(1, COMBO_CHUNK // n_shapes) * n_shapes
-    for low in range(0, shared.size, per_block):
-        present = low + np.flatnonzero(shared[low : low + per_block])
+    kept, bounds = [], []
+    per_block = max(1, COMBO_CHUNK // n_shapes)
+    for low in range(0, n_shapes, per_block):
+        present = low * n_shapes + np.flatnonzero(shared[low * n_shapes : (low + per_block) * n_shapes])
         k, m = present // n_shapes, present % n_shapes
-        count = shared[present].astype(np.float64)
-        numerator = shape_total[k] + image_total[m] + gaps[present]
-        outside = (n_active[k] - count) * smallest[k] + (n_image[m] - count) * smallest[m]
-        limit = tol * np.minimum(largest[k], largest[m]) * count * (1.0 + BOUND_SLACK)
-        scale = BOUND_SLACK * (shape_total[k] + image_total[m] + limit)
-        kept.append(present[(numerator < limit + scale) & (outside < limit + scale) & (k != m)])
-    both = np.concatenate(kept)
-    both = both[np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)]
-    return both // n_shapes, both % n_shapes
+        keep, bound = _bounds(k, m, shared[present].astype(np.float64), gaps[present], totals, largest, tol)
+        keep &= k != m
+        kept.append(present[keep])
+        bounds.append(bound[keep])
+    both, bound = np.concatenate(kept), np.concatenate(bounds)
+    mutual = np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
+    both, bound = both[mutual], bound[mutual]
+    first, second = both // n_shapes, both % n_shapes
+    return Candidates(first, second, bound, shared[both].astype(np.float64))
 
 
 def _cell_sums(
@@ -192,12 +297,13 @@ def _cell_sums(
     n_cells: int,
     source: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Summed displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
+    """Summed reflected displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
 
-    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the displacement of the field's active
-    entry ``source[i]`` (of entry i without ``source``). Returns the sums ``(P, 3)``, counts ``(P,)`` and keys
-    ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order. Every entry is
-    summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
+    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the reflected displacement of the field's
+    active entry ``source[i]`` (of entry i without ``source``), read from the compact
+    `SymmetryField.reflected` rather than from the rig's deltas. Returns the sums ``(P, 3)``, counts
+    ``(P,)`` and keys ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order.
+    Every entry is summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
     """
     n_shapes = selected.size
     key = np.take(cell, cols).astype(np.int32 if n_cells * n_shapes < np.iinfo(np.int32).max else np.int64)
@@ -207,8 +313,8 @@ def _cell_sums(
     present = np.flatnonzero(counts)
     present = present[selected[present % n_shapes]]
     sums = np.empty((present.size, 3))
-    offsets, coordinates = field.offsets(source), field.displacements.reshape(-1)
     for axis in range(3):
-        column = np.take(coordinates, offsets + axis)
+        column = field.reflected[:, axis]
+        column = column if source is None else np.take(column, source)
         sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
     return sums, counts[present], present

@@ -187,8 +187,9 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     mirrored = symmetry_field.mirrored_entries(active, rows, cols, mirror)
     cells = candidates.vertex_cells(rig.neutral, active, cols, eligible)
     image = candidates.image_cell_sums(field, mirrored, eligible, cells)
-    first, second = candidates.candidate_pairs(field, rows, cols, image, eligible, largest, 0.4, cells)
-    kept = set(zip(first.tolist(), second.tolist(), strict=True))
+    shapes = candidates.shape_cell_sums(field, rows, cols, eligible, cells)
+    found = candidates.candidate_pairs(field, rows, shapes, image, eligible, largest, 0.4)
+    kept = set(zip(found.first.tolist(), found.second.tolist(), strict=True))
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept
     assert all((b, a) in kept for a, b in kept)  # both directions of eq. 10

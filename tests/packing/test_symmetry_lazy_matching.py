@@ -1,0 +1,97 @@
+"""The lazy matching of mirror pairs (scores evaluated in order of their floors) against the greedy matching
+over every scored pair, and the floors of the candidate bounds against the exact eq. 9 scores."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import packing._shape_symmetry as symmetry
+import rigs
+from packing._binary import entries, sparse_masks
+from packing._symmetry_candidates import (
+    candidate_pairs,
+    image_cell_sums,
+    self_candidates,
+    shape_cell_sums,
+    vertex_cells,
+)
+from packing._symmetry_field import SymmetryField, mirrored_entries, row_sums
+from tests.packing.test_packing_speed_symmetry import inputs
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    n_shapes=st.integers(2, 12),
+    seed=st.integers(0, 2**32 - 1),
+    batch=st.sampled_from([1, 2, 3, 256]),
+    levels=st.integers(1, 6),
+)
+def test_lazy_matching_equals_the_greedy_matching_of_every_score(n_shapes, seed, batch, levels):
+    """Scores from a few levels (ties), floors at or below them (some equal), limits cutting some off."""
+    rng = np.random.default_rng(seed)
+    first, second = np.triu_indices(n_shapes, k=1)
+    kept = rng.random(first.size) < 0.7
+    first, second = first[kept], second[kept]
+    score = rng.integers(0, levels, first.size) / levels
+    floor = np.where(rng.random(first.size) < 0.3, score, score - rng.random(first.size))
+    limit = rng.uniform(0.2, 1.2, first.size)
+    scored: list[int] = []
+
+    def scores_of(pairs: np.ndarray) -> np.ndarray:
+        scored.extend(pairs.tolist())
+        return score[pairs]
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(symmetry, "EVALUATION_BATCH", batch)
+        lazy = symmetry.match_lazily(first, second, floor, limit, scores_of, n_shapes)
+    passing = score < limit
+    assert lazy == symmetry.match_pairs(first[passing], second[passing], score[passing])
+    assert len(scored) == len(set(scored))  # each pair scored once at most
+
+
+def test_floors_of_the_candidate_bounds_are_below_the_exact_scores():
+    """Each candidate's floor ``(numerator - slack) / shared`` is at most its eq. 9 error, and the film
+    layout's candidates are mostly scored only in part."""
+    rig = rigs.generate("female")
+    norms, masks, mirror, normal, eligible, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    own = row_sums(rows, field.lengths, rig.n_shapes)
+    mirrored = mirrored_entries(active, rows, cols, mirror)
+    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
+    cells = vertex_cells(rig.neutral, active, cols, eligible)
+    image = image_cell_sums(field, mirrored, eligible, cells)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    found = candidate_pairs(field, rows, shapes, image, eligible, norms.max(axis=1), 0.4)
+    overlap, summed = symmetry._pair_sums(field, cols, mirror, found.first, found.second)
+    error = np.where(overlap > 0, (own[found.first] + image_own[found.second] + summed) / overlap, np.inf)
+    slack = symmetry.BOUND_SLACK * (own[found.first] + image_own[found.second])
+    floor = (found.numerator - slack) / found.shared
+    assert found.first.size > 100 and np.all(floor <= error)
+    assert np.all(overlap <= found.shared)
+
+
+def test_self_candidates_keep_every_self_symmetric_shape():
+    """The bounds for ``m = k`` never rule out a shape whose exact ``eps_kk`` passes eq. 10, and rule out
+    most of the others."""
+    rig = rigs.generate("female")
+    norms, masks, mirror, normal, eligible, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    own = row_sums(rows, field.lengths, rig.n_shapes)
+    mirrored = mirrored_entries(active, rows, cols, mirror)
+    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
+    cells = vertex_cells(rig.neutral, active, cols, eligible)
+    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
+    image = image_cell_sums(field, mirrored, eligible, cells)
+    largest = norms.max(axis=1)
+    kept = self_candidates(field, rows, shapes, image, largest, 0.4)
+    every = symmetry._self_errors(field, rows, cols, mirror, np.flatnonzero(eligible), own + image_own)
+    self_symmetric = eligible & (every < 0.4 * largest)
+    assert self_symmetric.any() and not (self_symmetric & ~kept).any()
+    assert (kept & eligible).sum() < 0.5 * eligible.sum()
