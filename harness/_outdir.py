@@ -16,7 +16,7 @@ session that wrote it (``pack``, ``run``, ...) and the SHA-256 of what it wrote.
 * a folder that is, contains or lies inside a protected path (the input rig's file or folder) is always
   refused, so that writing the output can never touch the input (`check_apart`).
 
-Temporary files a killed writer left (named as `rigs.stage` names them, `rigs.staged_target`) are no
+Temporary files a killed writer left (named as `registry.stage` names them, `registry.staged_target`) are no
 output: a folder holding only those counts as empty, and `claim` removes them from the folder and from the
 folders of its listed files (every folder, when nothing else is in the folder).
 
@@ -45,8 +45,7 @@ from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 
-from registry import HarnessError
-from rigs import StagedFile, atomic_write, stage, staged_target, sync_folders
+from registry import HarnessError, StagedFile, atomic_write, stage, staged_target, sync_folders
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
@@ -177,7 +176,7 @@ class OutputFolder:
         them or, when one cannot be written, none.
 
         The contents may come one by one (pairs from a generator): each file is written to a temporary
-        name beside its place (`rigs.stage`) and hashed as it comes, several at a time (`FILE_WRITERS`),
+        name beside its place (`registry.stage`) and hashed as it comes, several at a time (`FILE_WRITERS`),
         while the next is made (at most `IN_FLIGHT` are held in memory). Once all are written, the
         manifest lists them with their hashes and is saved (once), and only then are they renamed into
         place: a file appears under its name only when the manifest already claims its content, so the

@@ -162,9 +162,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from harness._cell import ColumnType, RecordValue, expression_columns
-from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, atomic_write, claim
+from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, claim
 from packing import Expression
-from registry import HarnessError
+from registry import HarnessError, atomic_write, move_apart
 
 if TYPE_CHECKING:
     import numpy as np
@@ -332,7 +332,7 @@ RUN_KIND = "run"
 #: Where `check_parts` moves part files that do not read back whole.
 BROKEN_DIR = "broken-parts"
 _PART_NAME = re.compile(r"[0-9a-f]{16}\.parquet")
-#: Temporary files of `harness._outdir.atomic_write`: ``.<name>.<random>.tmp``.
+#: Temporary files of `registry.atomic_write`: ``.<name>.<random>.tmp``.
 _TEMP_NAME = re.compile(r"\.(?P<name>.+)\.[^.]+\.tmp")
 _CELL_KEY, _ROWS_KEY = b"harness.cell", b"harness.rows"
 
@@ -376,7 +376,7 @@ def part_bytes(cell: str, rows: Iterable[Mapping[str, RecordValue]]) -> bytes:
 
 
 def write_atomically(path: Path, data: bytes) -> Path:
-    """`harness._outdir.atomic_write`, creating the folder; any failure is one `RecordsWriteError`.
+    """`registry.atomic_write`, creating the folder; any failure is one `RecordsWriteError`.
 
     ``path`` then holds either its old content or all of ``data``, and no temporary file is left.
     """
@@ -489,15 +489,7 @@ def check_parts(out: Path) -> tuple[set[str], dict[Path, str]]:
 
 def set_aside(out: Path, path: Path) -> Path:
     """Move a broken part file to ``OUT/broken-parts/`` (never over another file); returns where to."""
-    folder = Path(out) / BROKEN_DIR
-    folder.mkdir(exist_ok=True)
-    target = folder / path.name
-    number = 1
-    while os.path.lexists(target):
-        target = folder / f"{path.name}.{number}"
-        number += 1
-    os.rename(path, target)
-    return target
+    return move_apart(path, Path(out) / BROKEN_DIR)
 
 
 def remove_partial_files(out: Path, names: Iterable[str] = ()) -> list[Path]:

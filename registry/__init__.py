@@ -5,10 +5,21 @@ Solvers (``harness.solvers``), transfer methods (``harness.transfers``) and ``ha
 plugin, a plugin loaded on first use, a load failure or a missing attribute listed as unavailable with the
 reason, a name registered twice warned about, and an `Availability` for every plugin. Beside them, what
 every package shares: `HarnessError`, the error type of bad input, the stop signals
-(`handle_stop_signals`), the running of a plugin kind's conformance checks (`run_checks`), and the one
-cache type (`BoundedMemo`). This package imports nothing else of the project, so every package may use it.
+(`handle_stop_signals`), the running of a plugin kind's conformance checks (`run_checks`), the one
+cache type (`BoundedMemo`), and the one file writer (`atomic_write`: every file the project writes goes
+through it). This package imports nothing else of the project, so every package may use it.
 """
 
+from registry._atomic import (
+    StagedFile,
+    append_text,
+    atomic_path,
+    atomic_write,
+    move_apart,
+    stage,
+    staged_target,
+    sync_folders,
+)
 from registry._availability import Availability, AvailabilityStatus, package_availability
 from registry._checks import parametrize_checks, run_checks
 from registry._errors import HarnessError
@@ -38,14 +49,22 @@ __all__ = [
     "PluginInfo",
     "PluginRegistry",
     "PluginUnavailableError",
+    "StagedFile",
     "UnknownPluginError",
+    "append_text",
+    "atomic_path",
+    "atomic_write",
     "collect",
     "handle_stop_signals",
     "missing_attributes",
+    "move_apart",
     "package_availability",
     "parametrize_checks",
     "raised_without_signal",
     "run_checks",
+    "stage",
+    "staged_target",
     "stop_signal",
     "stop_signals_deferred",
+    "sync_folders",
 ]

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from registry import atomic_write
+
 #: The HTML page may load nothing from anywhere: only inline styles and images embedded as data URIs.
 CONTENT_SECURITY_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
 
@@ -129,13 +131,13 @@ def write_documents(title: str, sections: Sequence[Section], directory: Path) ->
     for section in sections:
         for block in section.blocks:
             if isinstance(block, Image):
-                (figures / f"{block.name}.png").write_bytes(block.png)
+                atomic_write(figures / f"{block.name}.png", block.png)
                 written.add(f"{block.name}.png")
     for stale in figures.glob("*.png"):  # from an earlier report of the run, e.g. a rig since renamed
         if stale.name not in written:
             stale.unlink()
     page = directory / "index.html"
-    page.write_text(html_page(title, sections), encoding="utf-8")
+    atomic_write(page, html_page(title, sections))
     text = directory / "report.md"
-    text.write_text(markdown(title, sections, figures.name), encoding="utf-8")
+    atomic_write(text, markdown(title, sections, figures.name))
     return page, text

@@ -24,8 +24,8 @@ from harness._outdir import (
     claim,
     file_sha256,
 )
-from rigs import StagedFile
-from rigs import _atomic as atomic
+from registry import StagedFile
+from registry import _atomic as atomic
 
 
 def test_a_new_folder_is_claimed_and_its_files_listed_with_kind_and_hash(tmp_path) -> None:

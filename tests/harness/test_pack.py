@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import packing
+import registry
 import rigs
 import session._pack
 import solvers
@@ -292,9 +293,9 @@ def test_rigs_info_warns_about_twins_that_cancel(tiny, tmp_path) -> None:
 def test_a_packing_is_put_in_place_at_once_with_expressions_json_last(tmp_path, monkeypatch) -> None:
     placed: list[str] = []
     saves: list[int] = []
-    original_commit, original_save = rigs.StagedFile.commit, OutputFolder.save
+    original_commit, original_save = registry.StagedFile.commit, OutputFolder.save
 
-    def commit(self: rigs.StagedFile, **options: bool) -> Path:
+    def commit(self: registry.StagedFile, **options: bool) -> Path:
         if self.path.name != MANIFEST_NAME:
             placed.append(self.path.name)
         return original_commit(self, **options)
@@ -303,7 +304,7 @@ def test_a_packing_is_put_in_place_at_once_with_expressions_json_last(tmp_path, 
         saves.append(len(placed))
         return original_save(self)
 
-    monkeypatch.setattr(rigs.StagedFile, "commit", commit)
+    monkeypatch.setattr(registry.StagedFile, "commit", commit)
     monkeypatch.setattr(OutputFolder, "save", save)
     document, _ = pack("tiny", tmp_path / "out")
     files = [expression["files"]["mesh"] for expression in document["expressions"]]
