@@ -7,19 +7,22 @@ temporary file is removed and the target is unchanged. A library that writes onl
 choosing writes to the temporary file of `atomic_path`. A temporary file a killed process left behind is
 recognisable by its name (`staged_target`), so that the next writer can remove it. `append_text` is the one
 writer that adds to a file instead of replacing it (a line log that a reader cuts at its last whole line),
-and `move_apart` the one that moves a file aside (never over another).
+`move_apart` the one that moves a file aside (never over another), and `swap_folder` puts a whole folder
+written beside its place into it.
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
+
+from registry._stop import stop_signals_deferred
 
 
 def _current_umask() -> int:
@@ -37,7 +40,7 @@ NEW_FILE_MODE = 0o666 & ~_current_umask()
 
 
 def atomic_write(
-    path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None], *, sync_folder: bool = True
+    path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None], *, sync: bool = True
 ) -> Path:
     """Write ``data`` to ``path`` atomically.
 
@@ -48,9 +51,10 @@ def atomic_write(
     data : bytes, str or callable
         The content (text is written as UTF-8), or a function that writes it to the binary stream it is
         given (for writers such as ``numpy.savez_compressed`` that stream their output).
-    sync_folder : bool
-        Flush the folder's entry of the file too. A caller writing many files into one folder passes
-        False and calls `sync_folders` once they are all written.
+    sync : bool
+        Flush the content and the folder's entry to disk before this returns. A caller writing many files
+        into a folder of its own (not yet in place) passes False and calls `sync_files` once they are all
+        written, which costs less than flushing each as it comes.
 
     Returns
     -------
@@ -62,7 +66,7 @@ def atomic_write(
     OSError
         When the folder is not writable or the disk is full (``path`` is then unchanged).
     """
-    with atomic_path(path, sync_folder=sync_folder) as temporary, temporary.open("r+b") as handle:
+    with atomic_path(path, sync=sync) as temporary, temporary.open("r+b") as handle:
         if callable(data):
             data(handle)
         else:
@@ -71,7 +75,7 @@ def atomic_write(
 
 
 @contextmanager
-def atomic_path(path: str | os.PathLike, *, sync_folder: bool = True) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike, *, sync: bool = True) -> Iterator[Path]:
     """A temporary file beside ``path`` to write the new content to; on leaving the block without an
     error it is flushed to disk and renamed over ``path``, on an error it is removed (``path`` unchanged).
 
@@ -90,64 +94,15 @@ def atomic_path(path: str | os.PathLike, *, sync_folder: bool = True) -> Iterato
     try:
         os.close(descriptor)
         yield temporary
-        descriptor = os.open(temporary, os.O_RDONLY)
-        try:
-            os.fchmod(descriptor, mode)
-            os.fsync(descriptor)
-        finally:
-            os.close(descriptor)
+        os.chmod(temporary, mode)
+        if sync:
+            _sync_file(temporary)
         os.replace(temporary, path)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
-    if sync_folder:
-        sync_folders([path])
-
-
-@dataclass(frozen=True)
-class StagedFile:
-    """New content for ``path``, written in full and flushed to disk under the unique name ``temporary``
-    beside it; ``path`` itself is not touched until `commit`."""
-
-    path: Path
-    temporary: Path
-
-    def commit(self, *, sync_folder: bool = True) -> Path:
-        """Rename the staged content over ``path`` (atomic) and, with ``sync_folder``, flush the folder's
-        entry; returns ``path``. When the rename fails, ``path`` is unchanged and the staged file stays
-        (`discard` it): whether ``temporary`` still exists tells whether the content was put in place."""
-        os.replace(self.temporary, self.path)
-        if sync_folder:
-            _sync_folder(self.path.parent)
-        return self.path
-
-    def discard(self) -> None:
-        """Remove the staged content (``path`` is unchanged)."""
-        self.temporary.unlink(missing_ok=True)
-
-
-def stage(path: str | os.PathLike, data: bytes | str) -> StagedFile:
-    """Write ``data`` (text as UTF-8) to a uniquely named temporary file in ``path``'s folder and flush it
-    to disk, for `StagedFile.commit` to put in place later; on failure nothing is left behind.
-
-    Raises
-    ------
-    OSError
-        When the folder is not writable or the disk is full.
-    """
-    path = Path(path)
-    mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(descriptor, "wb") as handle:
-            os.fchmod(handle.fileno(), mode)
-            handle.write(data.encode("utf-8") if isinstance(data, str) else bytes(data))
-            handle.flush()
-            os.fsync(handle.fileno())
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return StagedFile(path, Path(temporary))
+    if sync:
+        _sync_folder(path.parent)
 
 
 def append_text(path: str | os.PathLike, text: str) -> None:
@@ -176,6 +131,42 @@ def move_apart(path: str | os.PathLike, folder: str | os.PathLike) -> Path:
     return target
 
 
+def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> Path | None:
+    """Rename the finished folder ``new`` into the place of the folder ``target`` (a sibling of it).
+
+    An empty ``target`` is replaced in one atomic rename. One with content is first renamed aside, to a
+    fresh hidden sibling named as `STAGED_NAME` says, and put back if the second rename fails; that folder
+    is returned for the caller to remove. No stop signal cuts the swap short (`stop_signals_deferred`).
+
+    Returns
+    -------
+    Path or None
+        The earlier ``target``, renamed aside; None when ``target`` was empty or missing.
+
+    Raises
+    ------
+    OSError
+        When a rename fails (``target`` is then as it was).
+    """
+    new, target = Path(new), Path(target)
+    with stop_signals_deferred():
+        try:
+            os.rename(new, target)
+            aside = None
+        except OSError as error:
+            if error.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+                raise
+            aside = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+            os.rename(target, aside)
+            try:
+                os.rename(new, target)
+            except BaseException:
+                os.rename(aside, target)
+                raise
+    _sync_folder(target.parent)
+    return aside
+
+
 def staged_target(name: str) -> str | None:
     """The name of the file a temporary file called ``name`` was written for (None when ``name`` is not
     named as this module names its temporary files)."""
@@ -183,11 +174,32 @@ def staged_target(name: str) -> str | None:
     return None if match is None else match["target"]
 
 
-def sync_folders(paths: Iterable[str | os.PathLike]) -> None:
-    """Flush the folder entries of files written with ``atomic_write(..., sync_folder=False)``, each
-    folder once."""
-    for folder in dict.fromkeys(Path(path).parent for path in paths):
+def sync_files(paths: Iterable[str | os.PathLike]) -> None:
+    """Flush files written with ``atomic_write(..., sync=False)`` to disk, then their folders' entries,
+    each folder once.
+
+    Raises
+    ------
+    OSError
+        When a file cannot be flushed (e.g. the disk is full); its ``filename`` names the file.
+    """
+    paths = [Path(path) for path in paths]
+    for path in paths:
+        try:
+            _sync_file(path)
+        except OSError as error:
+            error.filename = str(path)
+            raise
+    for folder in dict.fromkeys(path.parent for path in paths):
         _sync_folder(folder)
+
+
+def _sync_file(path: Path) -> None:
+    descriptor = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
 
 
 def _sync_folder(folder: Path) -> None:
