@@ -17,7 +17,8 @@ from registry._atomic import (
     move_apart,
     staged_target,
     swap_folder,
-    sync_files,
+    sync_file,
+    sync_folders,
 )
 from registry._availability import Availability, AvailabilityStatus, package_availability
 from registry._checks import parametrize_checks, run_checks
@@ -70,5 +71,6 @@ __all__ = [
     "stop_signal",
     "stop_signals_deferred",
     "swap_folder",
-    "sync_files",
+    "sync_file",
+    "sync_folders",
 ]

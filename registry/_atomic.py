@@ -53,8 +53,8 @@ def atomic_write(
         given (for writers such as ``numpy.savez_compressed`` that stream their output).
     sync : bool
         Flush the content and the folder's entry to disk before this returns. A caller writing many files
-        into a folder of its own (not yet in place) passes False and calls `sync_files` once they are all
-        written, which costs less than flushing each as it comes.
+        into a folder of its own (not yet in place) passes False, flushes them with `sync_file` (which may
+        run beside the making of the next file) and calls `sync_folders` once they are all written.
 
     Returns
     -------
@@ -66,12 +66,26 @@ def atomic_write(
     OSError
         When the folder is not writable or the disk is full (``path`` is then unchanged).
     """
-    with atomic_path(path, sync=sync) as temporary, temporary.open("r+b") as handle:
-        if callable(data):
-            data(handle)
-        else:
-            handle.write(data.encode("utf-8") if isinstance(data, str) else bytes(data))
-    return Path(path)
+    path = Path(path)
+    mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
+    descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with open(descriptor, "wb") as handle:
+            os.fchmod(descriptor, mode)
+            if callable(data):
+                data(handle)
+            else:
+                handle.write(data.encode("utf-8") if isinstance(data, str) else bytes(data))
+            if sync:
+                handle.flush()
+                os.fsync(descriptor)
+        os.replace(name, path)
+    except BaseException:
+        Path(name).unlink(missing_ok=True)
+        raise
+    if sync:
+        _sync_folder(path.parent)
+    return path
 
 
 @contextmanager
@@ -174,23 +188,24 @@ def staged_target(name: str) -> str | None:
     return None if match is None else match["target"]
 
 
-def sync_files(paths: Iterable[str | os.PathLike]) -> None:
-    """Flush files written with ``atomic_write(..., sync=False)`` to disk, then their folders' entries,
-    each folder once.
+def sync_file(path: str | os.PathLike) -> None:
+    """Flush a file written with ``atomic_write(..., sync=False)`` to disk (then `sync_folders`).
 
     Raises
     ------
     OSError
-        When a file cannot be flushed (e.g. the disk is full); its ``filename`` names the file.
+        When it cannot be flushed (e.g. the disk is full); its ``filename`` names the file.
     """
-    paths = [Path(path) for path in paths]
-    for path in paths:
-        try:
-            _sync_file(path)
-        except OSError as error:
-            error.filename = str(path)
-            raise
-    for folder in dict.fromkeys(path.parent for path in paths):
+    try:
+        _sync_file(Path(path))
+    except OSError as error:
+        error.filename = str(path)
+        raise
+
+
+def sync_folders(paths: Iterable[str | os.PathLike]) -> None:
+    """Flush the folder entries of files written with ``atomic_write(..., sync=False)``, each folder once."""
+    for folder in dict.fromkeys(Path(path).parent for path in paths):
         _sync_folder(folder)
 
 

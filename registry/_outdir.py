@@ -46,14 +46,17 @@ import shutil
 import tempfile
 import weakref
 from collections.abc import Iterable, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 
-from registry._atomic import atomic_write, staged_target, swap_folder, sync_files
+from registry._atomic import atomic_write, staged_target, swap_folder, sync_file, sync_folders
 from registry._errors import HarnessError
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
 MANIFEST_VERSION = 1
+#: Files flushed to disk at once, beside the making of the next file (`OutputFolder.replace`).
+FLUSHING = 4
 
 
 class OutputFolderError(HarnessError):
@@ -67,6 +70,12 @@ def file_sha256(path: Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def _flushed(path: Path) -> str:
+    """Flush a file written without it to disk (`registry.sync_file`); returns its SHA-256."""
+    sync_file(path)
+    return file_sha256(path)
 
 
 def _write_error(path: Path, error: OSError) -> OutputFolderError:
@@ -133,13 +142,19 @@ class OutputFolder:
             raise _write_error(self.path, error) from None
         try:
             os.chmod(staging, self.path.stat().st_mode & 0o7777)  # (the folder's own, not a private one)
-            files, names = self._fill(staging, pairs)
-            atomic_write(staging / MANIFEST_NAME, _manifest_text(files), sync=False)
+            with ThreadPoolExecutor(FLUSHING) as flushing:
+                flushed = self._fill(staging, pairs, flushing)
+                files = {}
+                for name, future in flushed.items():
+                    if future.exception() is not None:
+                        raise _write_error(self.path / name, future.exception()) from None
+                    files[name] = {"kind": self.kind, "sha256": future.result()}
+            names = list(files)
             try:
-                sync_files([*(staging / name for name in names), staging / MANIFEST_NAME])
+                _flushed(atomic_write(staging / MANIFEST_NAME, _manifest_text(files), sync=False))
             except OSError as error:
-                failed = Path(error.filename or staging).relative_to(staging)
-                raise _write_error(self.path / failed, error) from None
+                raise _write_error(self.path / MANIFEST_NAME, error) from None
+            sync_folders([*(staging / name for name in names), staging / MANIFEST_NAME])
             self._check_unchanged()
             try:
                 aside = swap_folder(staging, self.path)
@@ -154,17 +169,18 @@ class OutputFolder:
         return [self.path / name for name in names]
 
     def _fill(
-        self, staging: Path, pairs: Iterable[tuple[str, bytes | str]]
-    ) -> tuple[dict[str, dict[str, str]], list[str]]:
-        """Write ``pairs`` into ``staging``; their manifest entries and their names in order."""
-        files: dict[str, dict[str, str]] = {}
+        self, staging: Path, pairs: Iterable[tuple[str, bytes | str]], flushing: ThreadPoolExecutor
+    ) -> dict[str, Future[str]]:
+        """Write ``pairs`` into ``staging`` as they come, each flushed to disk and hashed by ``flushing``
+        while the next is made; name -> its SHA-256 to come, in order."""
+        flushed: dict[str, Future[str]] = {}
         folders: set[str] = set()
         for name, data in pairs:
             name = _checked_name(name)
             parents = [str(parent) for parent in PurePosixPath(name).parents][:-1]
-            if name in files:
+            if name in flushed:
                 raise OutputFolderError(f"{self.path / name}: given twice in one write")
-            if name in folders or any(parent in files for parent in parents):
+            if name in folders or any(parent in flushed for parent in parents):
                 raise OutputFolderError(f"{self.path / name}: both a file and a folder in one write")
             folders.update(parents)
             payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
@@ -174,8 +190,8 @@ class OutputFolder:
                 atomic_write(path, payload, sync=False)
             except OSError as error:
                 raise _write_error(self.path / name, error) from None
-            files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
-        return files, list(files)
+            flushed[name] = flushing.submit(_flushed, path)
+        return flushed
 
     def _check_unchanged(self) -> None:
         """The folder, about to be replaced, is still the one claimed, holding only this kind's files."""
@@ -188,28 +204,6 @@ class OutputFolder:
                 raise OutputFolderError(f"{self.path}: was moved or replaced while this command wrote it")
         files, problem = _read_manifest(self.path / MANIFEST_NAME)
         _refuse_foreign(self.path, files, problem, self.kind)
-
-    def write(self, name: str, data: bytes | str) -> Path:
-        """Write ``data`` as ``name`` in the folder itself, atomically, listed in the manifest *before* it
-        is written: however the process ends, the folder never holds a file the command wrote that the
-        manifest does not list.
-
-        Raises
-        ------
-        OutputFolderError
-            For a name outside the folder, or when the manifest or the file cannot be written.
-        """
-        name = _checked_name(name)
-        payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
-        path = self.path / name
-        self._check_inside(name)
-        self.files[name] = {"kind": self.kind, "sha256": hashlib.sha256(payload).hexdigest()}
-        self.save()
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            return atomic_write(path, payload)
-        except OSError as error:
-            raise _write_error(path, error) from None
 
     def record(self, path: Path | str) -> str:
         """List a file already in the folder (e.g. a part file of an interrupted run that read back whole);
