@@ -30,7 +30,6 @@ if TYPE_CHECKING:
         CellSpec,
         RunConfig,
     )
-    from harness._outdir import ChangedFileWarning, OutputFolder, OutputFolderError, claim
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
@@ -54,7 +53,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "RunConfig",
         ],
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
-        "_outdir": ["ChangedFileWarning", "OutputFolder", "OutputFolderError", "claim"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],
         "_run": ["RunDirectoryError", "RunSummary", "read_run", "run_grid"],

@@ -43,9 +43,9 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from harness._grid import GROUP_COLUMNS
-from harness._outdir import OutputFolder
 from harness._records import RECORD_SCHEMA, RECORDS_DIR, part_bytes, part_path, read_records, write_listed
 from packing import TIE_BREAK_SCALE
+from registry import OutputFolder
 
 #: Relative tolerance (to ``max(1, |value|)``) of the comparisons (see the module docstring).
 TOLERANCE = 1e-9

@@ -50,8 +50,8 @@ def instances() -> None:
 @click.option(
     "--force",
     is_flag=True,
-    help="Replace an earlier export in --out, or write into a folder harness did not write (its files are "
-    "kept; only files harness wrote are ever replaced or removed).",
+    help="Replace an earlier export in --out (a folder holding files harness did not write is refused; "
+    "those are never replaced or removed).",
 )
 @click.option(
     "--mu", type=FiniteFloatRange(0, 1, min_open=True), default=0.3, show_default=True,
@@ -123,13 +123,11 @@ def export(
         raise UserError(lines[0] if lines else type(error).__name__) from None
     from rich.markup import escape
 
-    document, files, warnings = written
+    document = written
     counts: dict[str, int] = {}
     for entry in document["instances"]:
         counts[entry["status"]] = counts.get(entry["status"], 0) + 1
     summary = ", ".join(f"{count} ={status}=" for status, count in counts.items())
-    for warning in warnings:
-        terminal().print(f"[yellow]warning:[/] {escape(warning)}")
     terminal().print(
         escape(
             f"wrote {len(document['instances'])} instances of {len(document['sequences'])} sequences by "
@@ -173,4 +171,4 @@ def _export(
         chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
     solver = plugins.load_solver(solver_name)
     result = export_instances(chosen, solver=solver, out=out, force=force)
-    return result.document, result.files, result.warnings
+    return result.document

@@ -277,8 +277,8 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @click.option(
     "--force",
     is_flag=True,
-    help="Replace a run already in --out, or write into a folder harness did not create (only files "
-    "harness wrote are ever removed).",
+    help="Replace a run already in --out (a folder holding files harness did not write is refused; those "
+    "are never replaced or removed).",
 )
 @click.option(
     "--retry-failed",

@@ -30,10 +30,9 @@ subproblems is written as the model the exact backends solve (DESIGN.md, "Common
     symmetry or together pair). Columns are named after their items (``jawOpen``,
     ``eyeBlink_L+eyeBlink_R``) when every name of the instance is a safe MPS name, else ``x0``, ``x1``, ...
 
-The folder is claimed with `harness._outdir.claim` (kind ``instances``) as ``harness pack`` claims its: an
-earlier export is replaced only with ``force``, a folder holding other files needs ``force`` (they are
-kept), every file is listed in the manifest, the files are put in place together, and files an earlier
-export wrote that this one does not are removed (only while unchanged).
+The folder is claimed with `registry.claim` (kind ``instances``) as ``harness pack`` claims its: an earlier
+export is replaced only with ``force``, a folder holding anything else is refused, every file is listed in
+the manifest, and the export is written beside the folder and renamed into its place as a whole.
 """
 
 from __future__ import annotations
@@ -46,8 +45,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness._instances_source import Sequence
-from harness._outdir import ChangedFileWarning, claim
-from registry import HarnessError
+from registry import HarnessError, claim
 
 if TYPE_CHECKING:
     import numpy as np
@@ -64,12 +62,11 @@ VERSION = 1
 
 @dataclass(frozen=True)
 class ExportResult:
-    """What `export` wrote: the ``instances.json`` document, the files (MPS files, then the ``.solu`` and
-    the JSON) and warnings (earlier files left in place because they were changed since)."""
+    """What `export` wrote: the ``instances.json`` document and the files (MPS files, then the ``.solu``
+    and the JSON)."""
 
     document: dict[str, Any]
     files: list[Path]
-    warnings: list[str]
 
 
 class Recorder:
@@ -120,11 +117,11 @@ def export(
     out : Path
         Output folder (created; see the module notes for what it may already hold).
     force : bool
-        Replace an earlier export, or write beside the files of a folder the harness did not write.
+        Replace an earlier export.
 
     Raises
     ------
-    harness._outdir.OutputFolderError
+    registry.OutputFolderError
         For an output folder that may not be used (checked before any solve).
     ValueError
         For bad packing parameters, or a reference sequence the independent checker refutes.
@@ -166,13 +163,7 @@ def export(
             yield SOLU_FILE, solu
             yield INDEX_FILE, json.dumps(document, indent=2) + "\n"
 
-        paths = folder.write_files(contents())
-        names = [path.relative_to(folder.path).as_posix() for path in paths]
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ChangedFileWarning)
-            folder.remove_stale(keep=names)
-        changed = [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
-        return ExportResult(document, paths, changed)
+        return ExportResult(document, folder.replace(contents()))
 
 
 @dataclass(frozen=True)

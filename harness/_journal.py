@@ -20,6 +20,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from registry import append_text
+
 if TYPE_CHECKING:
     from harness._cell import RecordValue, Row
 
@@ -39,8 +41,7 @@ def new_journal() -> Path:
 
 def append_row(journal: str | os.PathLike, row: Mapping[str, RecordValue]) -> None:
     """Append one row as a JSON line, flushed before this returns (the process may be killed next)."""
-    with open(journal, "a", encoding="utf-8") as stream:
-        stream.write(json.dumps(dict(row)) + "\n")
+    append_text(journal, json.dumps(dict(row)) + "\n")
 
 
 def read_journal(journal: str | os.PathLike) -> list[Row]:

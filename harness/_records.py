@@ -9,8 +9,8 @@ Layout of a run directory ``OUT/``:
   its Parquet metadata and page checksums; ``--resume`` reads every part back (`check_parts`) and moves a
   truncated or corrupt one to ``OUT/broken-parts/`` to run its cell again. Files in ``records/`` not named
   like a part are no records and are never read, moved or removed.
-- ``OUT/.harness-manifest.json``: the files the harness wrote here (`harness._outdir`); ``OUT/.lock``: held
-  by the run writing the folder.
+- ``OUT/.harness-manifest.json``: the files the harness wrote here (`registry.claim`); the run writing
+  the folder holds a lock on ``OUT`` itself (`harness._run.locked`).
 
 Records table (long format, one schema for every row, null where a column does not apply). The schema
 grows: a part file written before a column was added reads with that column null, so adding a column keeps
@@ -162,9 +162,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from harness._cell import ColumnType, RecordValue, expression_columns
-from harness._outdir import MANIFEST_NAME, OutputFolder, OutputFolderError, atomic_write, claim
 from packing import Expression
-from registry import HarnessError
+from registry import HarnessError, OutputFolder, OutputFolderError, atomic_write, claim, move_apart, reopen
 
 if TYPE_CHECKING:
     import numpy as np
@@ -327,12 +326,12 @@ SORT_COLUMNS: tuple[str, ...] = ("cell", "kind", "expression", "transfer", "j")
 
 RUN_FILE = "run.json"
 RECORDS_DIR = "records"
-#: Session kind of a run's files in the folder manifest (`harness._outdir`).
+#: Kind of a run's files in the folder manifest (`registry.claim`).
 RUN_KIND = "run"
 #: Where `check_parts` moves part files that do not read back whole.
 BROKEN_DIR = "broken-parts"
 _PART_NAME = re.compile(r"[0-9a-f]{16}\.parquet")
-#: Temporary files of `harness._outdir.atomic_write`: ``.<name>.<random>.tmp``.
+#: Temporary files of `registry.atomic_write`: ``.<name>.<random>.tmp``.
 _TEMP_NAME = re.compile(r"\.(?P<name>.+)\.[^.]+\.tmp")
 _CELL_KEY, _ROWS_KEY = b"harness.cell", b"harness.rows"
 
@@ -376,7 +375,7 @@ def part_bytes(cell: str, rows: Iterable[Mapping[str, RecordValue]]) -> bytes:
 
 
 def write_atomically(path: Path, data: bytes) -> Path:
-    """`harness._outdir.atomic_write`, creating the folder; any failure is one `RecordsWriteError`.
+    """`registry.atomic_write`, creating the folder; any failure is one `RecordsWriteError`.
 
     ``path`` then holds either its old content or all of ``data``, and no temporary file is left.
     """
@@ -489,15 +488,7 @@ def check_parts(out: Path) -> tuple[set[str], dict[Path, str]]:
 
 def set_aside(out: Path, path: Path) -> Path:
     """Move a broken part file to ``OUT/broken-parts/`` (never over another file); returns where to."""
-    folder = Path(out) / BROKEN_DIR
-    folder.mkdir(exist_ok=True)
-    target = folder / path.name
-    number = 1
-    while os.path.lexists(target):
-        target = folder / f"{path.name}.{number}"
-        number += 1
-    os.rename(path, target)
-    return target
+    return move_apart(path, Path(out) / BROKEN_DIR)
 
 
 def remove_partial_files(out: Path, names: Iterable[str] = ()) -> list[Path]:
@@ -543,45 +534,31 @@ def write_listed(folder: OutputFolder, name: str, data: bytes) -> Path:
 
 
 def open_new(out: Path, force: bool) -> OutputFolder:
-    """Claim ``out`` for a new run (`harness._outdir.claim`) and check that replacing the previous run
-    touches only files the harness wrote.
+    """Claim ``out`` for a new run (`registry.claim`: new or empty, or with ``force`` holding only an
+    earlier run's unchanged files) and save its manifest.
 
     Raises
     ------
     OutputFolderError
-        When the folder holds files the harness did not write where the run writes (``run.json``,
-        anything in ``records/``), or is not empty and not forced.
+        When the folder holds anything the harness did not write, or an earlier run and not forced.
     """
     folder = claim(out, kind=RUN_KIND, force=force)
-    remove_partial_files(out, names=(RUN_FILE, MANIFEST_NAME))
-    folder.check_free([RUN_FILE])
-    records = out / RECORDS_DIR
-    foreign = (
-        sorted(path.name for path in records.iterdir() if not folder.owns(path.relative_to(out).as_posix()))
-        if records.is_dir()
-        else []
-    )
-    if foreign:
-        listed = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
-        raise OutputFolderError(
-            f"{records} holds files harness did not write ({listed}); move them away or choose another --out"
-        )
     save_manifest(folder)
     return folder
 
 
 def remove_previous(folder: OutputFolder) -> None:
-    """Remove the files of the run this one replaces (only the listed, unchanged ones: `open_new`)."""
+    """Remove the files of the run this one replaces (`open_new` found only those in the folder)."""
     try:
-        folder.remove_stale(keep=())
+        folder.clear()
     except OutputFolderError as error:
         raise _folder_write_error(error) from None
 
 
 def open_for_resume(out: Path) -> OutputFolder:
     """The manifest of a run folder being resumed, without its temporary files a killed writer left."""
-    folder = claim(out, kind=RUN_KIND, force=True)
-    remove_partial_files(out, names=(RUN_FILE, MANIFEST_NAME))
+    folder = reopen(out, kind=RUN_KIND)
+    remove_partial_files(out, names=(RUN_FILE,))
     return folder
 
 

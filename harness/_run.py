@@ -30,8 +30,9 @@ that has a part file; with ``retry_failed`` (``--retry-failed``) it also runs ag
 `harness._failures.RETRIED_STATUSES`, whose result then replaces the recorded one. ``--resume`` first reads
 every part back and sets broken ones aside, refuses options that differ from ``run.json`` and rigs whose
 content changed, and like every run holds an exclusive lock on ``OUT`` (``flock`` on the folder), so two runs
-never write one folder. The folder's manifest (`harness._outdir`) lists every file the run writes; ``--force``
-removes only those, never a file the harness did not write.
+never write one folder. The folder's manifest (`registry.claim`) lists every file the run writes; ``--force``
+replaces an earlier run only when the folder holds nothing else, so it never removes a file the harness
+did not write.
 """
 
 from __future__ import annotations
@@ -59,7 +60,6 @@ from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
 from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
-from harness._outdir import OutputFolder, OutputFolderError, check_apart
 from harness._records import (
     RECORDS_DIR,
     RUN_FILE,
@@ -74,7 +74,7 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
-from registry import HarnessError
+from registry import HarnessError, OutputFolder, OutputFolderError, check_apart
 
 if TYPE_CHECKING:
     from rigs import RigInputs

@@ -1,6 +1,6 @@
 """The project's error type for bad input and refused requests.
 
-Every package raises `HarnessError` (or a subclass: `rigs.RigError`, ``harness._outdir.OutputFolderError``,
+Every package raises `HarnessError` (or a subclass: `rigs.RigError`, `registry.OutputFolderError`,
 `UnknownPluginError`, ...) where the user gave something wrong: a malformed file, an unknown name, an
 option out of range, an output folder that may not be used. Its message is one line naming the file,
 field or option and what is wrong, which the ``harness`` command prints as it is. Any other exception is a

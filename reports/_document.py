@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from registry import claim
+
 #: The HTML page may load nothing from anywhere: only inline styles and images embedded as data URIs.
 CONTENT_SECURITY_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
 
@@ -121,21 +123,27 @@ def html_page(title: str, sections: Sequence[Section]) -> str:
 
 
 def write_documents(title: str, sections: Sequence[Section], directory: Path) -> tuple[Path, Path]:
-    """Write ``index.html``, ``report.md`` and ``figures/*.png`` into ``directory``; return both pages."""
-    directory.mkdir(parents=True, exist_ok=True)
-    figures = directory / "figures"
-    figures.mkdir(exist_ok=True)
-    written = set()
-    for section in sections:
-        for block in section.blocks:
-            if isinstance(block, Image):
-                (figures / f"{block.name}.png").write_bytes(block.png)
-                written.add(f"{block.name}.png")
-    for stale in figures.glob("*.png"):  # from an earlier report of the run, e.g. a rig since renamed
-        if stale.name not in written:
-            stale.unlink()
-    page = directory / "index.html"
-    page.write_text(html_page(title, sections), encoding="utf-8")
-    text = directory / "report.md"
-    text.write_text(markdown(title, sections, figures.name), encoding="utf-8")
+    """Write ``index.html``, ``report.md`` and ``figures/*.png`` as the whole content of ``directory``
+    (`registry.claim`, kind ``report``: an earlier report is replaced, a folder holding anything else is
+    refused); return both pages.
+
+    Raises
+    ------
+    registry.OutputFolderError
+        When ``directory`` holds files no report wrote (naming them) or cannot be written.
+    """
+    figures = {
+        f"figures/{block.name}.png": block.png
+        for section in sections
+        for block in section.blocks
+        if isinstance(block, Image)
+    }
+    with claim(directory, kind="report", force=True, lock=True) as folder:
+        page, text, *_ = folder.replace(
+            {
+                "index.html": html_page(title, sections),
+                "report.md": markdown(title, sections, "figures"),
+                **figures,
+            }
+        )
     return page, text

@@ -38,8 +38,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from registry import HarnessError
-from rigs import atomic_write
+from registry import HarnessError, atomic_write
 
 #: Columns of a history file, in order; its first line is exactly these names joined by commas.
 HISTORY_COLUMNS: tuple[str, ...] = (

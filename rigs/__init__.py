@@ -1,6 +1,6 @@
 """Blendshape rigs: the `Rig` value and its records (provenance, surface, load report, truth), loaders and
 writers, the procedural generator, warps, mirror map and left/right names, the registry of rig formats, the
-frontal camera of a face, atomic file writes.
+frontal camera of a face.
 
 Names are attached lazily (lazy_loader): ``import rigs`` costs nothing until a name is used, so that
 listing plugins and presets does not import SciPy's spatial or sparse modules.
@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
-    from rigs._atomic import StagedFile, atomic_write, stage, staged_target, sync_folders
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
@@ -46,7 +45,6 @@ if TYPE_CHECKING:
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_atomic": ["StagedFile", "atomic_write", "stage", "staged_target", "sync_folders"],
         "_camera": ["frontal_camera", "three_quarter_camera"],
         "_character": ["Character"],
         "_formats": ["RigFormat", "detect_format", "formats", "register_format"],

@@ -27,7 +27,7 @@ import zipfile
 from dataclasses import replace
 from pathlib import Path
 
-from rigs._atomic import atomic_write
+from registry import atomic_write
 from rigs._io import with_report
 from rigs._npz import load_npz, save_npz
 from rigs._obj_crop import crop_surface
@@ -105,7 +105,7 @@ def fetch_wheel(cache_dir: str | Path | None = None, *, download: bool = True) -
                 lines = [line for line in (done.stderr or done.stdout).splitlines() if line.strip()]
                 reason = lines[-1].strip() if lines else f"exit code {done.returncode}"
                 raise RigError(f"{wheel}: `pip download {WHEEL_REQUIREMENT}` failed: {reason}")
-            os.replace(fetched, wheel)
+            atomic_write(wheel, fetched.read_bytes())
     digest = hashlib.sha256(wheel.read_bytes()).hexdigest()
     if digest != WHEEL_SHA256:
         raise RigError(

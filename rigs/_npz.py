@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs._atomic import atomic_write
+from registry import atomic_write
 from rigs._provenance import Provenance
 from rigs._rig import Rig, RigError
 from rigs._safe import read_bytes

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from registry import atomic_write
 from rigs._arrow_lines import triangle_lines, vertex_lines
 from rigs._obj import ObjMesh, decimal_step, read_obj
 from rigs._obj_faces import first_difference
@@ -352,7 +353,7 @@ def write_obj(
 ) -> None:
     """Write one OBJ: ``v`` lines with shortest round-trip floats, then 1-based ``f`` lines."""
     header = "".join(f"# {line}\n" for line in comment.splitlines()).encode("utf-8")
-    Path(path).write_bytes(header + vertex_lines(np.asarray(vertices)) + polygon_lines(faces))
+    atomic_write(path, header + vertex_lines(np.asarray(vertices)) + polygon_lines(faces))
 
 
 def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
@@ -384,12 +385,12 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     face_text = polygon_lines(rig.faces if rig.faces is not None else rig.triangles)
     source = rig.provenance.label
-    (folder / "neutral.obj").write_bytes(
-        f"# neutral of {source}\n".encode() + vertex_lines(rig.neutral) + face_text
+    atomic_write(
+        folder / "neutral.obj", f"# neutral of {source}\n".encode() + vertex_lines(rig.neutral) + face_text
     )
     for name, delta in zip(rig.names, rig.deltas, strict=True):
         header = f"# blendshape {name} of {source}\n".encode()
-        (folder / f"{name}.obj").write_bytes(header + vertex_lines(rig.neutral + delta) + face_text)
+        atomic_write(folder / f"{name}.obj", header + vertex_lines(rig.neutral + delta) + face_text)
     manifest = {
         "format": "obj-folder",
         "neutral": "neutral.obj",
@@ -397,7 +398,7 @@ def save_obj_folder(rig: Rig, folder: str | Path) -> Path:
         "regions": {name: indices.tolist() for name, indices in rig.regions.items()},
         "units": rig.provenance.units or "unknown",
     }
-    (folder / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+    atomic_write(folder / MANIFEST, json.dumps(manifest, indent=1) + "\n")
     return folder
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from registry import atomic_path
 from rigs._provenance import Provenance
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import named_path, read_bytes, regular_file
@@ -219,9 +220,7 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
     path = Path(path)
     Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt = _pxr(str(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    stage = Usd.Stage.CreateNew(str(path))
-    if stage is None:
-        raise RigError(f"{path}: cannot create a USD stage there")
+    stage = Usd.Stage.CreateInMemory(path.name)  # (the name's suffix chooses text or binary)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     units = {unit: value for value, unit in _UNITS.items()}
     if rig.provenance.units in units:
@@ -246,8 +245,9 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
         targets.append(shape.GetPath())
     binding.CreateBlendShapesAttr(Vt.TokenArray(list(rig.names)))
     binding.CreateBlendShapeTargetsRel().SetTargets(targets)
-    if not stage.GetRootLayer().Save():
-        raise RigError(f"{path}: cannot write the USD file")
+    with atomic_path(path) as temporary:
+        if not stage.GetRootLayer().Export(str(temporary)):
+            raise RigError(f"{path}: cannot write the USD file")
     return path
 
 

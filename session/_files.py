@@ -42,8 +42,8 @@ def session_files(
     notes: Sequence[str] = (),
     scene: Future[Scene] | None = None,
 ) -> Iterator[tuple[str, str | bytes]]:
-    """(file name relative to the folder, content) of every session file, made one at a time so that a
-    writer can store each while the next is made (`harness._outdir.OutputFolder.write_files`);
+    """(file name relative to the folder, content) of every session file, made one at a time so that the
+    writer stores each before the next is made (`registry.OutputFolder.replace`);
     ``document["expressions"]`` entries gain their ``files`` as they are made.
 
     Parameters

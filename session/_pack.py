@@ -46,11 +46,12 @@ texture coordinates, normals, groups, materials and faces; ``on_target/expressio
 ``target``; ``expressions.glb`` with ``glb``; ``pictures/expression_XX_front.png``,
 ``..._front_pose.png`` and ``..._three_quarter_pose.png``; and the scan sheet ``session.html``.
 
-The folder is claimed with `harness._outdir.claim` (kind ``pack``), under an exclusive lock held until the
-session is written (another command claiming it meanwhile is refused with one line), and its manifest
-lists every file written: a folder holding an earlier packing needs ``force`` to be replaced, a non-empty
-folder without the harness manifest needs ``force`` and its files are kept, and the rig's own file or
-folder is never the output. Only files an earlier packing wrote are replaced or removed.
+The folder is claimed with `registry.claim` (kind ``pack``) before any packing is done, under an exclusive
+lock held until the session is written (another command claiming it meanwhile is refused with one line), and
+its manifest lists every file written: a folder holding an earlier packing needs ``force`` to be replaced, a
+folder holding anything else is refused, and the rig's own file or folder is never the output. The session
+is written into a fresh folder beside it and renamed into its place as a whole (`OutputFolder.replace`), so
+that whatever stops the command, the folder is as it was.
 """
 
 from __future__ import annotations
@@ -65,16 +66,8 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import (
-    ChangedFileWarning,
-    OutputFolder,
-    check_settings,
-    claim,
-    format_duration,
-    input_paths,
-    resolve_rig,
-)
-from registry import HarnessError
+from harness import check_settings, format_duration, input_paths, resolve_rig
+from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
 from session._mesh import read_target
@@ -118,8 +111,8 @@ class PackResult:
         What the user should know: what the analysis skipped or could not do (empty shapes, vertices
         without a mirror, no target), the symmetry pairs, and shapes left out of every expression.
     warnings : list of str
-        The document's ``warnings`` (cancelling pairs, a ``timeout`` that cut the sequence short), then
-        earlier files of the folder left in place because they were changed since the harness wrote them.
+        The document's ``warnings`` (cancelling pairs, a ``timeout`` that cut the sequence short, a minimum
+        that was not proved).
     """
 
     document: dict[str, Any]
@@ -179,8 +172,7 @@ class PackConfig:
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
         expression was found by then, an error says so and nothing is written.
     force : bool
-        Replace an earlier packing in ``out``, or write beside the files of a folder the harness did not
-        write (they are kept).
+        Replace an earlier packing in ``out`` (a folder holding anything else is refused).
     rejections : mapping
         1-based expression number -> shapes the artist rejects there (sec. 4.5.3), primary or extra.
     inputs : tuple of Path
@@ -230,7 +222,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
 
     Raises
     ------
-    harness.OutputFolderError
+    registry.OutputFolderError
         For an output folder that may not be used (before any packing is done).
     registry.HarnessError
         For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
@@ -379,8 +371,8 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
             notes=[*notes, *found],
             scene=scene,
         )
-        files, changed = _write(folder, document, session)
-    return PackResult(document, files, notes, [*found, *changed])
+        files = _write(folder, document, session)
+    return PackResult(document, files, notes, found)
 
 
 class Deadline:
@@ -519,20 +511,14 @@ def _refining(
 
 def _write(
     folder: OutputFolder, document: dict[str, Any], session: Iterable[tuple[str, str | bytes]]
-) -> tuple[list[Path], list[str]]:
-    """Write the session's files and ``expressions.json`` into the claimed folder in one write (all or
-    none; ``expressions.json``, made once the others have filled in its ``files``, is put in place last),
-    then remove what an earlier packing left (files of more expressions). Returns the files (JSON first)
-    and a warning for each earlier file left in place because it was changed since."""
+) -> list[Path]:
+    """Write the session's files and ``expressions.json`` (made once the others have filled in its
+    ``files``) as the claimed folder's whole content (all or none). Returns the files, JSON first."""
 
     def contents() -> Iterator[tuple[str, str | bytes]]:
         yield from session
         yield EXPRESSIONS_FILE, json.dumps(document, indent=2) + "\n"
 
-    paths = folder.write_files(contents())
+    paths = folder.replace(contents())
     paths.insert(0, paths.pop())
-    names = [path.relative_to(folder.path).as_posix() for path in paths]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ChangedFileWarning)
-        folder.remove_stale(keep=names)
-    return paths, [str(warning.message) for warning in caught if warning.category is ChangedFileWarning]
+    return paths

@@ -52,8 +52,8 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
 @click.option(
     "--force",
     is_flag=True,
-    help="Replace an earlier packing in --out, or write into a folder harness did not write (its files are "
-    "kept; only files harness wrote are ever replaced or removed).",
+    help="Replace an earlier packing in --out (a folder holding files harness did not write is refused; "
+    "those are never replaced or removed).",
 )
 @click.option(
     "--mu",

@@ -1,4 +1,4 @@
-"""A full disk as `rigs.atomic_write` meets it, for the tests of writing records."""
+"""A full disk as `registry.atomic_write` meets it, for the tests of writing records."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from typing import Any
 
 
 class FullDisk:
-    """The `os` module as `rigs.atomic_write` sees it on a full disk: data is written, fsync fails.
+    """The `os` module as `registry.atomic_write` sees it on a full disk: data is written, fsync fails.
 
-    Put it in place of ``rigs._atomic.os`` (``monkeypatch.setattr(_atomic, "os", FullDisk())``).
+    Put it in place of ``registry._atomic.os`` (``monkeypatch.setattr(_atomic, "os", FullDisk())``).
     """
 
     def __getattr__(self, name: str) -> Any:

@@ -14,7 +14,7 @@ import reports
 from harness import _plugins, _records
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
-from rigs import _atomic
+from registry import _atomic
 from tests.harness.full_disk import FullDisk
 
 

@@ -16,7 +16,7 @@ import rigs
 from harness import _records
 from harness._durations import format_duration, parse_duration
 from harness._grid import CellSpec, RunConfig, rig_digest
-from rigs import _atomic
+from registry import _atomic
 from tests.harness.full_disk import FullDisk
 
 

@@ -168,17 +168,20 @@ def test_re_export_replaces_only_its_own_files(registered, tmp_path: Path) -> No
     assert list(read_solu(out)) == ["tiny-e01"]
 
 
-def test_a_folder_with_foreign_files_needs_force_and_keeps_them(registered, tmp_path: Path) -> None:
+def test_a_folder_with_foreign_files_is_refused_and_keeps_them(registered, tmp_path: Path) -> None:
     out = tmp_path / "mine"
     out.mkdir()
     (out / "notes.txt").write_text("mine")
     (out / "tiny-e01.mps").write_text("my own model")
-    assert_one_line_error(export("tiny", "--out", out), "not empty", "--force")
-    assert_one_line_error(export("tiny", "--out", out, "--force"), "tiny-e01.mps", "not written by harness")
-    (out / "tiny-e01.mps").unlink()
+    for force in ((), ("--force",)):
+        result = export("tiny", "--out", out, *force)
+        assert_one_line_error(result, "not empty and holds no harness output (notes.txt, tiny-e01.mps)")
+    assert (out / "notes.txt").read_text() == "mine" and (out / "tiny-e01.mps").read_text() == "my own model"
+    for path in list(out.iterdir()):
+        path.unlink()
     result = export("tiny", "--out", out, "--force")
     assert result.exit_code == 0, result.output
-    assert (out / "notes.txt").read_text() == "mine" and (out / "instances.solu").is_file()
+    assert (out / "instances.solu").is_file()
 
 
 def test_bad_input_is_one_line(registered, tmp_path: Path) -> None:

@@ -16,7 +16,8 @@ import packing
 import rigs
 import session._pack
 import solvers
-from harness._outdir import MANIFEST_NAME, OutputFolder
+from registry import _outdir
+from registry._outdir import MANIFEST_NAME
 from tests.harness import cli_helpers
 from tests.harness.cli_helpers import assert_one_line_error, flat, invoke
 
@@ -41,19 +42,18 @@ def test_the_users_files_in_the_output_folder_are_kept(tmp_path) -> None:
     (out / "expression_07.obj").write_text("the user's own scan\n")
     (out / "notes.txt").write_text("take 3\n")
     mine = contents(out)
-    assert_one_line_error(
-        invoke("pack", "tiny", "--out", out), "is not empty and holds no harness output", "--force"
-    )
-    document, _ = pack("tiny", out, "--force")
-    written = {f"expression_{i:02d}.obj" for i in range(1, len(document["expressions"]) + 1)}
-    assert written.isdisjoint(mine) and set(contents(out)) >= written | set(mine)
-    pack("tiny", out, "--force", "--jmax", "1")  # a shorter packing removes its own extra meshes only
-    after = contents(out)
-    assert {name: after[name] for name in mine} == mine
-    assert sorted(name for name in after if name.startswith("expression_")) == [
-        "expression_01.obj",
-        "expression_07.obj",
-    ]
+    for force in ((), ("--force",)):
+        assert_one_line_error(
+            invoke("pack", "tiny", "--out", out, *force),
+            "is not empty and holds no harness output (expression_07.obj, notes.txt)",
+            "move its files away",
+        )
+    assert contents(out) == mine
+    document, _ = pack("tiny", tmp_path / "packed")
+    pack("tiny", tmp_path / "packed", "--force", "--jmax", "1")  # a shorter packing leaves no extra mesh
+    after = contents(tmp_path / "packed")
+    assert len(document["expressions"]) > 1
+    assert sorted(name for name in after if name.startswith("expression_")) == ["expression_01.obj"]
 
 
 def test_a_file_of_the_user_in_the_way_stops_the_pack_before_writing(tmp_path) -> None:
@@ -61,7 +61,7 @@ def test_a_file_of_the_user_in_the_way_stops_the_pack_before_writing(tmp_path) -
     out.mkdir()
     (out / "expression_01.obj").write_text("the user's own scan\n")
     result = invoke("pack", "tiny", "--out", out, "--force")
-    assert_one_line_error(result, f"{out / 'expression_01.obj'}: exists and was not written by harness pack")
+    assert_one_line_error(result, f"{out}: is not empty and holds no harness output (expression_01.obj)")
     assert contents(out) == {"expression_01.obj": b"the user's own scan\n"}
 
 
@@ -293,24 +293,25 @@ def test_rigs_info_warns_about_twins_that_cancel(tiny, tmp_path) -> None:
 
 
 def test_a_packing_is_put_in_place_at_once_with_expressions_json_last(tmp_path, monkeypatch) -> None:
-    placed: list[str] = []
-    saves: list[int] = []
-    original_commit, original_save = rigs.StagedFile.commit, OutputFolder.save
+    written: list[str] = []
+    swapped: list[list[str]] = []
+    original_write, original_swap = _outdir.atomic_write, _outdir.swap_folder
 
-    def commit(self: rigs.StagedFile, **options: bool) -> Path:
-        if self.path.name != MANIFEST_NAME:
-            placed.append(self.path.name)
-        return original_commit(self, **options)
+    def write(path: Path, data: bytes, **options: bool) -> Path:
+        if path.name != MANIFEST_NAME:
+            written.append(path.name)
+        return original_write(path, data, **options)
 
-    def save(self: OutputFolder) -> Path:
-        saves.append(len(placed))
-        return original_save(self)
+    def swap(new: Path, target: Path) -> Path | None:
+        assert list(target.iterdir()) == []  # nothing is in place before all is written
+        swapped.append(sorted(contents(new)))
+        return original_swap(new, target)
 
-    monkeypatch.setattr(rigs.StagedFile, "commit", commit)
-    monkeypatch.setattr(OutputFolder, "save", save)
+    monkeypatch.setattr(_outdir, "atomic_write", write)
+    monkeypatch.setattr(_outdir, "swap_folder", swap)
     document, _ = pack("tiny", tmp_path / "out")
     files = [expression["files"]["mesh"] for expression in document["expressions"]]
-    assert placed[-1] == "expressions.json" and set(files) <= set(placed)
-    assert saves == [0, len(placed)]  # listed before any is in place; then the removal of stale files
+    assert written[-1] == "expressions.json" and set(files) <= set(written)
+    assert swapped == [sorted(contents(tmp_path / "out"))]  # listed and written, then renamed in at once
     listed = json.loads((tmp_path / "out" / MANIFEST_NAME).read_text())["files"]
     assert sorted(listed) == sorted(name for name in contents(tmp_path / "out") if name != MANIFEST_NAME)

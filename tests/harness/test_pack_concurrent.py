@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from harness._outdir import MANIFEST_NAME, OutputFolderError, claim
+from registry import OutputFolderError, claim
+from registry._outdir import MANIFEST_NAME
 from tests.harness.cli_helpers import assert_one_line_error, invoke
 
 #: Bound on each pack of the race (seconds).
@@ -32,7 +33,7 @@ def test_a_claimed_folder_is_refused_to_a_second_claim_until_the_first_closes(tm
     first = claim(out, kind="pack", force=False, lock=True)
     with pytest.raises(OutputFolderError, match="in use by another harness command"):
         claim(out, kind="pack", force=True, lock=True)
-    first.write_files({"expression_01.obj": "v 0 0 0\n", "pictures/front.png": b"png"})
+    first.replace({"expression_01.obj": "v 0 0 0\n", "pictures/front.png": b"png"})
     first.close()
     with pytest.raises(OutputFolderError, match="holds a harness pack"):
         claim(out, kind="pack", force=False, lock=True)
@@ -40,17 +41,17 @@ def test_a_claimed_folder_is_refused_to_a_second_claim_until_the_first_closes(tm
         assert set(again.files) == {"expression_01.obj", "pictures/front.png"}
 
 
-def test_the_staged_files_of_a_claim_survive_a_second_claim(tmp_path) -> None:
+def test_the_files_a_claim_is_writing_survive_a_second_claim(tmp_path) -> None:
     out = tmp_path / "session"
     writing = claim(out, kind="pack", force=False, lock=True)
 
     def contents():
         yield "expression_01.obj", "v 0 0 0\n"
-        with pytest.raises(OutputFolderError, match="in use"):  # would remove the staged file as a leftover
+        with pytest.raises(OutputFolderError, match="in use"):  # would remove the new folder as a leftover
             claim(out, kind="pack", force=True, lock=True)
         yield "expression_02.obj", "v 1 0 0\n"
 
-    writing.write_files(contents())
+    writing.replace(contents())
     writing.close()
     assert set(_files(out)) == {"expression_01.obj", "expression_02.obj"}
 

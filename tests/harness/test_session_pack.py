@@ -16,8 +16,8 @@ from scipy.spatial.transform import Rotation
 
 import rigs
 import session._minimum
-from harness._outdir import MANIFEST_NAME
 from harness.cli import cli
+from registry._outdir import MANIFEST_NAME
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
 from tests.chromium import run_chromium
 

@@ -19,9 +19,9 @@ import harness
 import packing
 import rigs
 import solvers
-from harness._outdir import MANIFEST_NAME, claim
 from harness.cli import main
-from registry import handle_stop_signals, stop_signal, stop_signals_deferred
+from registry import OutputFolderError, claim, handle_stop_signals, stop_signal, stop_signals_deferred
+from registry._outdir import MANIFEST_NAME
 from solvers._minimum import colour_cpsat
 from solvers.cpsat import CpSatSolver, interruptible
 from solvers.greedy import GreedySolver
@@ -35,23 +35,23 @@ PATIENCE = 60.0
 #: solve of the packing, while staged files lie in the output folder.
 PAUSED_PACK = """
 import sys, threading
-from concurrent.futures import wait
 from pathlib import Path
-from harness import _outdir
+from registry import _outdir
 from harness.cli import main
 
 mark = Path(sys.argv[1])
-checked = _outdir.OutputFolder._checked_new_name
+write = _outdir.atomic_write
+written = []
 
-def pausing(self, name, taken, folders):
-    if len(taken) == 3:
-        wait(list(taken.values()))
+def pausing(path, data, **options):
+    if len(written) == 3:
         caught = next(line for line in open("/proc/self/status") if line.startswith("SigCgt"))
         mark.write_text(caught.split()[1])
         threading.Event().wait()
-    return checked(self, name, taken, folders)
+    written.append(path)
+    return write(path, data, **options)
 
-_outdir.OutputFolder._checked_new_name = pausing
+_outdir.atomic_write = pausing
 main(sys.argv[2:])
 """
 
@@ -132,37 +132,40 @@ def test_a_pack_stopped_after_cp_sat_leaves_the_folder_as_it_was_and_runs_again(
             assert process.poll() is None, process.communicate()[1].decode()
             threading.Event().wait(0.02)
         assert _catches(mark.read_text(), signal.SIGINT), "SIGINT is no longer caught after CP-SAT"
-        assert len(list(out.glob(".*.tmp"))) >= 3  # the stop comes while staged files lie in the folder
+        new = list(tmp_path.glob(".session.*.tmp"))
+        assert len(new) == 1 and len(list(new[0].iterdir())) >= 3  # the stop comes while files are written
         process.send_signal(stop)
         _, stderr = process.communicate(timeout=PATIENCE)
     finally:
         process.kill()
     word = "interrupted" if stop == signal.SIGINT else "terminated"
     assert process.returncode == 128 + stop and word in stderr.decode(), stderr.decode()
-    assert _contents(out) == before
+    assert _contents(out) == before and not list(tmp_path.glob(".session.*"))
     rerun = invoke(*arguments, *force)
     assert rerun.exit_code == 0, rerun.output
 
 
-def test_staged_files_a_killed_pack_left_are_removed_by_the_next_one(tmp_path) -> None:
+def test_what_a_killed_pack_left_is_removed_by_the_next_one(tmp_path) -> None:
     out = tmp_path / "session"
     (out / "pictures").mkdir(parents=True)
+    (tmp_path / ".session.abcd_123.tmp" / "pictures").mkdir(parents=True)
     leftovers = [
         out / ".expression_01.obj.k2x_9abc.tmp",
         out / "pictures" / ".expression_01_front.png.a1b2c3d4.tmp",
+        tmp_path / ".session.abcd_123.tmp" / "pictures" / "expression_01_front.png",
     ]
     for path in leftovers:
         path.write_bytes(b"half a file")
     result = invoke("pack", "tiny", "--solver", "greedy", "--no-pictures", "--out", out)
     assert result.exit_code == 0, result.output
     assert not any(path.exists() for path in leftovers) and not (out / "pictures").exists()
-    assert not list(out.rglob("*.tmp"))
+    assert not list(out.rglob("*.tmp")) and not list(tmp_path.glob(".session.*"))
 
 
 def test_leftovers_of_a_replaced_session_go_with_force_and_the_users_look_alikes_stay(tmp_path) -> None:
     out = tmp_path / "out"
     first = claim(out, kind="pack", force=False)
-    first.write_files({"expression_01.obj": "v 0 0 0\n", "pictures/front.png": b"png"})
+    first.replace({"expression_01.obj": "v 0 0 0\n", "pictures/front.png": b"png"})
     staged = [out / ".expression_02.obj.abcdefgh.tmp", out / "pictures" / ".front.png.zz_00000.tmp"]
     users = [
         out / "notes.tmp",
@@ -175,9 +178,15 @@ def test_leftovers_of_a_replaced_session_go_with_force_and_the_users_look_alikes
         path.write_text("x")
     link = out / ".expression_03.obj.linkedxx.tmp"
     link.symlink_to(users[0])
+    with pytest.raises(OutputFolderError, match=r"\(\.expression_03\.obj\.linkedxx\.tmp, \.notes\.txt"):
+        claim(out, kind="pack", force=True)  # the look-alikes are the user's: nothing is removed
+    assert all(path.exists() for path in [*staged, *users]) and link.is_symlink()
+    for path in [*users, link]:
+        path.unlink()
+    (out / "drafts").rmdir()
     claim(out, kind="pack", force=True)
     assert not any(path.exists() for path in staged)
-    assert all(path.exists() for path in users) and link.is_symlink()
+    assert sorted(path.name for path in out.iterdir()) == [MANIFEST_NAME, "expression_01.obj", "pictures"]
 
 
 def test_a_folder_of_only_leftovers_is_empty_and_one_with_more_holds_no_harness_output(tmp_path) -> None:

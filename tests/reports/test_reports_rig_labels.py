@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import shutil
 
+from registry import claim
+from registry._outdir import MANIFEST_NAME
 from reports import build_report
 from reports._tables import rig_label, rig_labels
 
@@ -52,7 +54,14 @@ def test_a_rebuilt_report_drops_figures_it_no_longer_has(make_run) -> None:
     run = make_run("run")
     _, text = build_report(run)
     stale = text.parent / "figures" / "coverage-renamed-rig.png"
-    stale.write_bytes(b"old")
+    earlier = {
+        path.relative_to(text.parent).as_posix(): path.read_bytes()
+        for path in text.parent.rglob("*")
+        if path.is_file() and path.name != MANIFEST_NAME
+    }
+    with claim(text.parent, kind="report", force=True) as folder:  # a report of the rig's earlier name
+        folder.replace({**earlier, "figures/coverage-renamed-rig.png": b"old"})
+    assert stale.exists()
     build_report(run)
     assert not stale.exists()
     assert any((text.parent / "figures").glob("coverage-*.png"))
