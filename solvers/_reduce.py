@@ -73,7 +73,8 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     -----
     Neighbourhoods are the problem's `PackingProblem.conflict_bits` (64 items a word; along an expression
     sequence each problem derives them from the previous one's); each round compares the conflicting pairs
-    whose weights and degrees allow domination, O(P W) for P such pairs.
+    whose weights and degrees allow domination and whose would-be dominator lost a neighbour since the last
+    round, O(P W) for P such pairs.
     """
     n_items = problem.n_items
     everything = np.arange(n_items)
@@ -91,15 +92,21 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     del may_dominate
     alive = np.ones(n_items, dtype=bool)
     taken = np.zeros(n_items, dtype=bool)
+    previous_degree = np.full(n_items, -1, dtype=np.int64)
     while True:
         live = closed & pack_bits(alive[None, :])[0]
         degree = np.bitwise_count(live).sum(axis=1, dtype=np.int64) - 1
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
-        dominated = _dominated(live, alive, degree, pairs)
+        # N[j] inside N[i] can only become true when N[j] shrank: only pairs whose j lost a neighbour
+        # since the last round are compared again.
+        pairs = tuple(side[alive[pairs[0]] & alive[pairs[1]]] for side in pairs)
+        shrunk = degree != previous_degree
+        dominated = _dominated(live, alive, degree, tuple(side[shrunk[pairs[1]]] for side in pairs))
         if not (isolated.any() or dominated.any()):
             break
         taken |= isolated
         alive &= ~(isolated | dominated)
+        previous_degree = degree
     kept = np.flatnonzero(alive)
     model = CliqueModel.from_problem(problem, None if kept.size == n_items else kept)
     return Reduction(model, kept, np.flatnonzero(taken))

@@ -41,22 +41,22 @@ def _analysis(preset: str, seed: int):
 
 
 @pytest.mark.parametrize(
-    ("name", "preset", "seed", "target_fraction"),
+    ("name", "preset", "seed", "target_fractions"),
     [
-        ("cpsat", "male", 0, 1.0),
-        ("cpsat", "toon", 1, 0.0),
-        ("cpsat", "arkit52", 2, 0.85),
-        ("highs", "male", 1, 0.85),
-        ("highs", "tiny", 0, 1.0),
+        ("cpsat", "male", 0, (1.0,)),
+        ("cpsat", "toon", 1, (0.0,)),
+        ("cpsat", "arkit52", 2, (1.0, 0.5)),
+        ("highs", "male", 1, (0.85,)),
+        ("highs", "tiny", 0, ()),
     ],
 )
-def test_every_expression_matches_the_plain_path(monkeypatch, name, preset, seed, target_fraction):
-    """Fixing on every kernel of two items or more, with targets that fail often (1.0: the LP bound) and
-    never (0.0: the known packing), gives the plain path's sequence."""
+def test_every_expression_matches_the_plain_path(monkeypatch, name, preset, seed, target_fractions):
+    """Fixing on every kernel of two items or more, with targets that fail often (1.0: the LP bound),
+    never (0.0: the known packing) or in turn, gives the plain path's sequence."""
     rig, analysis = _analysis(preset, seed)
     plain = packing.sequence(rig, _plain(name), analysis=analysis)
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
-    monkeypatch.setattr(fixing, "TARGET_FRACTION", target_fraction)
+    monkeypatch.setattr(fixing, "TARGET_FRACTIONS", target_fractions)
     fixed = packing.sequence(rig, _available(name), analysis=analysis)
     packing.check(rig, fixed, pairs=analysis.pairs)
     assert [e.objective for e in fixed] == [e.objective for e in plain]
