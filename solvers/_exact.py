@@ -136,10 +136,13 @@ class ExactSolver:
             return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
         reduction = reduce_problem(problem, cap_binds) if self.reduces else None
-        model = CliqueModel.from_problem(problem) if reduction is None else reduction.model
-        if reduction is not None and self.grows_cliques:
+        if reduction is None:
+            model = CliqueModel.from_problem(problem)
+        elif self.grows_cliques:
             closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
-            model = grown_cliques(model, closed)
+            model = grown_cliques(reduction.cut_model(), closed)
+        else:
+            model = reduction.model
         start = start_packing(problem, reduction) if self.capabilities.warm_start else None
         costs = None
         if reduction is not None and self.fixes_by_reduced_costs:

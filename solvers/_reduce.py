@@ -19,6 +19,7 @@ weights, so every dominated item of a round can go at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,18 +36,31 @@ class Reduction:
 
     Attributes
     ----------
-    model : CliqueModel
-        The presolved model of the remaining items (the kernel), with the conflict sets that
-        ``problem.restrict(kept)`` would have.
+    problem : PackingProblem
+        The problem reduced.
     kept : (I',) int array
         Items of the original problem that form the kernel, ascending (kernel item ``r`` is ``kept[r]``).
     taken : (T,) int array
         Items of the original problem that are in every optimal packing (isolated ones), ascending.
     """
 
-    model: CliqueModel
+    problem: PackingProblem
     kept: np.ndarray
     taken: np.ndarray
+
+    @cached_property
+    def model(self) -> CliqueModel:
+        """The presolved model of the kernel, with the conflict sets that ``problem.restrict(kept)`` would
+        have (distinct, maximal: derived on first use)."""
+        keep = None if self.kept.size == self.problem.n_items else self.kept
+        return CliqueModel.from_problem(self.problem, keep)
+
+    def cut_model(self) -> CliqueModel:
+        """The model of the kernel whose rows are the problem's conflict sets cut to the kernel's items: the
+        same feasible packings as `model`, its rows cliques too, some possibly inside others. A cheap base
+        for rows that are grown to maximal cliques anyway (`solvers._cliques.grown_cliques`)."""
+        whole = CliqueModel.from_problem(self.problem)
+        return whole if self.kept.size == self.problem.n_items else whole.restricted(self.kept)
 
     def items(self, kernel_items: tuple[int, ...]) -> tuple[int, ...]:
         """Items of the original problem for a packing of the kernel: those items plus the taken ones."""
@@ -79,7 +93,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     n_items = problem.n_items
     everything = np.arange(n_items)
     if n_items == 0:
-        return Reduction(CliqueModel.from_problem(problem), everything, everything)
+        return Reduction(problem, everything, everything)
     weights = np.asarray(problem.weights, dtype=np.float64)
     counts = problem.item_shape_counts
     closed = problem.conflict_bits
@@ -107,9 +121,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
         taken |= isolated
         alive &= ~(isolated | dominated)
         previous_degree = degree
-    kept = np.flatnonzero(alive)
-    model = CliqueModel.from_problem(problem, None if kept.size == n_items else kept)
-    return Reduction(model, kept, np.flatnonzero(taken))
+    return Reduction(problem, np.flatnonzero(alive), np.flatnonzero(taken))
 
 
 def _dominated(
