@@ -4,15 +4,16 @@ An exact plugin implements ``solve_model(model, *, time_limit, seed) -> Result``
 of eq. 3 after presolve). `ExactSolver.solve` answers the empty problem, applies the exact reductions of
 `solvers._reduce` (dominated items out, conflict-free items in: the optimal packings stay exactly the same) so
 that the backend sees only the kernel, grows the kernel's rows to maximal cliques of its conflict graph
-(`solvers._cliques`: the same feasible packings, a tighter relaxation), leaves out of large kernels the
-items that the LP bound proves no optimal packing holds (`solvers._fixing`, reduced-cost fixing: the
-optimal packings stay exactly the same), maps the kernel's items back to the problem's and times the array
-preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets
-a start packing, ``solve_model(..., start=...)``: Algorithm 2's packing of the kernel, which its backend takes
-as an incumbent or hint. When a time limit stops a backend with no incumbent or one worse than Algorithm 2's
-packing, the base answers that packing instead (valid by construction) and says so in ``Result.fallback``, so
-a time-limited solve always has an incumbent at least as good as the greedy one. The framework
-(`solvers.load`) then checks and normalises the answer as for any plugin.
+(`solvers._cliques`: the same feasible packings, a tighter relaxation), leaves out of large kernels the items
+that the LP bound proves no optimal packing holds (`solvers._fixing`, reduced-cost fixing: the optimal
+packings stay exactly the same), maps the kernel's items back to the problem's and times the array
+preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets a start packing,
+``solve_model(..., start=...)``: Algorithm 2's packing of the kernel (on a fixed kernel, the best packing
+found before, `solvers._fixing`), which its backend takes as an incumbent or hint. When a time limit stops a
+backend with no incumbent or one worse than Algorithm 2's packing, the base answers that packing instead
+(valid by construction) and says so in ``Result.fallback``, so a time-limited solve always has an incumbent at
+least as good as the greedy one. The framework (`solvers.load`) then checks and normalises the answer as for
+any plugin.
 """
 
 from __future__ import annotations
@@ -117,19 +118,19 @@ class ExactSolver:
 
         Notes
         -----
-        A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`). Algorithm 1
-        removes every chosen item before the next expression, so the previous expression's optimum has
-        nothing left to offer as a start; the greedy packing is the only one. Nor does any other piece of
-        an optimum carry over: without a cap every connected component of the conflict graph holding an
-        item of positive weight gives the optimum at least one item, so no component survives an
-        expression untouched (and under a cap the components are not independent at all); the kernels of
-        the 60 largest problems of a 2,000-shape film sequence are one component each. The previous
-        optimum bounds the next one from above only (when ``beta = 0`` keeps the weights), while a
-        cut-off prunes from below, as the start's objective already does. What speeds the proofs up is
-        the tighter relaxation of the grown clique rows, and what that relaxation proves before the
-        backend starts: on kernels of `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose
-        reduced-cost bound falls below a good packing are left out (`solvers._fixing.solve_with_fixing`),
-        which halves the models of the largest problems.
+        A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`), or on a fixed
+        kernel the best packing found before. Algorithm 1 removes every chosen item before the next
+        expression, so the previous expression's optimum has nothing left to offer as a start. Nor does any
+        other piece of an optimum carry over: without a cap every connected component of the conflict graph
+        holding an item of positive weight gives the optimum at least one item, so no component survives an
+        expression untouched (and under a cap the components are not independent at all); the kernels of the
+        60 largest problems of a 2,000-shape film sequence are one component each. The previous optimum bounds
+        the next one from above only (when ``beta = 0`` keeps the weights), while a cut-off prunes from below,
+        as the start's objective already does. What speeds the proofs up is the tighter relaxation of the
+        grown clique rows, and what that relaxation proves before the backend starts: on kernels of
+        `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose reduced-cost bound falls below a
+        good packing are left out (`solvers._fixing.solve_with_fixing`), which halves the models of the
+        largest problems.
         """
         clock = Stopwatch()
         if problem.n_items == 0:
