@@ -11,7 +11,7 @@ below the objective of a known packing, no packing holding j is optimal, and j c
 packings (and the optimum) stay exactly the same. The bound is evaluated here in floating point from the
 duals, whatever their accuracy, so it is a true bound for any ``y`` the LP solver returns; a margin far
 above the rounding of the sums keeps the comparison strict. This is the reduced-cost fixing of MIP solvers
-(Nemhauser and Wolsey 1988, "Integer and combinatorial optimization", sec. II.5.1), applied once, before
+(Nemhauser and Wolsey 1988, "Integer and combinatorial optimization", sec. II.5.1), the LP solved once, before
 the backend builds its model, with a packing from the LP's rounding improved by local search
 (`solvers.local_search.locally_optimal`).
 
