@@ -4,13 +4,16 @@ An exact plugin implements ``solve_model(model, *, time_limit, seed) -> Result``
 of eq. 3 after presolve). `ExactSolver.solve` answers the empty problem, applies the exact reductions of
 `solvers._reduce` (dominated items out, conflict-free items in: the optimal packings stay exactly the same) so
 that the backend sees only the kernel, grows the kernel's rows to maximal cliques of its conflict graph
-(`solvers._cliques`: the same feasible packings, a tighter relaxation), maps the kernel's items back to the
-problem's and times the array preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets
-a start packing, ``solve_model(..., start=...)``: Algorithm 2's packing of the kernel, which its backend takes
-as an incumbent or hint. When a time limit stops a backend with no incumbent or one worse than Algorithm 2's
-packing, the base answers that packing instead (valid by construction) and says so in ``Result.fallback``, so
-a time-limited solve always has an incumbent at least as good as the greedy one. The framework
-(`solvers.load`) then checks and normalises the answer as for any plugin.
+(`solvers._cliques`: the same feasible packings, a tighter relaxation), leaves out of large kernels the items
+that the LP bound proves no optimal packing holds (`solvers._fixing`, reduced-cost fixing: the optimal
+packings stay exactly the same), maps the kernel's items back to the problem's and times the array
+preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets a start packing,
+``solve_model(..., start=...)``: Algorithm 2's packing of the kernel (on a fixed kernel, the best packing
+found before, `solvers._fixing`), which its backend takes as an incumbent or hint. When a time limit stops a
+backend with no incumbent or one worse than Algorithm 2's packing, the base answers that packing instead
+(valid by construction) and says so in ``Result.fallback``, so a time-limited solve always has an incumbent at
+least as good as the greedy one. The framework (`solvers.load`) then checks and normalises the answer as for
+any plugin.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 from packing import Termination
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
 from solvers._cliques import grown_cliques, kernel_neighbourhoods
+from solvers._fixing import reduced_costs, solve_with_fixing
 from solvers._model import CliqueModel
 from solvers._reduce import Reduction, reduce_problem
 
@@ -38,7 +42,10 @@ class ExactSolver:
     `solve_model`. ``reduces`` (default True) applies `solvers._reduce.reduce_problem` first, so
     ``solve_model`` gets the model of the kernel, its rows grown to maximal cliques of the conflict graph
     when ``grows_cliques`` (default True, `solvers._cliques.grown_cliques`: the same feasible packings, a
-    tighter relaxation; False solves the kernel's conflict sets as they are, for comparisons); a plugin
+    tighter relaxation; False solves the kernel's conflict sets as they are, for comparisons), and
+    without the items reduced-cost fixing leaves out when ``fixes_by_reduced_costs`` (default True,
+    `solvers._fixing`; ``solve_model`` may then be called twice, the second time on a larger model, when
+    the first fixing's target was not reached; False solves the whole kernel, for comparisons); a plugin
     that must see the problem as given (the paper's per-vertex formulation, ``naive-pulp-cbc``) sets
     ``reduces`` False and overrides `solve_problem`.
 
@@ -59,6 +66,7 @@ class ExactSolver:
     capabilities: ClassVar[Capabilities]
     reduces: ClassVar[bool] = True
     grows_cliques: ClassVar[bool] = True
+    fixes_by_reduced_costs: ClassVar[bool] = True
 
     def solve_model(
         self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
@@ -110,33 +118,49 @@ class ExactSolver:
 
         Notes
         -----
-        A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`). Algorithm 1
-        removes every chosen item before the next expression, so the previous expression's optimum has
-        nothing left to offer as a start; the greedy packing is the only one. Nor does any other piece of
-        an optimum carry over: without a cap every connected component of the conflict graph holding an
-        item of positive weight gives the optimum at least one item, so no component survives an
-        expression untouched (and under a cap the components are not independent at all); the kernels of
-        the 60 largest problems of a 2,000-shape film sequence are one component each. The previous
-        optimum bounds the next one from above only (when ``beta = 0`` keeps the weights), while a
-        cut-off prunes from below, as the start's objective already does; what speeds the proofs up is
-        the tighter relaxation of the grown clique rows.
+        A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`), or on a fixed
+        kernel the best packing found before. Algorithm 1 removes every chosen item before the next
+        expression, so the previous expression's optimum has nothing left to offer as a start. Nor does any
+        other piece of an optimum carry over: without a cap every connected component of the conflict graph
+        holding an item of positive weight gives the optimum at least one item, so no component survives an
+        expression untouched (and under a cap the components are not independent at all); the kernels of the
+        60 largest problems of a 2,000-shape film sequence are one component each. The previous optimum bounds
+        the next one from above only (when ``beta = 0`` keeps the weights), while a cut-off prunes from below,
+        as the start's objective already does. What speeds the proofs up is the tighter relaxation of the
+        grown clique rows, and what that relaxation proves before the backend starts: on kernels of
+        `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose reduced-cost bound falls below a
+        good packing are left out (`solvers._fixing.solve_with_fixing`), which halves the models of the
+        largest problems.
         """
         clock = Stopwatch()
         if problem.n_items == 0:
             return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
         reduction = reduce_problem(problem, cap_binds) if self.reduces else None
-        model = CliqueModel.from_problem(problem) if reduction is None else reduction.model
-        if reduction is not None and self.grows_cliques:
+        if reduction is None:
+            model = CliqueModel.from_problem(problem)
+        elif self.grows_cliques:
             closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
-            model = grown_cliques(model, closed)
-        start = start_packing(problem, reduction) if self.capabilities.warm_start else None
-        prepare_time = clock.lap()
-        if model.n_items == 0:  # the reductions decided every item
-            result = Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
+            model = grown_cliques(reduction.cut_model(), closed)
         else:
-            hint = {} if start is None else {"start": start}  # `solve_problem` overrides may not take one
-            result = self.solve_problem(problem, model, time_limit=time_limit, seed=seed, **hint)
+            model = reduction.model
+        start = start_packing(problem, reduction) if self.capabilities.warm_start else None
+        costs = None
+        if reduction is not None and self.fixes_by_reduced_costs:
+            costs = reduced_costs(model, () if start is None else start)
+        prepare_time = clock.lap()
+
+        def backend(solved: CliqueModel, begin: Sequence[int] | None) -> Result:
+            if solved.n_items == 0:  # the reductions decided every item
+                return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
+            hint = {} if begin is None else {"start": begin}  # `solve_problem` overrides may not take one
+            return self.solve_problem(problem, solved, time_limit=time_limit, seed=seed, **hint)
+
+        if costs is None:
+            result = backend(model, start)
+        else:
+            warm = start is not None
+            result = solve_with_fixing(costs, lambda solved, begin: backend(solved, begin if warm else None))
         items, message, bound = _model_items(result.items, model.n_items), result.message, result.bound
         if reduction is not None:
             items = reduction.items(items)

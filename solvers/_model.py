@@ -68,6 +68,41 @@ class CliqueModel:
         """Items of clique row ``r``."""
         return self.row_items[self.row_starts[r] : self.row_starts[r + 1]]
 
+    def restricted(self, keep: np.ndarray) -> CliqueModel:
+        """The model over the items ``keep`` (ascending; item r of the new model is ``keep[r]``): each row
+        cut to its kept items, rows left with fewer than two items dropped (they constrain nothing), the cap
+        dropped when the kept items together respect it."""
+        position = np.full(self.n_items, -1, dtype=np.int64)
+        position[keep] = np.arange(keep.size)
+        renamed = position[self.row_items]
+        inside = renamed >= 0
+        row_of = np.repeat(np.arange(self.n_rows), np.diff(self.row_starts))[inside]
+        sizes = np.bincount(row_of, minlength=self.n_rows)
+        wide = sizes >= 2
+        items = renamed[inside][wide[row_of]].astype(self.row_items.dtype)
+        starts = np.zeros(np.count_nonzero(wide) + 1, dtype=np.int64)
+        np.cumsum(sizes[wide], out=starts[1:])
+        counts = self.shape_counts[keep]
+        cap = self.cap if self.cap is not None and self.cap < counts.sum() else None
+        return CliqueModel(self.weights[keep], starts, items, counts, cap)
+
+    def conflict_graph(self) -> sp.csr_matrix:
+        """(I, I) symmetric bool CSR adjacency of the items that share a clique row, no self loops, indices
+        sorted."""
+        import scipy.sparse as sp
+
+        owner = np.repeat(np.arange(self.n_rows), np.diff(self.row_starts))
+        rows = sp.csr_matrix(
+            (np.ones(self.row_items.size, dtype=np.int32), (owner, self.row_items)),
+            shape=(self.n_rows, self.n_items),
+        )
+        shared = (rows.T @ rows).tocsr()
+        shared.setdiag(0)
+        shared.eliminate_zeros()
+        adjacency = shared.astype(bool)
+        adjacency.sort_indices()
+        return adjacency
+
     def matrix(self) -> sp.csr_matrix:
         """(R, I) float CSR matrix of every row: the clique rows, then the cap row when there is one.
 

@@ -19,6 +19,7 @@ weights, so every dominated item of a round can go at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,18 +36,31 @@ class Reduction:
 
     Attributes
     ----------
-    model : CliqueModel
-        The presolved model of the remaining items (the kernel), with the conflict sets that
-        ``problem.restrict(kept)`` would have.
+    problem : PackingProblem
+        The problem reduced.
     kept : (I',) int array
         Items of the original problem that form the kernel, ascending (kernel item ``r`` is ``kept[r]``).
     taken : (T,) int array
         Items of the original problem that are in every optimal packing (isolated ones), ascending.
     """
 
-    model: CliqueModel
+    problem: PackingProblem
     kept: np.ndarray
     taken: np.ndarray
+
+    @cached_property
+    def model(self) -> CliqueModel:
+        """The presolved model of the kernel, with the conflict sets that ``problem.restrict(kept)`` would
+        have (distinct, maximal: derived on first use)."""
+        keep = None if self.kept.size == self.problem.n_items else self.kept
+        return CliqueModel.from_problem(self.problem, keep)
+
+    def cut_model(self) -> CliqueModel:
+        """The model of the kernel whose rows are the problem's conflict sets cut to the kernel's items: the
+        same feasible packings as `model`, its rows cliques too, some possibly inside others. A cheap base
+        for rows that are grown to maximal cliques anyway (`solvers._cliques.grown_cliques`)."""
+        whole = CliqueModel.from_problem(self.problem)
+        return whole if self.kept.size == self.problem.n_items else whole.restricted(self.kept)
 
     def items(self, kernel_items: tuple[int, ...]) -> tuple[int, ...]:
         """Items of the original problem for a packing of the kernel: those items plus the taken ones."""
@@ -73,12 +87,13 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     -----
     Neighbourhoods are the problem's `PackingProblem.conflict_bits` (64 items a word; along an expression
     sequence each problem derives them from the previous one's); each round compares the conflicting pairs
-    whose weights and degrees allow domination, O(P W) for P such pairs.
+    whose weights and degrees allow domination and whose would-be dominator lost a neighbour since the last
+    round, O(P W) for P such pairs.
     """
     n_items = problem.n_items
     everything = np.arange(n_items)
     if n_items == 0:
-        return Reduction(CliqueModel.from_problem(problem), everything, everything)
+        return Reduction(problem, everything, everything)
     weights = np.asarray(problem.weights, dtype=np.float64)
     counts = problem.item_shape_counts
     closed = problem.conflict_bits
@@ -91,18 +106,22 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     del may_dominate
     alive = np.ones(n_items, dtype=bool)
     taken = np.zeros(n_items, dtype=bool)
+    previous_degree = np.full(n_items, -1, dtype=np.int64)
     while True:
         live = closed & pack_bits(alive[None, :])[0]
         degree = np.bitwise_count(live).sum(axis=1, dtype=np.int64) - 1
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
-        dominated = _dominated(live, alive, degree, pairs)
+        # N[j] inside N[i] can only become true when N[j] shrank: only pairs whose j lost a neighbour
+        # since the last round are compared again.
+        pairs = tuple(side[alive[pairs[0]] & alive[pairs[1]]] for side in pairs)
+        shrunk = degree != previous_degree
+        dominated = _dominated(live, alive, degree, tuple(side[shrunk[pairs[1]]] for side in pairs))
         if not (isolated.any() or dominated.any()):
             break
         taken |= isolated
         alive &= ~(isolated | dominated)
-    kept = np.flatnonzero(alive)
-    model = CliqueModel.from_problem(problem, None if kept.size == n_items else kept)
-    return Reduction(model, kept, np.flatnonzero(taken))
+        previous_degree = degree
+    return Reduction(problem, np.flatnonzero(alive), np.flatnonzero(taken))
 
 
 def _dominated(

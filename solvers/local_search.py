@@ -13,6 +13,7 @@ all within the cap (sec. 6), until no move improves eq. 3a. It keeps the better 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -22,6 +23,8 @@ from solvers._base import Availability, Capabilities, Result, Stopwatch, distrib
 from solvers.greedy import PROJECT_DISTRIBUTION, greedy_items, greedy_order
 
 if TYPE_CHECKING:
+    import scipy.sparse as sp
+
     from packing import PackingProblem
 
 #: An improvement smaller than this (relative to the total weight) is treated as none.
@@ -31,13 +34,20 @@ IMPROVEMENT_TOLERANCE = 1e-12
 class _Packing:
     """Mutable packing on the conflict graph: chosen items, chosen-neighbour counts, cap room."""
 
-    def __init__(self, problem: PackingProblem, adjacency, start: tuple[int, ...]) -> None:
-        self.weights = problem.weights
-        self.counts = problem.item_shape_counts
+    def __init__(
+        self,
+        weights: np.ndarray,
+        counts: np.ndarray,
+        cap: int | None,
+        adjacency: sp.csr_matrix,
+        start: Iterable[int],
+    ) -> None:
+        self.weights = weights
+        self.counts = counts
         self.adjacency = adjacency
-        self.chosen = np.zeros(problem.n_items, dtype=bool)
-        self.tight = np.zeros(problem.n_items, dtype=np.int64)  # chosen neighbours of each item
-        self.room = np.inf if problem.cap is None else float(problem.cap)
+        self.chosen = np.zeros(weights.size, dtype=bool)
+        self.tight = np.zeros(weights.size, dtype=np.int64)  # chosen neighbours of each item
+        self.room = np.inf if cap is None else float(cap)
         self.tolerance = IMPROVEMENT_TOLERANCE * max(1.0, float(np.abs(self.weights).sum()))
         for item in start:
             self.add(item)
@@ -136,12 +146,41 @@ def swap_local_search(problem: PackingProblem, start: tuple[int, ...] | None = N
             greedy_items(problem, order=np.argsort(-problem.weights, kind="stable")),
         ]
     )
-    results = []
-    for initial in starts:
-        packing = _Packing(problem, adjacency, initial)
-        packing.improve()
-        results.append(packing.items())
+    results = [
+        locally_optimal(problem.weights, problem.item_shape_counts, problem.cap, adjacency, initial)
+        for initial in starts
+    ]
     return max(results, key=problem.objective)
+
+
+def locally_optimal(
+    weights: np.ndarray,
+    counts: np.ndarray,
+    cap: int | None,
+    adjacency: sp.csr_matrix,
+    start: Iterable[int],
+) -> tuple[int, ...]:
+    """A packing improved from ``start`` by add, (1,1)- and (1,2)-swaps until no move raises eq. 3a.
+
+    Parameters
+    ----------
+    weights, counts : (I,) arrays
+        Item weights (eq. 3a) and blendshapes per item (the cap row's coefficients).
+    cap : int or None
+        At most this many blendshapes (sec. 6).
+    adjacency : (I, I) bool CSR matrix
+        The item conflict graph without self loops, indices sorted.
+    start : iterable of int
+        A valid packing.
+
+    Returns
+    -------
+    tuple of int
+        The items, ascending.
+    """
+    packing = _Packing(weights, counts, cap, adjacency, start)
+    packing.improve()
+    return packing.items()
 
 
 class GreedySwapSolver:

@@ -201,14 +201,14 @@ def _film_analysis(n_shapes: int):
 @pytest.mark.slow
 @pytest.mark.parametrize(("n_shapes", "name"), sorted(FILM_SEQUENCE_TARGETS))
 def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
-    """The whole exact sequence in CPU seconds, against the kernel's conflict sets solved as they are (no
-    grown cliques, `solvers._cliques`): the same items at every expression, and how much faster."""
+    """The whole exact sequence in CPU seconds, against the whole kernel solved without reduced-cost fixing
+    (`solvers._fixing`): the same items and objective at every expression, and how much faster."""
     rig, analysis = _film_analysis(n_shapes)
     loaded = solvers.get(name)
     if not loaded.availability():
         pytest.skip(f"{name} is not available here")
     plugin = type(loaded.plugin)
-    plain = solvers.load(type(f"{plugin.__name__}Plain", (plugin,), {"grows_cliques": False}))
+    plain = solvers.load(type(f"{plugin.__name__}Unfixed", (plugin,), {"fixes_by_reduced_costs": False}))
 
     def cpu_seconds(solver):
         start = time.process_time()

@@ -1,0 +1,104 @@
+"""Reduced-cost fixing (`solvers._fixing`) leaves the optimum of eq. 3 exactly as it is (Carrigan et al.
+2020, eq. 3, Algorithm 1): every expression of a sequence solved with it has the plain path's items and
+objective."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+import packing
+import rigs
+import solvers
+import solvers._fixing as fixing
+from solvers._cliques import grown_cliques, kernel_neighbourhoods
+from solvers._exact import start_packing
+from solvers._reduce import reduce_problem
+from solvers.testing import random_problem
+
+EXACT = ("cpsat", "highs")
+
+
+def _available(name: str):
+    loaded = solvers.get(name)
+    if not loaded.availability():
+        pytest.skip(f"{name} is not available here")
+    return loaded
+
+
+def _plain(name: str):
+    """The plugin ``name`` without reduced-cost fixing."""
+    cls = type(_available(name).plugin)
+    return solvers.load(type(f"{cls.__name__}Unfixed", (cls,), {"fixes_by_reduced_costs": False}))
+
+
+@functools.cache
+def _analysis(preset: str, seed: int):
+    rig = rigs.generate(preset, seed=seed)
+    return rig, packing.analyse(rig, rigs.warp(rig, "alien").neutral)
+
+
+@pytest.mark.parametrize(
+    ("name", "preset", "seed", "target_fractions"),
+    [
+        ("cpsat", "male", 0, (1.0,)),
+        ("cpsat", "toon", 1, (0.0,)),
+        ("cpsat", "arkit52", 2, (1.0, 0.5)),
+        ("highs", "male", 1, (0.85,)),
+        ("highs", "tiny", 0, ()),
+    ],
+)
+def test_every_expression_matches_the_plain_path(monkeypatch, name, preset, seed, target_fractions):
+    """Fixing on every kernel of two items or more, with targets that fail often (1.0: the LP bound),
+    never (0.0: the known packing) or in turn, gives the plain path's sequence."""
+    rig, analysis = _analysis(preset, seed)
+    plain = packing.sequence(rig, _plain(name), analysis=analysis)
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    monkeypatch.setattr(fixing, "TARGET_FRACTIONS", target_fractions)
+    fixed = packing.sequence(rig, _available(name), analysis=analysis)
+    packing.check(rig, fixed, pairs=analysis.pairs)
+    assert [e.objective for e in fixed] == [e.objective for e in plain]
+    assert [e.items for e in fixed] == [e.items for e in plain]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_bounds_hold_every_optimum_and_the_packing_is_valid(monkeypatch, seed):
+    """``with_item`` bounds each item's best packing from above (checked by CP-SAT with the item forced in),
+    so the items kept at the optimum's level hold every optimal item."""
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    problem = random_problem(40, 60, seed=seed, active=(4, 9), pairs=0.2)
+    reduction = reduce_problem(problem, False)
+    closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
+    model = grown_cliques(reduction.model, closed)
+    costs = fixing.reduced_costs(model, start_packing(problem, reduction))
+    assert costs is not None
+    adjacency = model.conflict_graph().toarray()
+    chosen = np.zeros(model.n_items, dtype=bool)
+    chosen[list(costs.packing)] = True
+    assert not (adjacency & chosen[:, None] & chosen[None, :]).any()
+    cpsat = _available("cpsat").plugin
+    best = cpsat.solve_model(model, time_limit=None, seed=0)
+    optimum = costs.objective(best.items)
+    assert costs.bound >= optimum - 1e-12 and costs.objective(costs.packing) <= optimum + 1e-12
+    for item in range(model.n_items):
+        forced = model.restricted(np.flatnonzero(~adjacency[item]))  # the item and its non-neighbours
+        position = int(np.count_nonzero(~adjacency[item][:item]))
+        with_item = cpsat.solve_model(forced, time_limit=None, seed=0)
+        value = costs.objective(np.flatnonzero(~adjacency[item])[list(with_item.items)])
+        if position not in with_item.items:
+            value += model.weights[item]
+        assert costs.with_item[item] >= value - 1e-9
+    assert set(best.items) <= set(costs.kept(optimum).tolist())
+
+
+def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
+    """Cut short, the answer's bound covers the packings holding a left-out item too."""
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    loaded = _available("cpsat")
+    problem = random_problem(150, 200, seed=3, active=(6, 12), pairs=0.2)
+    solution = loaded.solve(problem, time_limit=0.001, seed=0)
+    assert solution.bound is not None and solution.bound >= solution.objective - 1e-9
+    full = _plain("cpsat").solve(problem, time_limit=None, seed=0)
+    assert solution.bound >= full.objective - 1e-9
