@@ -16,9 +16,17 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs._obj_block import DECIMAL, BlockPart, is_plain, line_block, numbered_lines, plain_block
+from rigs._obj_block import (
+    DECIMAL,
+    BlockPart,
+    is_continued,
+    is_plain,
+    line_block,
+    numbered_lines,
+    plain_block,
+)
 from rigs._obj_faces import INDEX_KINDS, Polygons
-from rigs._obj_layout import CONTINUATION_LOOK, NeutralLayout
+from rigs._obj_layout import NeutralLayout
 from rigs._rig import RigError
 from rigs._safe import UnreadableFile, read_bytes, size_text
 
@@ -188,7 +196,7 @@ def _cut(data: bytes, at: int, carriage: bool) -> int:
                 end = lone
         if end < 0:
             break
-        if not data[max(at, end - CONTINUATION_LOOK) : end].rstrip(b" \t\r").endswith(b"\\"):
+        if not is_continued(data, end):
             return end + 1
         at = end + 1
     return len(data)

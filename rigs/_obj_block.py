@@ -245,6 +245,19 @@ def _plain_texture_block(block: bytes) -> np.ndarray | None:
 
 
 # -- line by line --------------------------------------------------------------------------------------------
+def is_continued(data: bytes, end: int) -> bool:
+    """Whether the line whose line end is at ``end`` continues onto the next: it ends with ``\\`` before
+    any blanks (spaces, tabs, CRs; however many). A CR line end just before ``end`` is read as a blank, so
+    an empty line after a CR-ended continued one also counts as continued: a cut is then only made later."""
+    look = 64
+    while True:
+        first = max(0, end - look)
+        tail = data[first:end].rstrip(b" \t\r")
+        if tail or first == 0:
+            return tail.endswith(b"\\")
+        look *= 8
+
+
 def numbered_lines(text: str, first: int = 1) -> Iterator[tuple[int, str]]:
     """Logical lines with the number of their first physical line (from ``first``); ``\\`` at a line end
     continues it."""

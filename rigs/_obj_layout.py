@@ -14,11 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rigs._obj_block import is_plain, line_block, plain_block, plain_vertex_block
+from rigs._obj_block import is_continued, is_plain, line_block, plain_block, plain_vertex_block
 from rigs._rig import RigError
 
-#: Trailing characters looked at to tell whether the line before the face section is continued.
-CONTINUATION_LOOK = 4096
 #: How a ``v x y z`` line starts (a line of a file that holds no ``\\`` line continuation).
 _VERTEX_LINE = b"v "
 
@@ -62,7 +60,7 @@ class NeutralLayout:
         stop = len(data) - len(faces)
         if stop <= 0 or not data.endswith(faces) or data[stop - 1] != ord("\n"):
             return None
-        if data[max(0, stop - CONTINUATION_LOOK) : stop - 1].rstrip(b" \t\r").endswith(b"\\"):
+        if is_continued(data, stop - 1):
             return None
         return stop
 

@@ -15,12 +15,12 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from rigs import RigError
 from rigs._obj import parse_obj
-from rigs._obj_block import plain_vertex_block
+from rigs._obj_block import is_continued, plain_vertex_block
 from rigs._obj_faces import INDEX_KINDS, face_corners, plain_corners
 from rigs._obj_layout import NeutralLayout
 from rigs._obj_surface import parse_surface
@@ -287,6 +287,17 @@ def test_coordinates_in_any_decimal_notation_read_as_the_line_by_line_reader_rea
     _agree("\n".join(lines))
 
 
+@pytest.mark.parametrize("blanks", [0, 1, 63, 64, 65, 5000])
+def test_a_line_is_continued_by_a_backslash_before_any_number_of_blanks(blanks) -> None:
+    for line_end in (b"\n", b"\r\n"):
+        data = b"v 1 2 3\nvt 1 \\" + b" \t" * blanks + line_end + b"2\n"
+        end = data.index(line_end, len(b"v 1 2 3\n"))
+        assert is_continued(data, end)
+        assert not is_continued(data.replace(b"\\", b"x"), end)
+        assert not is_continued(data, data.index(b"\n"))
+    assert not is_continued(b"\\\n" + b" " * blanks + b"\n", 1 + 1 + blanks)
+
+
 def test_a_plain_vertex_block_is_read_in_one_go_and_anything_else_is_left_to_the_line_readers() -> None:
     block = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in GRID.tolist())
     assert np.array_equal(plain_vertex_block(block), GRID)
@@ -319,6 +330,7 @@ def test_plain_files_never_reach_the_line_by_line_reader() -> None:
 
 @settings(max_examples=300, deadline=None)
 @given(_LINE_EDITS, st.sampled_from(["\n", "\r\n", "\r"]), st.integers(1, 300))
+@example(edits=[(0, ["v", "v", "v", "v", "# c", "\\"])], line_end="\n", block_bytes=15)
 def test_a_file_read_in_small_blocks_reads_as_in_one(edits, line_end, block_bytes) -> None:
     """Blocks are cut after line ends: groups, relative indices and continued lines run on across them (a
     file with several faults may be refused for another of them: the first block's)."""
