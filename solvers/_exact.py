@@ -212,7 +212,9 @@ def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple
 
     Notes
     -----
-    O(I log I) for the order plus three runs of Algorithm 2 on the presolved conflict sets.
+    O(I log I) for the order plus three runs of Algorithm 2 on the presolved conflict sets, one when
+    Algorithm 2's packing of the whole problem holds only items the reductions left (the two visits of the
+    kernel then choose that packing again).
     """
     from solvers.greedy import greedy_items, greedy_order
 
@@ -223,13 +225,18 @@ def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple
     live[reduction.kept] = True
     live[reduction.taken] = True
     whole = np.asarray(greedy_items(problem, order=order), dtype=np.int64)
-    kept_whole = np.zeros(problem.n_items, dtype=bool)
-    kept_whole[whole[live[whole]]] = True
-    orders = (
-        order[live[order]],
-        np.concatenate([order[kept_whole[order]], order[live[order] & ~kept_whole[order]]]),
-    )
-    best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
+    if live[whole].all():
+        # Both visits below choose exactly ``whole``: the items it passed over were blocked by, or had no room
+        # left beside, items of ``whole`` visited earlier (all of them first in the second visit).
+        best = whole
+    else:
+        kept_whole = np.zeros(problem.n_items, dtype=bool)
+        kept_whole[whole[live[whole]]] = True
+        orders = (
+            order[live[order]],
+            np.concatenate([order[kept_whole[order]], order[live[order] & ~kept_whole[order]]]),
+        )
+        best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
     chosen = np.sort(np.asarray(best, dtype=np.int64))
     return tuple(np.searchsorted(reduction.kept, chosen[np.isin(chosen, reduction.kept)]).tolist())
 
