@@ -57,18 +57,21 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     member_bits = pack_bits(members)
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     common = np.bitwise_and.reduceat(ranked[rank[model.row_items]], model.row_starts[:-1], axis=0)
-    growing = np.arange(n_rows)
+    growing, grown_bits = np.arange(n_rows), member_bits.copy()  # the rows still growing, their members
     while growing.size:
-        candidates = common[growing] & ~member_bits[growing]
+        candidates = common & ~grown_bits
         nonzero = candidates != 0
         open_rows = nonzero.any(axis=1)
-        growing, candidates, nonzero = growing[open_rows], candidates[open_rows], nonzero[open_rows]
+        if not open_rows.all():
+            member_bits[growing[~open_rows]] = grown_bits[~open_rows]
+            growing, grown_bits, common = growing[open_rows], grown_bits[open_rows], common[open_rows]
+            candidates, nonzero = candidates[open_rows], nonzero[open_rows]
         if growing.size == 0:
             break
-        word = nonzero.argmax(axis=1)
-        bit = _highest_bit(candidates[np.arange(growing.size), word])
-        member_bits[growing, word] |= np.left_shift(np.uint64(1), bit.astype(np.uint64))
-        common[growing] &= ranked[word * 64 + 63 - bit]
+        row, word = np.arange(growing.size), nonzero.argmax(axis=1)
+        bit = _highest_bit(candidates[row, word])
+        grown_bits[row, word] |= np.left_shift(np.uint64(1), bit.astype(np.uint64))
+        common &= ranked[word * 64 + 63 - bit]
     by_item = np.zeros((n_rows, n_items), dtype=bool)
     by_item[:, order] = unpack_bits(member_bits, n_items)
     grown = np.unique(pack_bits(by_item), axis=0)

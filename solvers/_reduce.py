@@ -133,11 +133,11 @@ def _dominated(
     candidate, dominator = pairs
     possible = alive[candidate] & alive[dominator] & (degree[dominator] <= degree[candidate])
     candidate, dominator = candidate[possible], dominator[possible]
-    outside = np.zeros(candidate.size, dtype=bool)
-    for word in np.ascontiguousarray(live.T):  # N[j] & ~N[i], word by word
-        outside |= (word[dominator] & ~word[candidate]) != 0
+    for word in np.ascontiguousarray(live.T):  # N[j] & ~N[i], word by word, on the pairs still inside
+        inside = (word[dominator] & ~word[candidate]) == 0
+        candidate, dominator = candidate[inside], dominator[inside]
     dominated = np.zeros(alive.size, dtype=bool)
-    dominated[candidate[~outside]] = True
+    dominated[candidate] = True
     return dominated
 
 
