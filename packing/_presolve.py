@@ -124,12 +124,15 @@ class ConflictSets:
     @cached_property
     def holders(self) -> tuple[np.ndarray, np.ndarray]:
         """The sets holding each item, in flat (CSR) form: ``(holder_starts, holder_sets)``, item i in sets
-        ``holder_sets[holder_starts[i]:holder_starts[i + 1]]`` (ascending). Computed on first use, in
-        O(M log M) for the M members."""
-        by_item = np.argsort(self.members, kind="stable")
-        holder_sets = self.owner[by_item]
-        holder_starts = np.zeros(self.n_items + 1, dtype=np.int64)
-        np.bincount(self.members, minlength=self.n_items).cumsum(out=holder_starts[1:])
+        ``holder_sets[holder_starts[i]:holder_starts[i + 1]]`` (ascending). Computed on first use, in O(M)
+        for the M members (the transpose of the sets' CSR incidence, a counting sort)."""
+        incidence = sp.csr_matrix(
+            (np.ones(self.members.size, dtype=np.int8), self.members, self.starts),
+            shape=(len(self), self.n_items),
+        )
+        by_item = incidence.tocsc()
+        holder_starts = by_item.indptr.astype(np.int64)
+        holder_sets = by_item.indices.astype(np.int64)
         holder_starts.flags.writeable = holder_sets.flags.writeable = False
         return holder_starts, holder_sets
 

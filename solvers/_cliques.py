@@ -38,36 +38,44 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
 
     Notes
     -----
-    Every row is grown at once: the items are visited in order of decreasing weight (ties by index) and
-    an item joins each row whose members all conflict with it, O(I R W) word operations for R rows.
+    Each row visits the items in order of decreasing weight (ties by index) and takes every item that
+    conflicts with all of its members so far. Since the items a row may still take only shrink, the next
+    item it takes is the first (by weight) of those: with the items renumbered by weight, the highest set
+    bit of the row's candidate words. Every row takes its next item at once, one round per item the most
+    grown row gains, O(G R W) word operations for R rows grown by at most G items.
     """
     n_items, n_rows = model.n_items, model.n_rows
     if n_rows == 0:
         return model
-    sizes = np.diff(model.row_starts)
-    owner = np.repeat(np.arange(n_rows), sizes)
+    order = np.argsort(-model.weights, kind="stable")
+    rank = np.empty(n_items, dtype=np.int64)
+    rank[order] = np.arange(n_items)
+    ranked = pack_bits(unpack_bits(closed, n_items)[order][:, order])  # item order[p] is bit p
+    owner = np.repeat(np.arange(n_rows), np.diff(model.row_starts))
     members = np.zeros((n_rows, n_items), dtype=bool)
-    members[owner, model.row_items] = True
+    members[owner, rank[model.row_items]] = True
     member_bits = pack_bits(members)
     # Items conflicting with every member (the members included: neighbourhoods are closed).
-    common = np.bitwise_and.reduceat(closed[model.row_items], model.row_starts[:-1], axis=0)
-    open_rows = np.flatnonzero((common != member_bits).any(axis=1))
-    outside = np.bitwise_or.reduce(common & ~member_bits, axis=0)[None, :]
-    candidate = np.unpackbits(outside.astype(">u8").view(np.uint8), axis=1, count=n_items)[0].astype(bool)
-    order = np.argsort(-model.weights, kind="stable")
-    for item in order[candidate[order]].tolist():  # items that may join some row
-        if open_rows.size == 0:
+    common = np.bitwise_and.reduceat(ranked[rank[model.row_items]], model.row_starts[:-1], axis=0)
+    growing, grown_bits = np.arange(n_rows), member_bits.copy()  # the rows still growing, their members
+    while growing.size:
+        candidates = common & ~grown_bits
+        nonzero = candidates != 0
+        open_rows = nonzero.any(axis=1)
+        if not open_rows.all():
+            member_bits[growing[~open_rows]] = grown_bits[~open_rows]
+            growing, grown_bits, common = growing[open_rows], grown_bits[open_rows], common[open_rows]
+            candidates, nonzero = candidates[open_rows], nonzero[open_rows]
+        if growing.size == 0:
             break
-        word, bit = item // 64, np.uint64(1) << np.uint64(63 - item % 64)
-        column = common[open_rows, word]
-        joins = open_rows[((column & bit) != 0) & ((member_bits[open_rows, word] & bit) == 0)]
-        if joins.size:
-            member_bits[joins, word] |= bit
-            common[joins] &= closed[item]
-            still_open = (common[open_rows] != member_bits[open_rows]).any(axis=1)
-            open_rows = open_rows[still_open]
-    grown = np.unique(member_bits, axis=0)
-    rows = np.unpackbits(grown.astype(">u8").view(np.uint8), axis=1, count=n_items).astype(bool)
+        row, word = np.arange(growing.size), nonzero.argmax(axis=1)
+        bit = _highest_bit(candidates[row, word])
+        grown_bits[row, word] |= np.left_shift(np.uint64(1), bit.astype(np.uint64))
+        common &= ranked[word * 64 + 63 - bit]
+    by_item = np.zeros((n_rows, n_items), dtype=bool)
+    by_item[:, order] = unpack_bits(member_bits, n_items)
+    grown = np.unique(pack_bits(by_item), axis=0)
+    rows = unpack_bits(grown, n_items)
     row_of, items = np.nonzero(rows)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
     np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
@@ -75,8 +83,20 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     return CliqueModel(model.weights, starts, items, model.shape_counts, model.cap)
 
 
+def _highest_bit(words: np.ndarray) -> np.ndarray:
+    """(n,) int64: index (0 = least significant) of the highest set bit of each nonzero uint64 word, from
+    the exact binary exponents of its two 32-bit halves."""
+    high = np.frexp((words >> np.uint64(32)).astype(np.float64))[1]
+    low = np.frexp((words & np.uint64(0xFFFFFFFF)).astype(np.float64))[1]
+    return np.where(high > 0, high + 31, low - 1).astype(np.int64)
+
+
+def unpack_bits(words: np.ndarray, n_columns: int) -> np.ndarray:
+    """(n, n_columns) bool rows of (n, W) uint64 words (the inverse of `solvers._reduce.pack_bits`)."""
+    return np.unpackbits(words.astype(">u8").view(np.uint8), axis=1, count=n_columns).astype(bool)
+
+
 def kernel_neighbourhoods(closed: np.ndarray, kept: np.ndarray, n_items: int) -> np.ndarray:
     """(I', W') uint64 closed neighbourhoods among the items ``kept`` (ascending) of a problem whose closed
     neighbourhoods over its ``n_items`` items are ``closed``, renumbered as ``kept`` orders them."""
-    bits = np.unpackbits(closed[kept].astype(">u8").view(np.uint8), axis=1, count=n_items).astype(bool)
-    return pack_bits(bits[:, kept])
+    return pack_bits(unpack_bits(closed[kept], n_items)[:, kept])

@@ -26,7 +26,8 @@ import numpy as np
 
 from packing import Termination
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
-from solvers._cliques import grown_cliques, kernel_neighbourhoods
+from solvers._cliques import grown_cliques, kernel_neighbourhoods, unpack_bits
+from solvers._enumerate import ENUMERATION_MAX_ITEMS, enumerated_optimum
 from solvers._fixing import reduced_costs, solve_with_fixing
 from solvers._model import CliqueModel
 from solvers._reduce import Reduction, reduce_problem
@@ -45,9 +46,11 @@ class ExactSolver:
     tighter relaxation; False solves the kernel's conflict sets as they are, for comparisons), and
     without the items reduced-cost fixing leaves out when ``fixes_by_reduced_costs`` (default True,
     `solvers._fixing`; ``solve_model`` may then be called twice, the second time on a larger model, when
-    the first fixing's target was not reached; False solves the whole kernel, for comparisons); a plugin
-    that must see the problem as given (the paper's per-vertex formulation, ``naive-pulp-cbc``) sets
-    ``reduces`` False and overrides `solve_problem`.
+    the first fixing's target was not reached; False solves the whole kernel, for comparisons). A kernel
+    of at most `solvers._enumerate.ENUMERATION_MAX_ITEMS` items is solved by listing its packings, without
+    ``solve_model``, when ``enumerates_small_kernels`` (default True; False sends it to the backend, for
+    comparisons). A plugin that must see the problem as given (the paper's per-vertex formulation,
+    ``naive-pulp-cbc``) sets ``reduces`` False and overrides `solve_problem`.
 
     A subclass that declares ``Capabilities(warm_start=True)`` accepts ``start`` in ``solve_model``.
     The start is opted into by that typed flag rather than detected from the signature: it is declared
@@ -67,6 +70,7 @@ class ExactSolver:
     reduces: ClassVar[bool] = True
     grows_cliques: ClassVar[bool] = True
     fixes_by_reduced_costs: ClassVar[bool] = True
+    enumerates_small_kernels: ClassVar[bool] = True
 
     def solve_model(
         self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
@@ -137,6 +141,9 @@ class ExactSolver:
             return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
         reduction = reduce_problem(problem, cap_binds) if self.reduces else None
+        if reduction is not None and self.enumerates_small_kernels:
+            if reduction.kept.size <= ENUMERATION_MAX_ITEMS:
+                return _enumerated(problem, reduction, cap_binds, clock)
         if reduction is None:
             model = CliqueModel.from_problem(problem)
         elif self.grows_cliques:
@@ -212,7 +219,9 @@ def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple
 
     Notes
     -----
-    O(I log I) for the order plus three runs of Algorithm 2 on the presolved conflict sets.
+    O(I log I) for the order plus three runs of Algorithm 2 on the presolved conflict sets, one when
+    Algorithm 2's packing of the whole problem holds only items the reductions left (the two visits of the
+    kernel then choose that packing again).
     """
     from solvers.greedy import greedy_items, greedy_order
 
@@ -223,15 +232,34 @@ def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple
     live[reduction.kept] = True
     live[reduction.taken] = True
     whole = np.asarray(greedy_items(problem, order=order), dtype=np.int64)
-    kept_whole = np.zeros(problem.n_items, dtype=bool)
-    kept_whole[whole[live[whole]]] = True
-    orders = (
-        order[live[order]],
-        np.concatenate([order[kept_whole[order]], order[live[order] & ~kept_whole[order]]]),
-    )
-    best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
+    if live[whole].all():
+        # Both visits below choose exactly ``whole``: the items it passed over were blocked by, or had no room
+        # left beside, items of ``whole`` visited earlier (all of them first in the second visit).
+        best = whole
+    else:
+        kept_whole = np.zeros(problem.n_items, dtype=bool)
+        kept_whole[whole[live[whole]]] = True
+        orders = (
+            order[live[order]],
+            np.concatenate([order[kept_whole[order]], order[live[order] & ~kept_whole[order]]]),
+        )
+        best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
     chosen = np.sort(np.asarray(best, dtype=np.int64))
     return tuple(np.searchsorted(reduction.kept, chosen[np.isin(chosen, reduction.kept)]).tolist())
+
+
+def _enumerated(problem: PackingProblem, reduction: Reduction, cap_binds: bool, clock: Stopwatch) -> Result:
+    """The optimum of a problem whose kernel holds at most `ENUMERATION_MAX_ITEMS` items, by listing the
+    kernel's packings (`solvers._enumerate`): proved optimal, no backend run."""
+    kept = reduction.kept
+    conflicts = unpack_bits(kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items), kept.size)
+    weights = np.asarray(problem.weights, dtype=np.float64)[kept]
+    cap = problem.cap if cap_binds else None
+    build_time = clock.lap()
+    items = reduction.items(enumerated_optimum(weights, problem.item_shape_counts[kept], cap, conflicts))
+    message = f"kernel of {kept.size} items solved by enumeration"
+    objective = problem.objective(items)
+    return Result(items, Termination.OPTIMAL, objective, build_time, clock.lap(), message=message)
 
 
 def _model_items(items: Iterable[int], n_items: int) -> tuple[int, ...]:

@@ -113,9 +113,10 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
         # N[j] inside N[i] can only become true when N[j] shrank: only pairs whose j lost a neighbour
         # since the last round are compared again.
-        pairs = tuple(side[alive[pairs[0]] & alive[pairs[1]]] for side in pairs)
-        shrunk = degree != previous_degree
-        dominated = _dominated(live, alive, degree, tuple(side[shrunk[pairs[1]]] for side in pairs))
+        both_alive = alive[pairs[0]] & alive[pairs[1]]
+        pairs = (pairs[0][both_alive], pairs[1][both_alive])
+        shrunk = (degree != previous_degree)[pairs[1]]
+        dominated = _dominated(live, alive, degree, (pairs[0][shrunk], pairs[1][shrunk]))
         if not (isolated.any() or dominated.any()):
             break
         taken |= isolated
@@ -132,11 +133,11 @@ def _dominated(
     candidate, dominator = pairs
     possible = alive[candidate] & alive[dominator] & (degree[dominator] <= degree[candidate])
     candidate, dominator = candidate[possible], dominator[possible]
-    outside = np.zeros(candidate.size, dtype=bool)
-    for word in range(live.shape[1]):  # N[j] & ~N[i], word by word
-        outside |= (live[dominator, word] & ~live[candidate, word]) != 0
+    for word in np.ascontiguousarray(live.T):  # N[j] & ~N[i], word by word, on the pairs still inside
+        inside = (word[dominator] & ~word[candidate]) == 0
+        candidate, dominator = candidate[inside], dominator[inside]
     dominated = np.zeros(alive.size, dtype=bool)
-    dominated[candidate[~outside]] = True
+    dominated[candidate] = True
     return dominated
 
 

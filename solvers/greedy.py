@@ -106,22 +106,33 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
     its sets, and an item with more shapes than the cap leaves room for is skipped: no vertex is read and
     only the sets of the chosen items are visited. The sets are `PackingProblem.conflict_view`'s (those of
     a problem this one was restricted from, over its item numbering), so that the sequence's restricted
-    problems never derive their own.
+    problems never derive their own. The items are held by their place in ``order``, so that the next item
+    not blocked is found by one search of the places after the last one visited.
     """
     view = problem.conflict_view
     starts, members = view.sets.starts, view.sets.members
     holder_starts, holder_sets = view.sets.holders
     room = np.inf if problem.cap is None else problem.cap
-    blocked = np.zeros(view.sets.n_items, dtype=bool)
+    n_items = order.size
+    outer = view.items[order]
+    place_of = np.full(view.sets.n_items, n_items, dtype=np.int64)  # items of no place: one spare entry
+    place_of[outer] = np.arange(n_items)
+    open_places = np.ones(n_items + 1, dtype=bool)
+    shapes = counts[order]
     chosen: list[int] = []
-    visits = zip(order.tolist(), view.items[order].tolist(), counts[order].tolist(), strict=True)
-    for item, outer, count in visits:
-        if blocked[outer] or count > room:
-            continue
-        chosen.append(item)
-        for r in holder_sets[holder_starts[outer] : holder_starts[outer + 1]].tolist():
-            blocked[members[starts[r] : starts[r + 1]]] = True
-        room -= count
+    place = 0
+    while place < n_items:
+        place += int(np.argmax(open_places[place:n_items]))
+        if not open_places[place]:
+            break
+        if shapes[place] <= room:
+            chosen.append(int(order[place]))
+            room -= shapes[place]
+            held = holder_sets[holder_starts[outer[place]] : holder_starts[outer[place] + 1]]
+            sizes = starts[held + 1] - starts[held]
+            first = np.repeat(starts[held] - np.cumsum(sizes) + sizes, sizes)
+            open_places[place_of[members[first + np.arange(first.size)]]] = False
+        place += 1
     return tuple(chosen)
 
 

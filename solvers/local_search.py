@@ -45,6 +45,7 @@ class _Packing:
         self.weights = weights
         self.counts = counts
         self.adjacency = adjacency
+        self.dense: np.ndarray | None = None  # the adjacency as an (I, I) bool array, made on first use
         self.chosen = np.zeros(weights.size, dtype=bool)
         self.tight = np.zeros(weights.size, dtype=np.int64)  # chosen neighbours of each item
         self.room = np.inf if cap is None else float(cap)
@@ -87,7 +88,9 @@ class _Packing:
         best = int(np.argmax(gain_one))
         gain, added = float(gain_one[best]), (int(near[best]),)
         if near.size >= 2:
-            compatible = ~self.adjacency[near][:, near].toarray()
+            if self.dense is None:
+                self.dense = self.adjacency.toarray()
+            compatible = ~self.dense[np.ix_(near, near)]
             pair_weight = self.weights[near][:, None] + self.weights[near][None, :]
             fits = (self.counts[near][:, None] + self.counts[near][None, :]) <= room
             allowed = np.triu(compatible & fits, k=1)

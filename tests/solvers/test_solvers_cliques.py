@@ -102,3 +102,28 @@ def test_a_capped_sequence_has_the_objectives_of_the_plain_model(cap):
     plain = packing.sequence(rig, _plain("cpsat"), analysis=analysis)
     packing.check(rig, grown, pairs=analysis.pairs, max_per_expression=cap)
     assert [e.objective for e in grown] == [e.objective for e in plain]
+
+
+def _grown_by_visiting(model, conflicts: np.ndarray) -> list[tuple[int, ...]]:
+    """Each row grown by visiting the items by decreasing weight (ties by index), one at a time."""
+    order = np.argsort(-model.weights, kind="stable").tolist()
+    rows = set()
+    for r in range(model.n_rows):
+        row = set(model.row(r).tolist())
+        for item in order:
+            if item not in row and all(conflicts[item, member] for member in row):
+                row.add(item)
+        rows.add(tuple(sorted(row)))
+    return sorted(rows)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 100_000), cap=st.sampled_from([None, 3]), n_items=st.integers(12, 90))
+def test_grown_rows_are_the_rows_grown_one_item_at_a_time_by_weight(seed, cap, n_items):
+    problem = random_problem(n_items, 3 * n_items, seed=seed, active=(2, 10), cap=cap)
+    reduction = reduce_problem(problem, cap is not None)
+    closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
+    model = reduction.cut_model()
+    grown = grown_cliques(model, closed)
+    rows = [tuple(grown.row(r).tolist()) for r in range(grown.n_rows)]
+    assert sorted(rows) == _grown_by_visiting(model, _conflicts(closed, model.n_items))

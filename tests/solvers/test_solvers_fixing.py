@@ -51,11 +51,12 @@ def _analysis(preset: str, seed: int):
     ],
 )
 def test_every_expression_matches_the_plain_path(monkeypatch, name, preset, seed, target_fractions):
-    """Fixing on every kernel of two items or more, with targets that fail often (1.0: the LP bound),
-    never (0.0: the known packing) or in turn, gives the plain path's sequence."""
+    """Fixing on every kernel of two items or more (none solved by enumeration), with targets that fail often
+    (1.0: the LP bound), never (0.0: the known packing) or in turn, gives the plain path's sequence."""
     rig, analysis = _analysis(preset, seed)
     plain = packing.sequence(rig, _plain(name), analysis=analysis)
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    monkeypatch.setattr(solvers._exact, "ENUMERATION_MAX_ITEMS", 1)
     monkeypatch.setattr(fixing, "TARGET_FRACTIONS", target_fractions)
     fixed = packing.sequence(rig, _available(name), analysis=analysis)
     packing.check(rig, fixed, pairs=analysis.pairs)

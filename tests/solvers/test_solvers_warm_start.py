@@ -72,11 +72,12 @@ def test_a_time_limited_answer_is_no_worse_than_greedy_nor_the_start(name: str, 
 
 class _Scripted(solvers.ExactSolver):
     """An exact plugin whose backend answers as scripted, recording the start it was given (on the whole
-    kernel: no reduced-cost fixing)."""
+    kernel, however small: no reduced-cost fixing, no enumeration)."""
 
     name = "scripted"
     capabilities = Capabilities(exact=True, time_limit=True, warm_start=True)
     fixes_by_reduced_costs = False
+    enumerates_small_kernels = False
     answer: str = "none"
     starts: list[tuple[int, ...]] = []
 
