@@ -139,14 +139,13 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
 class GreedySolver:
     """Algorithm 2 (sec. 4.5.2): strict greedy set packing with symmetry pairs as single items.
 
-        Examples
-        --------
-        >>> import numpy as np
-    import scipy.sparse as sp
-        >>> from packing import problem_from_incidence
-        >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
-        >>> GreedySolver().solve(problem).items
-        (0, 2)
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from packing import problem_from_incidence
+    >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
+    >>> GreedySolver().solve(problem).items  # the heaviest item first: it blocks both others
+    (1,)
     """
 
     name: ClassVar[str] = "greedy"
