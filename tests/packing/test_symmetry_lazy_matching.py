@@ -3,6 +3,8 @@ over every scored pair, and the floors of the candidate bounds against the exact
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -52,46 +54,59 @@ def test_lazy_matching_equals_the_greedy_matching_of_every_score(n_shapes, seed,
     assert len(scored) == len(set(scored))  # each pair scored once at most
 
 
-def test_floors_of_the_candidate_bounds_are_below_the_exact_scores():
-    """Each candidate's floor ``(numerator - slack) / shared`` is at most its eq. 9 error, and the film
-    layout's candidates are mostly scored only in part."""
+@pytest.fixture(scope="module")
+def female() -> SimpleNamespace:
+    """The symmetry step's inputs on the ``female`` rig, up to the per-cell sums of the candidate bounds."""
     rig = rigs.generate("female")
     norms, masks, mirror, normal, eligible, _ = inputs(rig)
     active = sparse_masks(masks)
     rows, cols = entries(active)
     field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
-    own = row_sums(rows, field.lengths, rig.n_shapes)
     mirrored = mirrored_entries(active, rows, cols, mirror)
-    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
     cells = vertex_cells(rig.neutral, active, cols, eligible)
-    image = image_cell_sums(field, mirrored, eligible, cells)
-    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
-    found = candidate_pairs(field, rows, shapes, image, eligible, norms.max(axis=1), 0.4)
-    overlap, summed = symmetry._pair_sums(field, cols, mirror, found.first, found.second)
-    error = np.where(overlap > 0, (own[found.first] + image_own[found.second] + summed) / overlap, np.inf)
-    slack = symmetry.BOUND_SLACK * (own[found.first] + image_own[found.second])
+    return SimpleNamespace(
+        norms=norms,
+        mirror=mirror,
+        eligible=eligible,
+        rows=rows,
+        cols=cols,
+        field=field,
+        own=row_sums(rows, field.lengths, rig.n_shapes),
+        image_own=row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes),
+        image=image_cell_sums(field, mirrored, eligible, cells),
+        shapes=shape_cell_sums(field, rows, cols, eligible, cells),
+    )
+
+
+def test_floors_of_the_candidate_bounds_are_below_the_exact_scores(female):
+    """Each candidate's floor ``(numerator - slack) / shared`` is at most its eq. 9 error, and the film
+    layout's candidates are mostly scored only in part."""
+    found = candidate_pairs(
+        female.field, female.rows, female.shapes, female.image, female.eligible, female.norms.max(axis=1), 0.4
+    )
+    overlap, summed = symmetry._pair_sums(female.field, female.cols, female.mirror, found.first, found.second)
+    error = np.where(
+        overlap > 0, (female.own[found.first] + female.image_own[found.second] + summed) / overlap, np.inf
+    )
+    slack = symmetry.BOUND_SLACK * (female.own[found.first] + female.image_own[found.second])
     floor = (found.numerator - slack) / found.shared
     assert found.first.size > 100 and np.all(floor <= error)
     assert np.all(overlap <= found.shared)
 
 
-def test_self_candidates_keep_every_self_symmetric_shape():
+def test_self_candidates_keep_every_self_symmetric_shape(female):
     """The bounds for ``m = k`` never rule out a shape whose exact ``eps_kk`` passes eq. 10, and rule out
     most of the others."""
-    rig = rigs.generate("female")
-    norms, masks, mirror, normal, eligible, _ = inputs(rig)
-    active = sparse_masks(masks)
-    rows, cols = entries(active)
-    field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
-    own = row_sums(rows, field.lengths, rig.n_shapes)
-    mirrored = mirrored_entries(active, rows, cols, mirror)
-    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes)
-    cells = vertex_cells(rig.neutral, active, cols, eligible)
-    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
-    image = image_cell_sums(field, mirrored, eligible, cells)
-    largest = norms.max(axis=1)
-    kept = self_candidates(field, rows, shapes, image, largest, 0.4)
-    every = symmetry._self_errors(field, rows, cols, mirror, np.flatnonzero(eligible), own + image_own)
-    self_symmetric = eligible & (every < 0.4 * largest)
+    largest = female.norms.max(axis=1)
+    kept = self_candidates(female.field, female.rows, female.shapes, female.image, largest, 0.4)
+    every = symmetry._self_errors(
+        female.field,
+        female.rows,
+        female.cols,
+        female.mirror,
+        np.flatnonzero(female.eligible),
+        female.own + female.image_own,
+    )
+    self_symmetric = female.eligible & (every < 0.4 * largest)
     assert self_symmetric.any() and not (self_symmetric & ~kept).any()
-    assert (kept & eligible).sum() < 0.5 * eligible.sum()
+    assert (kept & female.eligible).sum() < 0.5 * female.eligible.sum()
