@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -249,3 +251,14 @@ def test_rigs_fetch_faceunits_loads_and_saves_the_cached_rig(tmp_path, monkeypat
     assert rigs.load(out).names == tiny.names
     assert invoke("rigs", "fetch", "faceunits").exit_code == 0
     assert invoke("rigs", "fetch", "nothing").exit_code == 2
+
+
+def test_python_dash_m_harness_is_the_harness_command() -> None:
+    """``python -m harness`` is the ``harness`` command, with its exit codes (a usage error exits 2)."""
+    listed = subprocess.run(
+        [sys.executable, "-m", "harness", "list", "--json"], capture_output=True, text=True, check=False
+    )
+    assert listed.returncode == 0, listed.stderr
+    assert "greedy" in {item["name"] for item in json.loads(listed.stdout)["solvers"]}
+    unknown = subprocess.run([sys.executable, "-m", "harness", "nonsense"], capture_output=True, text=True)
+    assert unknown.returncode == 2 and "No such command 'nonsense'" in unknown.stderr
