@@ -111,8 +111,8 @@ def load(solver: Any) -> LoadedSolver:
     >>> from packing import problem_from_incidence
     >>> from solvers.greedy import GreedySolver
     >>> problem = problem_from_incidence(np.array([[1, 1, 0], [0, 1, 1], [0, 0, 1]]), [0.5, 0.9, 0.4])
-    >>> load(GreedySolver).solve(problem).shapes
-    ('s0', 's2')
+    >>> load(GreedySolver).solve(problem).shapes  # the heaviest shape first: it blocks both others
+    ('s1',)
     """
     if isinstance(solver, LoadedSolver):
         return solver
