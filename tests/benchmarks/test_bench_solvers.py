@@ -19,6 +19,7 @@ import solvers
 from packing import Termination
 from solvers.naive import NaivePulpCbcSolver
 from tests.benchmarks.timing import best_time
+from tests.solvers.plugin_variants import available, variant
 
 PRESETS = ("female", "digidouble", "male", "toon")
 FAST_EXACT = ("cpsat", "highs")
@@ -204,11 +205,8 @@ def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
     """The whole exact sequence in CPU seconds, against the whole kernel solved without reduced-cost fixing
     (`solvers._fixing`): the same items and objective at every expression, and how much faster."""
     rig, analysis = _film_analysis(n_shapes)
-    loaded = solvers.get(name)
-    if not loaded.availability():
-        pytest.skip(f"{name} is not available here")
-    plugin = type(loaded.plugin)
-    plain = solvers.load(type(f"{plugin.__name__}Unfixed", (plugin,), {"fixes_by_reduced_costs": False}))
+    loaded = available(name)
+    plain = variant(name, "Unfixed", fixes_by_reduced_costs=False)
 
     def cpu_seconds(solver):
         start = time.process_time()

@@ -17,6 +17,7 @@ import solvers
 from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._reduce import reduce_problem
 from solvers.testing import random_problem
+from tests.solvers.plugin_variants import available, variant
 
 EXACT = ("cpsat", "highs", "cbc-mip", "scip")
 
@@ -75,16 +76,13 @@ def test_grown_rows_allow_exactly_the_packings_the_conflict_sets_allow(seed, cap
 
 def _plain(name: str):
     """The plugin ``name`` solving the kernel's conflict sets as they are (no grown cliques)."""
-    cls = type(solvers.get(name).plugin)
-    return solvers.load(type(f"{cls.__name__}Plain", (cls,), {"grows_cliques": False}))
+    return variant(name, "Plain", grows_cliques=False)
 
 
 @pytest.mark.parametrize("name", EXACT)
 @pytest.mark.parametrize("preset", ["female", "male"])
 def test_every_expression_of_a_sequence_has_the_objective_of_the_plain_model(name: str, preset: str):
-    loaded = solvers.get(name)
-    if not loaded.availability():
-        pytest.skip(f"{name} is not available here")
+    loaded = available(name)
     rig = rigs.generate(preset)
     analysis = packing.analyse(rig, rigs.warp(rig, "alien").neutral)
     grown = packing.sequence(rig, loaded, analysis=analysis, jmax=12)

@@ -16,15 +16,12 @@ import solvers
 from packing import Termination
 from solvers._enumerate import ENUMERATION_MAX_ITEMS, enumerated_optimum
 from solvers.testing import random_problem
+from tests.solvers.plugin_variants import variant
 
 
 def _backend_only(name: str):
     """The plugin ``name`` sending every kernel to its backend."""
-    loaded = solvers.get(name)
-    if not loaded.availability():
-        pytest.skip(f"{name} is not available here")
-    cls = type(loaded.plugin)
-    return solvers.load(type(f"{cls.__name__}Backend", (cls,), {"enumerates_small_kernels": False}))
+    return variant(name, "Backend", enumerates_small_kernels=False)
 
 
 @settings(max_examples=60, deadline=None)

@@ -17,21 +17,14 @@ from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._exact import start_packing
 from solvers._reduce import reduce_problem
 from solvers.testing import random_problem
+from tests.solvers.plugin_variants import available, variant
 
 EXACT = ("cpsat", "highs")
 
 
-def _available(name: str):
-    loaded = solvers.get(name)
-    if not loaded.availability():
-        pytest.skip(f"{name} is not available here")
-    return loaded
-
-
 def _plain(name: str):
     """The plugin ``name`` without reduced-cost fixing."""
-    cls = type(_available(name).plugin)
-    return solvers.load(type(f"{cls.__name__}Unfixed", (cls,), {"fixes_by_reduced_costs": False}))
+    return variant(name, "Unfixed", fixes_by_reduced_costs=False)
 
 
 @functools.cache
@@ -58,7 +51,7 @@ def test_every_expression_matches_the_plain_path(monkeypatch, name, preset, seed
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
     monkeypatch.setattr(solvers._exact, "ENUMERATION_MAX_ITEMS", 1)
     monkeypatch.setattr(fixing, "TARGET_FRACTIONS", target_fractions)
-    fixed = packing.sequence(rig, _available(name), analysis=analysis)
+    fixed = packing.sequence(rig, available(name), analysis=analysis)
     packing.check(rig, fixed, pairs=analysis.pairs)
     assert [e.objective for e in fixed] == [e.objective for e in plain]
     assert [e.items for e in fixed] == [e.items for e in plain]
@@ -79,7 +72,7 @@ def test_the_bounds_hold_every_optimum_and_the_packing_is_valid(monkeypatch, see
     chosen = np.zeros(model.n_items, dtype=bool)
     chosen[list(costs.packing)] = True
     assert not (adjacency & chosen[:, None] & chosen[None, :]).any()
-    cpsat = _available("cpsat").plugin
+    cpsat = available("cpsat").plugin
     best = cpsat.solve_model(model, time_limit=None, seed=0)
     optimum = costs.objective(best.items)
     assert costs.bound >= optimum - 1e-12 and costs.objective(costs.packing) <= optimum + 1e-12
@@ -97,7 +90,7 @@ def test_the_bounds_hold_every_optimum_and_the_packing_is_valid(monkeypatch, see
 def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
     """Cut short, the answer's bound covers the packings holding a left-out item too."""
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
-    loaded = _available("cpsat")
+    loaded = available("cpsat")
     problem = random_problem(150, 200, seed=3, active=(6, 12), pairs=0.2)
     solution = loaded.solve(problem, time_limit=0.001, seed=0)
     assert solution.bound is not None and solution.bound >= solution.objective - 1e-9

@@ -17,23 +17,16 @@ from solvers._exact import start_packing
 from solvers._reduce import reduce_problem
 from solvers.greedy import greedy_items
 from solvers.testing import check_packing, check_solver, hard_problem
+from tests.solvers.plugin_variants import available, variant
 
 EXACT = ("cpsat", "highs", "cbc-mip", "cbc-pulp", "scip")
 TOLERANCE = 1e-9
 
 
-def _available(name: str):
-    loaded = solvers.get(name)
-    if not loaded.availability():
-        pytest.skip(f"{name} is not available here")
-    return loaded
-
-
 def _without_start(name: str):
     """The plugin ``name`` declaring no warm start: it solves as before the start existed."""
-    cls = type(_available(name).plugin)
-    capabilities = replace(cls.capabilities, warm_start=False)
-    return solvers.load(type(f"{cls.__name__}NoStart", (cls,), {"capabilities": capabilities}))
+    capabilities = replace(type(available(name).plugin).capabilities, warm_start=False)
+    return variant(name, "NoStart", capabilities=capabilities)
 
 
 def _start_in_problem(problem: packing.PackingProblem) -> tuple[int, ...]:
@@ -55,7 +48,7 @@ def test_the_start_is_a_valid_packing_at_least_as_good_as_the_kernels_greedy_one
 @pytest.mark.parametrize("name", EXACT)
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_time_limited_answer_is_no_worse_than_greedy_nor_the_start(name: str, seed: int) -> None:
-    loaded = _available(name)
+    loaded = available(name)
     problem = hard_problem(seed)
     solution = loaded.solve(problem, time_limit=0.02, seed=seed)
     assert solution.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT), solution.message
@@ -136,7 +129,7 @@ def test_a_plugin_without_start_support_gets_none_and_passes_the_checks() -> Non
 
         def solve_model(self, model, *, time_limit, seed):
             seen.append({"time_limit": time_limit, "seed": seed})
-            return _available("highs").plugin.solve_model(model, time_limit=time_limit, seed=seed)
+            return available("highs").plugin.solve_model(model, time_limit=time_limit, seed=seed)
 
     assert check_solver(NoStart) == list(solvers.testing.CHECKS)
     assert seen
@@ -154,7 +147,7 @@ def test_the_start_leaves_the_optima_of_a_whole_sequence_unchanged(name: str, pr
     rig = rigs.generate(preset)
     with pytest.warns(packing.MissingTargetWarning):
         analysis = packing.analyse(rig)
-    hinted = packing.sequence(rig, _available(name), analysis=analysis)
+    hinted = packing.sequence(rig, available(name), analysis=analysis)
     plain = packing.sequence(rig, _without_start(name), analysis=analysis)
     assert all(e.termination is Termination.OPTIMAL and not e.fallback for e in hinted + plain)
     assert [e.objective for e in hinted] == pytest.approx([e.objective for e in plain], rel=TOLERANCE)
