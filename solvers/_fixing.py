@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from packing import Termination
 from solvers._base import Result
 from solvers._model import CliqueModel
 from solvers.local_search import locally_optimal
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: Kernels with fewer items are solved as they are: the backends prove them faster than the LP is solved.
 FIXING_MIN_ITEMS = 100
@@ -82,7 +86,9 @@ class ReducedCosts:
         return np.flatnonzero(self.with_item >= level - self.margin)
 
 
-def reduced_costs(model: CliqueModel, start: Sequence[int]) -> ReducedCosts | None:
+def reduced_costs(
+    model: CliqueModel, start: Sequence[int], conflicts: np.ndarray | None = None
+) -> ReducedCosts | None:
     """The LP relaxation's bounds per item and the best packing from ``start`` and the LP's rounding.
 
     Parameters
@@ -90,6 +96,9 @@ def reduced_costs(model: CliqueModel, start: Sequence[int]) -> ReducedCosts | No
     model : CliqueModel
     start : sequence of int
         A feasible packing of ``model``.
+    conflicts : (I, I) bool array, optional
+        The model's conflict graph without self loops (items sharing a row), when the caller has it;
+        default `CliqueModel.conflict_graph`.
 
     Returns
     -------
@@ -98,18 +107,31 @@ def reduced_costs(model: CliqueModel, start: Sequence[int]) -> ReducedCosts | No
     """
     if model.n_items < FIXING_MIN_ITEMS:
         return None
-    from scipy.optimize import linprog
-
     weights, matrix, upper = model.weights, model.matrix(), model.upper()
-    relaxation = linprog(-weights, A_ub=matrix, b_ub=upper, bounds=(0, 1), method="highs-ds")
-    if relaxation.status != 0:
+    relaxation = _relaxation(matrix, upper, weights)
+    if relaxation is None:
         return None
-    duals = np.maximum(-relaxation.ineqlin.marginals, 0.0)
+    values, duals = relaxation
     reduced = weights - matrix.T @ duals
     bound = float(upper @ duals + np.maximum(reduced, 0.0).sum())
     margin = FIXING_MARGIN * max(1.0, float(np.abs(weights).sum()))
-    packing = _best_packing(model, relaxation.x, start)
+    if conflicts is None:
+        conflicts = model.conflict_graph().toarray()
+    packing = _best_packing(model, values, start, conflicts)
     return ReducedCosts(model, bound + np.minimum(reduced, 0.0), bound, packing, margin)
+
+
+def _relaxation(
+    matrix: sp.csr_matrix, upper: np.ndarray, weights: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Values and nonnegative row duals of ``max w.x, matrix x <= upper, 0 <= x <= 1`` by HiGHS's dual
+    simplex (SciPy's own build: it loads beside any OR-Tools), or None when it does not end optimal."""
+    from scipy.optimize import linprog
+
+    relaxation = linprog(-weights, A_ub=matrix, b_ub=upper, bounds=(0, 1), method="highs-ds")
+    if relaxation.status != 0:
+        return None
+    return relaxation.x, np.maximum(-relaxation.ineqlin.marginals, 0.0)
 
 
 def solve_with_fixing(costs: ReducedCosts, solve: Callable[[CliqueModel, tuple[int, ...]], Result]) -> Result:
@@ -172,14 +194,18 @@ def _total(first: float | None, second: float | None) -> float | None:
     return None if first is None or second is None else first + second
 
 
-def _best_packing(model: CliqueModel, relaxed: np.ndarray, start: Sequence[int]) -> tuple[int, ...]:
+def _best_packing(
+    model: CliqueModel, relaxed: np.ndarray, start: Sequence[int], conflicts: np.ndarray
+) -> tuple[int, ...]:
     """The better of ``start`` and the LP's rounding, each improved by local search to a local optimum."""
-    adjacency = model.conflict_graph()
+    import scipy.sparse as sp
+
+    adjacency = sp.csr_matrix(conflicts)
     rounded = np.flatnonzero(relaxed > ROUNDING_THRESHOLD)
     starts = [tuple(start)]
     if model.cap is None or model.shape_counts[rounded].sum() <= model.cap:
         order = np.lexsort((-model.weights[rounded], -relaxed[rounded]))
         starts.append(tuple(rounded[order].tolist()))
     weights, counts, cap = model.weights, model.shape_counts, model.cap
-    packings = [locally_optimal(weights, counts, cap, adjacency, initial) for initial in starts]
+    packings = [locally_optimal(weights, counts, cap, adjacency, initial, conflicts) for initial in starts]
     return max(packings, key=lambda items: float(model.weights[list(items)].sum()))

@@ -113,10 +113,11 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
         # N[j] inside N[i] can only become true when N[j] shrank: only pairs whose j lost a neighbour
         # since the last round are compared again.
-        both_alive = alive[pairs[0]] & alive[pairs[1]]
-        pairs = (pairs[0][both_alive], pairs[1][both_alive])
+        if not alive.all():
+            both_alive = alive[pairs[0]] & alive[pairs[1]]
+            pairs = (pairs[0][both_alive], pairs[1][both_alive])
         shrunk = (degree != previous_degree)[pairs[1]]
-        dominated = _dominated(live, alive, degree, (pairs[0][shrunk], pairs[1][shrunk]))
+        dominated = _dominated(live, degree, (pairs[0][shrunk], pairs[1][shrunk]))
         if not (isolated.any() or dominated.any()):
             break
         taken |= isolated
@@ -125,18 +126,16 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     return Reduction(problem, np.flatnonzero(alive), np.flatnonzero(taken))
 
 
-def _dominated(
-    live: np.ndarray, alive: np.ndarray, degree: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]
-) -> np.ndarray:
-    """(I,) bool: live items i of the ``pairs`` (i, j) with j live and ``N[j]`` inside ``N[i]``, where
+def _dominated(live: np.ndarray, degree: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(I,) bool: items i of the ``pairs`` (i, j) of live items with ``N[j]`` inside ``N[i]``, where
     ``live`` are the closed neighbourhoods among the live items and ``degree`` their sizes less one."""
     candidate, dominator = pairs
-    possible = alive[candidate] & alive[dominator] & (degree[dominator] <= degree[candidate])
+    possible = degree[dominator] <= degree[candidate]
     candidate, dominator = candidate[possible], dominator[possible]
     for word in np.ascontiguousarray(live.T):  # N[j] & ~N[i], word by word, on the pairs still inside
         inside = (word[dominator] & ~word[candidate]) == 0
         candidate, dominator = candidate[inside], dominator[inside]
-    dominated = np.zeros(alive.size, dtype=bool)
+    dominated = np.zeros(live.shape[0], dtype=bool)
     dominated[candidate] = True
     return dominated
 

@@ -41,11 +41,12 @@ class _Packing:
         cap: int | None,
         adjacency: sp.csr_matrix,
         start: Iterable[int],
+        dense: np.ndarray | None = None,
     ) -> None:
         self.weights = weights
         self.counts = counts
         self.adjacency = adjacency
-        self.dense: np.ndarray | None = None  # the adjacency as an (I, I) bool array, made on first use
+        self.dense = dense  # the adjacency as an (I, I) bool array, made on first use when not given
         self.chosen = np.zeros(weights.size, dtype=bool)
         self.tight = np.zeros(weights.size, dtype=np.int64)  # chosen neighbours of each item
         self.room = np.inf if cap is None else float(cap)
@@ -162,6 +163,7 @@ def locally_optimal(
     cap: int | None,
     adjacency: sp.csr_matrix,
     start: Iterable[int],
+    dense: np.ndarray | None = None,
 ) -> tuple[int, ...]:
     """A packing improved from ``start`` by add, (1,1)- and (1,2)-swaps until no move raises eq. 3a.
 
@@ -175,13 +177,15 @@ def locally_optimal(
         The item conflict graph without self loops, indices sorted.
     start : iterable of int
         A valid packing.
+    dense : (I, I) bool array, optional
+        ``adjacency`` as a dense array, when the caller has it (else made on first need).
 
     Returns
     -------
     tuple of int
         The items, ascending.
     """
-    packing = _Packing(weights, counts, cap, adjacency, start)
+    packing = _Packing(weights, counts, cap, adjacency, start, dense)
     packing.improve()
     return packing.items()
 
