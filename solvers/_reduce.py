@@ -56,11 +56,23 @@ class Reduction:
         return CliqueModel.from_problem(self.problem, keep)
 
     def cut_model(self) -> CliqueModel:
-        """The model of the kernel whose rows are the problem's conflict sets cut to the kernel's items: the
-        same feasible packings as `model`, its rows cliques too, some possibly inside others. A cheap base
-        for rows that are grown to maximal cliques anyway (`solvers._cliques.grown_cliques`)."""
-        whole = CliqueModel.from_problem(self.problem)
-        return whole if self.kept.size == self.problem.n_items else whole.restricted(self.kept)
+        """The model of the kernel whose rows are conflict sets cut to the kernel's items: the same feasible
+        packings as `model`, its rows cliques too, some possibly inside others. A cheap base for rows that
+        are grown to maximal cliques anyway (`solvers._cliques.grown_cliques`).
+
+        The sets are those of `packing.PackingProblem.conflict_view`: along an expression sequence, the
+        sets of an earlier problem, so that the problem's own maximal sets are never derived (the largest
+        cost of the sequence's problems after the backend's search)."""
+        view = self.problem.conflict_view
+        weights = np.asarray(self.problem.weights, dtype=np.float64)[self.kept]
+        counts = self.problem.item_shape_counts[self.kept]
+        whole = CliqueModel(
+            np.zeros(view.sets.n_items), view.sets.starts, view.sets.members, np.ones(view.sets.n_items), None
+        )
+        cut = whole.restricted(view.items[self.kept])
+        cap = self.problem.cap
+        cap = cap if cap is not None and cap < counts.sum() else None
+        return CliqueModel(weights, cut.row_starts, cut.row_items, counts, cap)
 
     def items(self, kernel_items: tuple[int, ...]) -> tuple[int, ...]:
         """Items of the original problem for a packing of the kernel: those items plus the taken ones."""

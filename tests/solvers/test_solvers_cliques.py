@@ -125,3 +125,29 @@ def test_grown_rows_are_the_rows_grown_one_item_at_a_time_by_weight(seed, cap, n
     grown = grown_cliques(model, closed)
     rows = [tuple(grown.row(r).tolist()) for r in range(grown.n_rows)]
     assert sorted(rows) == _grown_by_visiting(model, _conflicts(closed, model.n_items))
+
+
+def _row_pairs(model) -> set[tuple[int, int]]:
+    return {pair for r in range(model.n_rows) for pair in itertools.combinations(model.row(r).tolist(), 2)}
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 100_000), cap=st.sampled_from([None, 3]), drops=st.integers(1, 3))
+def test_the_cut_rows_of_a_restricted_problem_are_its_kernels_conflicts(seed, cap, drops):
+    """Along a sequence the rows come from an earlier problem's conflict sets (`conflict_view`): they are
+    cliques of the kernel and cover each of its conflicting pairs, so the packings are the kernel's; the
+    restricted problem's own maximal sets are not derived."""
+    problem = random_problem(40, 90, seed=seed, active=(2, 8), cap=cap)
+    rng = np.random.default_rng(seed)
+    for _ in range(drops):  # a chain of restrictions, as `Analysis.next_problem` makes, each problem's bits
+        assert problem.conflict_bits.shape[0] == problem.n_items  # derived from its parent's (read first)
+        problem = problem.restrict(np.sort(rng.choice(problem.n_items, problem.n_items - 3, replace=False)))
+    reduction = reduce_problem(problem, cap is not None)
+    model = reduction.cut_model()
+    assert not problem._lineage().known
+    closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
+    conflicts = _conflicts(closed, reduction.kept.size)
+    assert _row_pairs(model) == {(a, b) for a, b in zip(*np.nonzero(np.triu(conflicts)), strict=True)}
+    assert np.array_equal(model.weights, np.asarray(problem.weights)[reduction.kept])
+    assert np.array_equal(model.shape_counts, problem.item_shape_counts[reduction.kept])
+    assert model.cap == reduction.model.cap
