@@ -136,6 +136,38 @@ class ConflictSets:
         holder_starts.flags.writeable = holder_sets.flags.writeable = False
         return holder_starts, holder_sets
 
+    @cached_property
+    def closed_bits(self) -> np.ndarray:
+        """(I, W) read-only uint64 array: the closed neighbourhoods of the item conflict graph as bit rows.
+
+        Bit j of row i (item j is bit ``63 - j % 64`` of word ``j // 64``, `np.packbits` order) is set when
+        items i and j share a set, or i = j. O(M W) for the M members: each item's row is the OR of the bit
+        rows of the sets holding it.
+        """
+        closed = pack_bit_rows(np.eye(self.n_items, dtype=bool))
+        if self.members.size:
+            sets = np.zeros((len(self), self.n_items), dtype=bool)
+            sets[self.owner, self.members] = True
+            holder_starts, holder_sets = self.holders
+            holders = np.flatnonzero(np.diff(holder_starts))
+            words = pack_bit_rows(sets)[holder_sets]
+            closed[holders] |= np.bitwise_or.reduceat(words, holder_starts[holders], axis=0)
+        closed.flags.writeable = False
+        return closed
+
+    @cached_property
+    def neighbours(self) -> tuple[np.ndarray, np.ndarray]:
+        """The closed neighbourhoods of `closed_bits` in flat (CSR) form, ``(starts, items)``: item i and the
+        items it shares a set with are ``items[starts[i]:starts[i + 1]]``, ascending. Each item's list is
+        its distinct neighbours, where the members of the sets holding it repeat an item once per set
+        shared (on film-sized rigs a hundred times)."""
+        rows, items = np.nonzero(unpack_bit_rows(self.closed_bits, self.n_items))
+        starts = np.zeros(self.n_items + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=self.n_items), out=starts[1:])
+        items = items.astype(np.int64)
+        starts.flags.writeable = items.flags.writeable = False
+        return starts, items
+
     def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The sets as a tuple of read-only int arrays (views of `members`)."""
         members, bounds = self.members, self.starts.tolist()
@@ -263,6 +295,19 @@ class ConflictView:
 
     sets: ConflictSets
     items: np.ndarray
+
+
+def pack_bit_rows(rows: np.ndarray) -> np.ndarray:
+    """(n, W) uint64 words of n bool rows, column 0 the highest bit of word 0 (`np.packbits` order)."""
+    width = -(-rows.shape[1] // 64) * 64
+    padded = np.zeros((rows.shape[0], width), dtype=bool)
+    padded[:, : rows.shape[1]] = rows
+    return np.packbits(padded, axis=1).view(">u8").astype(np.uint64)
+
+
+def unpack_bit_rows(words: np.ndarray, n_columns: int) -> np.ndarray:
+    """The bool rows of `pack_bit_rows` words."""
+    return np.unpackbits(words.astype(">u8").view(np.uint8), axis=1, count=n_columns).astype(bool)
 
 
 def _bit_rows(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> np.ndarray:

@@ -11,7 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing._deferred import Deferred, DeferredField, computed_state
-from packing._presolve import ConflictSets, ConflictView, LazyConflictSets
+from packing._presolve import ConflictSets, ConflictView, LazyConflictSets, pack_bit_rows, unpack_bit_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,22 +238,7 @@ class PackingProblem:
         items i and j share a conflict set, or i = j. Computed from the conflict sets on first use in
         O(M W) for their M members; `restrict` derives it from this problem's when this one has it.
         """
-        starts, members, owner = self.clique_arrays
-        rows = np.eye(self.n_items, dtype=bool)
-        if members.size:
-            sets = np.zeros((starts.size - 1, self.n_items), dtype=bool)
-            sets[owner, members] = True
-            by_item = sp.csr_matrix(  # transposed: the sets of item 0, then of item 1, ... (a counting sort)
-                (np.ones(members.size, dtype=bool), members, starts), shape=sets.shape
-            ).tocsc()
-            holders = np.flatnonzero(np.diff(by_item.indptr))
-            words = _pack_bits(sets)[by_item.indices]
-            closed = _pack_bits(rows)
-            closed[holders] |= np.bitwise_or.reduceat(words, by_item.indptr[holders], axis=0)
-        else:
-            closed = _pack_bits(rows)
-        closed.flags.writeable = False
-        return closed
+        return self._conflict_sets.closed_bits
 
     def restricted_conflict_sets(self, keep: Iterable[int]) -> tuple[np.ndarray, np.ndarray]:
         """The conflict sets that ``restrict(keep)`` would have, in flat form, without building it.
@@ -348,22 +333,9 @@ def _structure_of(problem: PackingProblem) -> dict[str, Any]:
     return {name: problem.__dict__[name] for name in _STRUCTURE if name in problem.__dict__}
 
 
-def _pack_bits(rows: np.ndarray) -> np.ndarray:
-    """(n, W) uint64 words of n bool rows, column 0 the highest bit of word 0 (`np.packbits` order)."""
-    width = -(-rows.shape[1] // 64) * 64
-    padded = np.zeros((rows.shape[0], width), dtype=bool)
-    padded[:, : rows.shape[1]] = rows
-    return np.packbits(padded, axis=1).view(">u8").astype(np.uint64)
-
-
-def _unpack_bits(words: np.ndarray, n_columns: int) -> np.ndarray:
-    """The bool rows of `_pack_bits` words."""
-    return np.unpackbits(words.astype(">u8").view(np.uint8), axis=1, count=n_columns).astype(bool)
-
-
 def _selected_bits(bits: np.ndarray, keep: np.ndarray, n_items: int) -> np.ndarray:
     """The bit rows and columns of the items ``keep`` of `PackingProblem.conflict_bits`, repacked."""
-    selected = _pack_bits(_unpack_bits(bits[keep], n_items)[:, keep])
+    selected = pack_bit_rows(unpack_bit_rows(bits[keep], n_items)[:, keep])
     selected.flags.writeable = False
     return selected
 

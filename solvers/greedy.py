@@ -102,16 +102,16 @@ def greedy_items(
 def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarray) -> tuple[int, ...]:
     """`greedy_items` without overlap, on conflict sets instead of the vertices.
 
-    Two items share a vertex iff they share a conflict set, so adding an item blocks every member of
-    its sets, and an item with more shapes than the cap leaves room for is skipped: no vertex is read and
-    only the sets of the chosen items are visited. The sets are `PackingProblem.conflict_view`'s (those of
-    a problem this one was restricted from, over its item numbering), so that the sequence's restricted
-    problems never derive their own. The items are held by their place in ``order``, so that the next item
+    Two items share a vertex iff they share a conflict set, so adding an item blocks its neighbours in
+    the conflict graph, and an item with more shapes than the cap leaves room for is skipped: no vertex is
+    read and only the neighbours of the chosen items are visited. The sets are
+    `PackingProblem.conflict_view`'s (those of a problem this one was restricted from, over its item
+    numbering, with their neighbour lists made once), so that the sequence's restricted problems never
+    derive their own. The items are held by their place in ``order``, so that the next item
     not blocked is found by one search of the places after the last one visited.
     """
     view = problem.conflict_view
-    starts, members = view.sets.starts, view.sets.members
-    holder_starts, holder_sets = view.sets.holders
+    neighbour_starts, neighbours = view.sets.neighbours
     room = np.inf if problem.cap is None else problem.cap
     n_items = order.size
     outer = view.items[order]
@@ -128,10 +128,8 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
         if shapes[place] <= room:
             chosen.append(int(order[place]))
             room -= shapes[place]
-            held = holder_sets[holder_starts[outer[place]] : holder_starts[outer[place] + 1]]
-            sizes = starts[held + 1] - starts[held]
-            first = np.repeat(starts[held] - np.cumsum(sizes) + sizes, sizes)
-            open_places[place_of[members[first + np.arange(first.size)]]] = False
+            item = outer[place]
+            open_places[place_of[neighbours[neighbour_starts[item] : neighbour_starts[item + 1]]]] = False
         place += 1
     return tuple(chosen)
 

@@ -91,6 +91,26 @@ def test_conflict_bits_follow_restrictions(seed, steps):
     assert np.array_equal(bits.astype(bool), graph)
 
 
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), kind=st.sampled_from(["random", "face"]), share=st.floats(0.3, 1.0))
+def test_neighbour_lists_are_the_conflict_graph(seed, kind, share):
+    """`ConflictSets.neighbours` (what Algorithm 2 blocks after each choice) lists, for each item, itself and
+    the items it shares a vertex with or is apart from, ascending, once each."""
+    problem = problems(seed, kind)
+    rng = np.random.default_rng(seed)
+    problem = problem.restrict(np.flatnonzero(rng.random(problem.n_items) < share))
+    incidence = problem.incidence.astype(np.int64)
+    graph = (incidence @ incidence.T).toarray() > 0
+    for a, b in problem.apart:
+        graph[a, b] = graph[b, a] = True
+    np.fill_diagonal(graph, True)
+    starts, items = problem._conflict_sets.neighbours
+    assert starts.size == problem.n_items + 1
+    assert [items[a:b].tolist() for a, b in zip(starts[:-1], starts[1:], strict=True)] == [
+        np.flatnonzero(row).tolist() for row in graph
+    ]
+
+
 def test_clique_arrays_of_a_problem_built_from_the_incidence():
     problem = problem_from_incidence(
         np.array([[1, 1, 0, 0], [0, 1, 1, 0], [0, 0, 1, 1], [1, 0, 0, 1]]), np.ones(4)
