@@ -168,6 +168,11 @@ class ConflictSets:
         starts.flags.writeable = items.flags.writeable = False
         return starts, items
 
+    @property
+    def has_neighbours(self) -> bool:
+        """Whether `neighbours` is made already."""
+        return "neighbours" in self.__dict__
+
     def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The sets as a tuple of read-only int arrays (views of `members`)."""
         members, bounds = self.members, self.starts.tolist()
