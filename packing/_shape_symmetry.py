@@ -55,6 +55,7 @@ def shape_symmetry(
     max_overlap: float = 0.15,
     axis_distance: np.ndarray | None = None,
     neutral: np.ndarray | None = None,
+    moved: np.ndarray | None = None,
 ) -> tuple[list[tuple[int, int, float]], np.ndarray, list[tuple[int, int, float]]]:
     """Mirror pairs and self-symmetric shapes (Carrigan et al. 2020, eqs. 9-10 and the overlap check).
 
@@ -101,6 +102,9 @@ def shape_symmetry(
         Vertex positions, for the spatial hash that finds the candidate pairs; without them vertices are
         hashed by index (the result is the same, only the search is slower on meshes whose vertex order
         is not spatially coherent).
+    moved : (nnz, 3) array, optional
+        The displacements of the active entries, row-major, if already gathered; reflected in place
+        (`packing._symmetry_field.SymmetryField.of`).
 
     Returns
     -------
@@ -128,7 +132,7 @@ def shape_symmetry(
     n_shapes = active.shape[0]
     rows, cols = compact_entries(active)
     largest = largest_lengths(norms)
-    field = SymmetryField.of(deltas, norms, active, rows, cols, normal)
+    field = SymmetryField.of(deltas, norms, active, rows, cols, normal, moved)
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
     mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
     image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|

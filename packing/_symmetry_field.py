@@ -59,16 +59,17 @@ class SymmetryField:
         rows: np.ndarray,
         cols: np.ndarray,
         normal: np.ndarray,
+        moved: np.ndarray | None = None,
     ) -> SymmetryField:
         """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
-        unit normal ``normal``. The displacements are gathered once, to be reflected (one matrix product
-        over all of them), and let go."""
+        unit normal ``normal``. The displacements are gathered once (unless given as ``moved``), and
+        reflected in place (one matrix product over all of them), so they become `reflected`."""
         n_vertices = active.shape[1]
         displacements = deltas.reshape(-1, 3)
-        moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
+        if moved is None:
+            moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
-        reflected = reflect(moved, reflection)
-        del moved
+        reflected = reflect(moved, reflection, out=moved)
         lengths = active_lengths(norms, active)
         n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
         table = np.zeros(n_table, dtype=index_type(active))
@@ -133,8 +134,9 @@ class SymmetryField:
         return found
 
 
-def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
-    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product.
+def reflect(vectors: np.ndarray, reflection: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product (into ``out``,
+    which may be ``vectors`` itself: each run is read before it is written).
 
     One BLAS product over millions of three-column rows is slow (tens of times slower on a busy machine,
     where its threads wait for each other); runs of a few thousand rows are not. Each row of a product is
@@ -142,7 +144,11 @@ def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
     bit where the BLAS kernels treat every row alike; a remainder of a single row, which numpy would hand to
     a vector routine instead, joins the run before it).
     """
-    reflected = np.empty((vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection))
+    reflected = out
+    if reflected is None:
+        reflected = np.empty(
+            (vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection)
+        )
     bounds = [*range(0, vectors.shape[0], REFLECT_ROWS), vectors.shape[0]]
     if len(bounds) > 2 and bounds[-1] - bounds[-2] == 1:
         del bounds[-2]
