@@ -88,7 +88,10 @@ class SymmetryField:
     def moved(self, entry: np.ndarray) -> np.ndarray:
         """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions), read from the rig's
         deltas."""
-        return np.take(self.displacements, self.offsets(entry) // 3, axis=0)  # (``take``: twice as fast)
+        position = np.take(self.rows, entry).astype(np.int64)
+        position *= self.active.shape[1]
+        position += np.take(self.active.indices, entry)
+        return np.take(self.displacements, position, axis=0)  # (``take``: twice as fast)
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
@@ -115,7 +118,8 @@ class SymmetryField:
         found = np.full(shapes.size, -1, dtype=np.int64)
         if shapes.size == 0:
             return found
-        queried = shapes[np.concatenate([[True], shapes[1:] != shapes[:-1]])]  # (non-decreasing)
+        runs = np.flatnonzero(np.concatenate([[True], shapes[1:] != shapes[:-1], [True]]))  # (non-decreasing)
+        queried = shapes[runs[:-1]]
         table = self.table
         per_table = table.size // n_vertices
         for start in range(0, queried.size, per_table):
@@ -124,8 +128,10 @@ class SymmetryField:
             entry = np.repeat(indptr[block] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
             written = np.repeat(np.arange(block.size) * n_vertices, counts) + indices[entry]
             table[written] = entry + 1
-            low, high = np.searchsorted(shapes, [block[0], block[-1] + 1])
-            local = np.searchsorted(block, shapes[low:high]) * n_vertices
+            low, high = runs[start], runs[start + block.size]
+            local = np.repeat(
+                np.arange(block.size) * n_vertices, np.diff(runs[start : start + block.size + 1])
+            )
             images = image[low:high]
             hit = np.take(table, local + images, mode="clip") - 1
             hit[images < 0] = -1  # (those read a wrong cell)
