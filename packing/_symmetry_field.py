@@ -206,11 +206,23 @@ def mirrored_entries(
     written = 0
     marks = np.searchsorted(indptr, np.arange(ENTRY_CHUNK, rows.size, ENTRY_CHUNK))
     bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    one_to_one = n_preimages.max(initial=0) <= 1
+    preimage = np.full(n_vertices, -1, dtype=kind)
+    preimage[mirror[vertices]] = vertices
     for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
         start, stop = indptr[first_shape], indptr[stop_shape]
         run = rows[start:stop]
         backwards = indptr[run] + indptr[run + 1] - 1 - np.arange(start, stop)  # each shape reversed
         images = cols[backwards]
+        if one_to_one:  # (no repeats: each entry has at most one mirrored entry)
+            found = np.take(preimage, images)
+            if found.min(initial=0) < 0:
+                kept = found >= 0
+                run, backwards, found = run[kept], backwards[kept], found[kept]
+            block = slice(written, written + run.size)
+            mirrored_rows[block], mirrored_cols[block], source[block] = run, found, backwards
+            written += run.size
+            continue
         counts = n_preimages[images]
         size = int(counts.sum())
         offsets = np.arange(size) - np.repeat(np.cumsum(counts) - counts, counts)
