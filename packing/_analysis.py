@@ -281,7 +281,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     item_shapes = _item_matrix(rig.n_shapes, empty, symmetry.pairs)
     bounds = zip(item_shapes.indptr[:-1], item_shapes.indptr[1:], strict=True)
     items = tuple(tuple(int(k) for k in item_shapes.indices[a:b]) for a, b in bounds)
-    incidence = (item_shapes @ active.astype(np.float64)).astype(bool).tocsr()
+    incidence = _item_incidence(item_shapes, active)
     labels = ["+".join(rig.names[k] for k in item) for item in items]
     tie_break = tie_break_perturbation(labels)
     lap("items")
@@ -404,6 +404,15 @@ def _item_pairs(item_shapes: sp.csr_matrix, shape_pairs: list[tuple[int, int]]) 
     coo = item_shapes.tocoo()
     item_of[coo.col] = coo.row
     return [(int(item_of[a]), int(item_of[b])) for a, b in shape_pairs if item_of[a] >= 0 and item_of[b] >= 0]
+
+
+def _item_incidence(item_shapes: sp.csr_matrix, active: sp.csr_matrix) -> sp.csr_matrix:
+    """(I, N) CSR bool matrix with sorted indices: the active vertices of each item, the union of its shapes'
+    (eq. 3d). Each item's row is the sum of the rows of its first and its last shape (one shape's row with
+    itself for a single shape): sorted rows merged, with no product over the shapes."""
+    first = item_shapes.indices[item_shapes.indptr[:-1]]
+    last = item_shapes.indices[item_shapes.indptr[1:] - 1]
+    return active[first] + active[last]
 
 
 def _item_matrix(n_shapes: int, empty: np.ndarray, pairs: tuple[tuple[int, int], ...]) -> sp.csr_matrix:
