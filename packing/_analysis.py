@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import displacement_norms, empty_mask, masks_from_norms, sparse_masks
+from packing._binary import active_entries
 from packing._importance import (
     ImportanceTerms,
     importance_terms,
@@ -241,10 +241,11 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
 
     Notes
     -----
-    One dense pass over the (K, N, 3) deltas for the displacement lengths and masks, then sparse
-    work on the active entries only: sparse products for the triangle terms and the eq. 9 sums, a
-    KD-tree for the mirror map (O(N log N)), and displacement vectors read only for the pairs that
-    eq. 10 cannot rule out from the sums. The paper's reference code needed ~190 s on a 10k-vertex,
+    One pass over the (K, N, 3) deltas for the displacement lengths, the masks and the active
+    displacements (`packing._binary.active_entries`), then sparse work on the active entries only:
+    sparse products for the triangle terms and the eq. 9 sums, a KD-tree for the mirror map
+    (O(N log N)), and displacement vectors read only for the pairs that eq. 10 cannot rule out from
+    the sums. The paper's reference code needed ~190 s on a 10k-vertex,
     150-shape rig; the generated paper-sized rigs take well under a second here.
     """
     settings = params_from(params.pop("params", None), **params)
@@ -258,7 +259,9 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
         clock = now
 
     target = target_neutral_of(rig, target_neutral)
-    norms, empty, active = _binary_blendshapes(rig, settings)
+    norms, empty, active, moved = active_entries(
+        rig.deltas, settings.mu, settings.noise_floor, rig.diagonal(), gather=settings.use_shape_symmetry
+    )
     require_nonempty(rig, empty)
     lap("binary")
     if settings.importance and target is None:
@@ -266,7 +269,8 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     terms = importance_terms(rig, active, norms, target if settings.importance else None, settings.distortion)
     lap("importance")
     together, apart = resolve_constraints(rig, settings, empty)
-    symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart)
+    symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart, moved)
+    del moved  # (reflected in place by the symmetry step)
     lap("symmetry")
     if settings.max_per_expression == 1 and symmetry.pairs:
         a, b = symmetry.pairs[0]
@@ -277,7 +281,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     item_shapes = _item_matrix(rig.n_shapes, empty, symmetry.pairs)
     bounds = zip(item_shapes.indptr[:-1], item_shapes.indptr[1:], strict=True)
     items = tuple(tuple(int(k) for k in item_shapes.indices[a:b]) for a, b in bounds)
-    incidence = (item_shapes @ active.astype(np.float64)).astype(bool).tocsr()
+    incidence = _item_incidence(item_shapes, active)
     labels = ["+".join(rig.names[k] for k in item) for item in items]
     tie_break = tie_break_perturbation(labels)
     lap("items")
@@ -297,42 +301,6 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("presolve")
     timings["total"] = sum(timings.values())
     return Analysis(rig, settings, target, active, empty, terms, symmetry, problem, item_shapes, timings)
-
-
-#: Displacements whose lengths `_binary_blendshapes` holds at once (bounds its (K, N) float temporaries).
-BINARY_BLOCK = 1 << 22
-
-
-def _binary_blendshapes(rig: Rig, params: PackingParams) -> tuple[sp.csr_matrix, np.ndarray, sp.csr_matrix]:
-    """`packing._binary.rig_masks` a block of shapes at a time (about `BINARY_BLOCK` vertices): the same
-    empty shapes and masks (eq. 2 reads each shape's own lengths only), and the lengths of the active
-    entries only (`packing._binary.lengths_matrix`), without ever holding K N lengths or K N masks.
-
-    Returns
-    -------
-    (K, N) CSR lengths of the active entries, (K,) bool empty shapes, (K, N) CSR bool masks (sorted indices,
-    as `packing._binary.sparse_masks` makes them).
-    """
-    n_shapes, n_vertices = rig.n_shapes, rig.n_vertices
-    empty = np.zeros(n_shapes, dtype=bool)
-    lengths, columns, counts = [], [], [np.zeros(1, dtype=np.int64)]
-    scale = rig.diagonal()
-    per_block = max(1, BINARY_BLOCK // max(n_vertices, 1))
-    for start in range(0, n_shapes, per_block):
-        block = slice(start, min(start + per_block, n_shapes))
-        norms = displacement_norms(rig.deltas[block])
-        empty[block] = empty_mask(norms, params.noise_floor, scale)
-        masks = masks_from_norms(norms, params.mu, empty[block])
-        lengths.append(norms[masks])  # row-major: the order of the active entries
-        active = sparse_masks(masks)
-        columns.append(active.indices)
-        counts.append(np.diff(active.indptr))
-    indptr = np.cumsum(np.concatenate(counts))
-    active = sp.csr_matrix(
-        (np.ones(indptr[-1], dtype=bool), np.concatenate(columns), indptr), shape=(n_shapes, n_vertices)
-    )
-    matrix = sp.csr_matrix((np.concatenate(lengths), active.indices, active.indptr), shape=active.shape)
-    return matrix, empty, active
 
 
 def build_problem(
@@ -436,6 +404,15 @@ def _item_pairs(item_shapes: sp.csr_matrix, shape_pairs: list[tuple[int, int]]) 
     coo = item_shapes.tocoo()
     item_of[coo.col] = coo.row
     return [(int(item_of[a]), int(item_of[b])) for a, b in shape_pairs if item_of[a] >= 0 and item_of[b] >= 0]
+
+
+def _item_incidence(item_shapes: sp.csr_matrix, active: sp.csr_matrix) -> sp.csr_matrix:
+    """(I, N) CSR bool matrix with sorted indices: the active vertices of each item, the union of its shapes'
+    (eq. 3d). Each item's row is the sum of the rows of its first and its last shape (one shape's row with
+    itself for a single shape): sorted rows merged, with no product over the shapes."""
+    first = item_shapes.indices[item_shapes.indptr[:-1]]
+    last = item_shapes.indices[item_shapes.indptr[1:] - 1]
+    return active[first] + active[last]
 
 
 def _item_matrix(n_shapes: int, empty: np.ndarray, pairs: tuple[tuple[int, int], ...]) -> sp.csr_matrix:

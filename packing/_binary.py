@@ -165,3 +165,86 @@ def masks_from_norms(norms: np.ndarray, mu: float, empty: np.ndarray) -> np.ndar
     masks = norms >= mu * norms.max(axis=1, initial=0.0)[:, None]
     masks[empty] = False
     return masks
+
+
+#: Bytes of displacements whose lengths `active_entries` computes at once (a core's cache holds them and
+#: their three products).
+LENGTH_BYTES = 1 << 20
+#: Lengths `active_entries` holds at once to make their masks (eq. 2 reads each shape's own lengths only).
+MASK_LENGTHS = 1 << 19
+
+
+def active_entries(
+    deltas: np.ndarray, mu: float, noise_floor: float, scale: float, *, gather: bool = False
+) -> tuple[sp.csr_matrix, np.ndarray, sp.csr_matrix, np.ndarray | None]:
+    """Eq. 2 in one pass over the deltas, a few shapes at a time: `rig_masks` without any (K, N) array.
+
+    The lengths of a block of shapes, their masks and the active entries' lengths (and displacements) are
+    made while the block's deltas are still in the cache, so the deltas are read from memory once.
+
+    Parameters
+    ----------
+    deltas : (K, N, 3) array
+    mu : float in (0, 1]
+        Threshold of eq. 2.
+    noise_floor, scale : float
+        A shape is empty when its largest displacement is at most ``noise_floor * scale`` (`empty_mask`).
+    gather : bool
+        Also return the displacements ``dv_k^n`` of the active entries.
+
+    Returns
+    -------
+    lengths : (K, N) CSR matrix
+        ``|dv_k^n|`` of the active entries (`lengths_matrix`), bit for bit those of `displacement_norms`.
+    empty : (K,) bool array
+    active : (K, N) CSR bool matrix with sorted indices (`sparse_masks` of the masks)
+    moved : (nnz, 3) array or None
+        The active entries' displacements, row-major (with ``gather``).
+    """
+    n_shapes, n_vertices = deltas.shape[:2]
+    step = max(1, LENGTH_BYTES // max(24 * n_vertices, 1))
+    per_block = max(step, MASK_LENGTHS // max(n_vertices, 1) // step * step)
+    floor = noise_floor * scale
+    empty = np.zeros(n_shapes, dtype=bool)
+    counts = np.zeros(n_shapes + 1, dtype=np.int64)
+    lengths, columns, moved = [], [], []
+    buffer, scratch = np.empty(min(per_block, n_shapes) * n_vertices), np.empty(3 * step * n_vertices)
+    for start in range(0, n_shapes, per_block):
+        block = slice(start, min(start + per_block, n_shapes))
+        norms = buffer[: (block.stop - start) * n_vertices].reshape(-1, n_vertices)
+        for low in range(start, block.stop, step):
+            high = min(low + step, block.stop)
+            _lengths_into(deltas[low:high], norms[low - start : high - start], scratch)
+        largest = norms.max(axis=1, initial=0.0)
+        empty[block] = largest <= floor
+        masks = norms >= mu * largest[:, None]
+        masks[empty[block]] = False
+        flat = np.flatnonzero(masks)  # row-major: the order of the active entries
+        lengths.append(norms.ravel()[flat])
+        columns.append(flat % n_vertices)
+        counts[block.start + 1 : block.stop + 1] = np.count_nonzero(masks, axis=1)
+        if gather:
+            moved.append(np.take(np.asarray(deltas[block], dtype=np.float64).reshape(-1, 3), flat, axis=0))
+    indptr = np.cumsum(counts)
+    indices = np.concatenate(columns).astype(np.int32 if n_vertices < np.iinfo(np.int32).max else np.int64)
+    active = sp.csr_matrix((np.ones(indptr[-1], dtype=bool), indices, indptr), shape=(n_shapes, n_vertices))
+    matrix = sp.csr_matrix((np.concatenate(lengths), active.indices, active.indptr), shape=active.shape)
+    return matrix, empty, active, np.concatenate(moved) if gather else None
+
+
+def _lengths_into(vectors: np.ndarray, lengths: np.ndarray, scratch: np.ndarray) -> None:
+    """Fill ``lengths`` (contiguous) with the lengths of (b, N, 3) ``vectors`` (``scratch``: at least 3 b N
+    floats).
+
+    The squares are summed as ``(x x + z z) + y y``: the order in which `displacement_norms` (NumPy's
+    ``einsum``, whose 128-bit vectors add the third coordinate to the first) sums them, so that the lengths
+    are equal bit for bit. Squaring the coordinates in one contiguous pass first is faster than three strided
+    products.
+    """
+    flat = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1)
+    square = scratch[: flat.size]
+    np.multiply(flat, flat, out=square)
+    summed = lengths.reshape(-1)
+    np.add(square[0::3], square[2::3], out=summed)
+    summed += square[1::3]
+    np.sqrt(summed, out=summed)

@@ -12,12 +12,7 @@ from typing import Literal
 import numpy as np
 import scipy.sparse as sp
 
-from packing._binary import (
-    active_lengths,
-    entries,
-    rig_masks,
-    sparse_masks,
-)
+from packing._binary import active_lengths, rig_masks, sparse_masks
 from packing._params import params_from
 from registry import HarnessError
 from rigs import Rig, bounding_box
@@ -47,8 +42,8 @@ def displacement_strength(norms: np.ndarray, masks: np.ndarray) -> np.ndarray:
     (K,) array in [0, 1]; 0 for shapes without active vertices.
     """
     active = sparse_masks(masks)
-    rows, cols = entries(active)
     counts = np.diff(active.indptr)
+    rows = np.repeat(np.arange(active.shape[0]), counts)
     total = np.bincount(rows, weights=active_lengths(norms, active), minlength=active.shape[0])
     mean = np.divide(total, counts, out=np.zeros(len(counts)), where=counts > 0)
     return _normalised(mean)

@@ -6,8 +6,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+import scipy.sparse as sp
 
-from packing._binary import entries, sparse_masks
+from packing._binary import sparse_masks
 from packing._params import DEFAULT_REGION_PAIRS, PackingParams
 from packing._shape_symmetry import match_pairs
 from registry import HarnessError
@@ -52,7 +53,6 @@ def motion_symmetry(
     if not names:
         return []
     active = sparse_masks(masks)
-    rows, cols = entries(active)
     inside = np.zeros((active.shape[1], len(names)))
     for column, name in enumerate(names):
         inside[regions[name], column] = 1.0
@@ -65,8 +65,8 @@ def motion_symmetry(
         & (counts >= share * np.maximum(n_active, 1)[:, None])
         & touched
     )
-    read = candidate.any(axis=1)[rows]  # displacements are read for the candidates only
-    rows, moved = rows[read], deltas[rows[read], cols[read]]
+    rows, cols = _candidate_entries(active, np.flatnonzero(candidate.any(axis=1)))
+    moved = np.take(deltas.reshape(-1, 3), rows * active.shape[1] + cols, axis=0)  # the candidates' only
     summed = np.column_stack(
         [np.bincount(rows, weights=moved[:, d], minlength=active.shape[0]) for d in range(3)]
     )
@@ -82,6 +82,14 @@ def motion_symmetry(
         second_all.append(ms[opposite_m])
         cosine_all.append(cosine[opposite_k, opposite_m])
     return match_pairs(np.concatenate(first_all), np.concatenate(second_all), np.concatenate(cosine_all))
+
+
+def _candidate_entries(active: sp.csr_matrix, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column index of the active entries of the ascending ``shapes``, in row-major order."""
+    counts = active.indptr[shapes + 1] - active.indptr[shapes]
+    rows = np.repeat(shapes.astype(np.int64), counts)
+    entry = np.repeat(active.indptr[shapes] - np.cumsum(counts) + counts, counts) + np.arange(rows.size)
+    return rows, active.indices[entry].astype(np.int64)
 
 
 def sketch_regions(

@@ -55,6 +55,7 @@ def shape_symmetry(
     max_overlap: float = 0.15,
     axis_distance: np.ndarray | None = None,
     neutral: np.ndarray | None = None,
+    moved: np.ndarray | None = None,
 ) -> tuple[list[tuple[int, int, float]], np.ndarray, list[tuple[int, int, float]]]:
     """Mirror pairs and self-symmetric shapes (Carrigan et al. 2020, eqs. 9-10 and the overlap check).
 
@@ -101,6 +102,9 @@ def shape_symmetry(
         Vertex positions, for the spatial hash that finds the candidate pairs; without them vertices are
         hashed by index (the result is the same, only the search is slower on meshes whose vertex order
         is not spatially coherent).
+    moved : (nnz, 3) array, optional
+        The displacements of the active entries, row-major, if already gathered; reflected in place
+        (`packing._symmetry_field.SymmetryField.of`).
 
     Returns
     -------
@@ -128,7 +132,7 @@ def shape_symmetry(
     n_shapes = active.shape[0]
     rows, cols = compact_entries(active)
     largest = largest_lengths(norms)
-    field = SymmetryField.of(deltas, norms, active, rows, cols, normal)
+    field = SymmetryField.of(deltas, norms, active, rows, cols, normal, moved)
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
     mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
     image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|
@@ -209,32 +213,34 @@ def match_lazily(
     such pair can come before it in the order of `match_pairs` (by score, then indices).
     """
     order = np.lexsort((second, first, floor)).tolist()
-    taken = np.zeros(n_shapes, dtype=bool)
+    firsts, seconds, floors, limits = first.tolist(), second.tolist(), floor.tolist(), limit.tolist()
+    taken = bytearray(n_shapes)  # (a byte per shape: read faster than a NumPy array)
     evaluated: list[tuple[float, int, int]] = []  # a heap of (score, k, m) below the limit
     matched: list[tuple[int, int, float]] = []
     position = 0
     while True:  # loops over candidate pairs (a few per shape), not vertices
-        while position < len(order) and taken[[first[order[position]], second[order[position]]]].any():
+        while position < len(order) and (taken[firsts[order[position]]] or taken[seconds[order[position]]]):
             position += 1
-        while evaluated and taken[list(evaluated[0][1:])].any():
+        while evaluated and (taken[evaluated[0][1]] or taken[evaluated[0][2]]):
             heapq.heappop(evaluated)
-        lowest = floor[order[position]] if position < len(order) else np.inf
+        lowest = floors[order[position]] if position < len(order) else np.inf
         if evaluated and evaluated[0][0] < lowest:
             score, a, b = heapq.heappop(evaluated)
-            taken[[a, b]] = True
+            taken[a] = taken[b] = 1
             matched.append((a, b, score))
             continue
         if position == len(order):
             return matched
         batch = []
         while position < len(order) and len(batch) < EVALUATION_BATCH:
-            if not taken[[first[order[position]], second[order[position]]]].any():
-                batch.append(order[position])
+            pair = order[position]
+            if not (taken[firsts[pair]] or taken[seconds[pair]]):
+                batch.append(pair)
             position += 1
         pairs = np.array(batch)
-        for pair, score in zip(pairs.tolist(), scores_of(pairs).tolist(), strict=True):
-            if score < limit[pair]:
-                heapq.heappush(evaluated, (score, int(first[pair]), int(second[pair])))
+        for pair, score in zip(batch, scores_of(pairs).tolist(), strict=True):
+            if score < limits[pair]:
+                heapq.heappush(evaluated, (score, firsts[pair], seconds[pair]))
 
 
 def _scores(
@@ -342,9 +348,8 @@ def _pair_sums(
     for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
         block = counts[start:stop]
         owner = np.repeat(np.arange(block.size), block)
-        entry = np.repeat(indptr[first[start:stop]], block) + (
-            np.arange(owner.size) - np.repeat(np.cumsum(block) - block, block)
-        )
+        entry = np.repeat(indptr[first[start:stop]] - np.cumsum(block) + block, block)
+        entry += np.arange(owner.size)
         image_entry = field.image_entries(np.repeat(second[start:stop], block), cols[entry], mirror)
         shared = image_entry >= 0
         owner, entry, image_entry = owner[shared], entry[shared], image_entry[shared]

@@ -69,13 +69,16 @@ def detect_pairs(
     params: PackingParams,
     together: list[tuple[int, int]] | None = None,
     apart: list[tuple[int, int]] | None = None,
+    moved: np.ndarray | None = None,
 ) -> SymmetryResult:
     """Mirror pairs first, then motion pairs among the shapes left unpaired (sec. 4.4), under the artist
     constraints.
 
     Artist constraints override geometry: a detected pair that is an apart pair is dropped, a shape of a
     together pair joins no detected pair, and the together pairs are kept as `SymmetryResult.artist_pairs`.
-    ``together`` and ``apart`` are shape index pairs (default: resolved from ``params``).
+    ``together`` and ``apart`` are shape index pairs (default: resolved from ``params``). ``moved``, the
+    displacements of the active entries (`packing._binary.active_entries`), spares `shape_symmetry` reading
+    them from the deltas; it is reflected in place.
     """
     if together is None or apart is None:
         together, apart = resolve_constraints(rig, params, empty)
@@ -107,6 +110,7 @@ def detect_pairs(
                 params.pair_overlap,
                 axis_distances(rig.neutral, mirror, normal),
                 rig.neutral,
+                moved,
             )
         if unmirrored:
             notes.append(f"{unmirrored} of {rig.n_vertices} vertices have no mirror vertex")

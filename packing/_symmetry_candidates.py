@@ -245,10 +245,11 @@ def candidate_pairs(
     shape_norms = np.linalg.norm(shape_sums, axis=1)
     image_norms = np.linalg.norm(image_sums, axis=1)
     shape_of, image_of = shape_present % n_shapes, image_present % n_shapes
+    shape_counts, image_counts = shape_counts.astype(np.int32), image_counts.astype(np.int32)
     n_cells = int(max(shape_present.max(initial=0), image_present.max(initial=0))) // n_shapes + 1
 
     # Per cell, the block of every k present with every m whose mirror image is present, added into the
-    # (K, K) gap and shared-count bounds (the indices of a block are distinct, so `+=` adds each term once).
+    # (K, K) gap and shared-count bounds, cell after cell (``add.at`` adds term by term, in order).
     shape_first = np.searchsorted(shape_present, np.arange(n_cells + 1) * n_shapes)
     image_first = np.searchsorted(image_present, np.arange(n_cells + 1) * n_shapes)
     gaps = np.zeros(n_shapes * n_shapes)
@@ -259,8 +260,9 @@ def candidate_pairs(
         per_block = max(1, COMBO_CHUNK // (images.stop - images.start))
         for low in range(shape_first[index], shape_first[index + 1], per_block):
             shapes = slice(low, min(low + per_block, shape_first[index + 1]))
-            squared = np.zeros((shapes.stop - shapes.start, images.stop - images.start))
-            for shape_axis, image_axis in zip(shape_columns, image_columns, strict=True):
+            squared = np.subtract.outer(shape_columns[0, shapes], image_columns[0, images])
+            squared *= squared  # (the sum of the squares from 0, as 0 + x x = x x)
+            for shape_axis, image_axis in zip(shape_columns[1:], image_columns[1:], strict=True):
                 difference = np.subtract.outer(shape_axis[shapes], image_axis[images])
                 difference *= difference
                 squared += difference
@@ -268,8 +270,8 @@ def candidate_pairs(
             gap -= shape_norms[shapes, None]
             gap -= image_norms[None, images]
             pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
-            gaps[pair] += gap.ravel()
-            shared[pair] += np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
+            np.add.at(gaps, pair, gap.ravel())
+            np.add.at(shared, pair, np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel())
 
     # The bounds of the pairs present in some cell together, a block of shapes k at a time.
     kept, bounds = [], []

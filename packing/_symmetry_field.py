@@ -59,16 +59,17 @@ class SymmetryField:
         rows: np.ndarray,
         cols: np.ndarray,
         normal: np.ndarray,
+        moved: np.ndarray | None = None,
     ) -> SymmetryField:
         """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
-        unit normal ``normal``. The displacements are gathered once, to be reflected (one matrix product
-        over all of them), and let go."""
+        unit normal ``normal``. The displacements are gathered once (unless given as ``moved``), and
+        reflected in place (one matrix product over all of them), so they become `reflected`."""
         n_vertices = active.shape[1]
         displacements = deltas.reshape(-1, 3)
-        moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
+        if moved is None:
+            moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
-        reflected = reflect(moved, reflection)
-        del moved
+        reflected = reflect(moved, reflection, out=moved)
         lengths = active_lengths(norms, active)
         n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
         table = np.zeros(n_table, dtype=index_type(active))
@@ -87,7 +88,10 @@ class SymmetryField:
     def moved(self, entry: np.ndarray) -> np.ndarray:
         """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions), read from the rig's
         deltas."""
-        return np.take(self.displacements, self.offsets(entry) // 3, axis=0)  # (``take``: twice as fast)
+        position = np.take(self.rows, entry).astype(np.int64)
+        position *= self.active.shape[1]
+        position += np.take(self.active.indices, entry)
+        return np.take(self.displacements, position, axis=0)  # (``take``: twice as fast)
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
@@ -114,7 +118,8 @@ class SymmetryField:
         found = np.full(shapes.size, -1, dtype=np.int64)
         if shapes.size == 0:
             return found
-        queried = shapes[np.concatenate([[True], shapes[1:] != shapes[:-1]])]  # (non-decreasing)
+        runs = np.flatnonzero(np.concatenate([[True], shapes[1:] != shapes[:-1], [True]]))  # (non-decreasing)
+        queried = shapes[runs[:-1]]
         table = self.table
         per_table = table.size // n_vertices
         for start in range(0, queried.size, per_table):
@@ -123,8 +128,10 @@ class SymmetryField:
             entry = np.repeat(indptr[block] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
             written = np.repeat(np.arange(block.size) * n_vertices, counts) + indices[entry]
             table[written] = entry + 1
-            low, high = np.searchsorted(shapes, [block[0], block[-1] + 1])
-            local = np.searchsorted(block, shapes[low:high]) * n_vertices
+            low, high = runs[start], runs[start + block.size]
+            local = np.repeat(
+                np.arange(block.size) * n_vertices, np.diff(runs[start : start + block.size + 1])
+            )
             images = image[low:high]
             hit = np.take(table, local + images, mode="clip") - 1
             hit[images < 0] = -1  # (those read a wrong cell)
@@ -133,8 +140,9 @@ class SymmetryField:
         return found
 
 
-def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
-    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product.
+def reflect(vectors: np.ndarray, reflection: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``vectors @ reflection`` for (n, 3) vectors, `REFLECT_ROWS` rows per matrix product (into ``out``,
+    which may be ``vectors`` itself: each run is read before it is written).
 
     One BLAS product over millions of three-column rows is slow (tens of times slower on a busy machine,
     where its threads wait for each other); runs of a few thousand rows are not. Each row of a product is
@@ -142,7 +150,11 @@ def reflect(vectors: np.ndarray, reflection: np.ndarray) -> np.ndarray:
     bit where the BLAS kernels treat every row alike; a remainder of a single row, which numpy would hand to
     a vector routine instead, joins the run before it).
     """
-    reflected = np.empty((vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection))
+    reflected = out
+    if reflected is None:
+        reflected = np.empty(
+            (vectors.shape[0], reflection.shape[1]), dtype=np.result_type(vectors, reflection)
+        )
     bounds = [*range(0, vectors.shape[0], REFLECT_ROWS), vectors.shape[0]]
     if len(bounds) > 2 and bounds[-1] - bounds[-2] == 1:
         del bounds[-2]
@@ -194,11 +206,23 @@ def mirrored_entries(
     written = 0
     marks = np.searchsorted(indptr, np.arange(ENTRY_CHUNK, rows.size, ENTRY_CHUNK))
     bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
+    one_to_one = n_preimages.max(initial=0) <= 1
+    preimage = np.full(n_vertices, -1, dtype=kind)
+    preimage[mirror[vertices]] = vertices
     for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
         start, stop = indptr[first_shape], indptr[stop_shape]
         run = rows[start:stop]
         backwards = indptr[run] + indptr[run + 1] - 1 - np.arange(start, stop)  # each shape reversed
         images = cols[backwards]
+        if one_to_one:  # (no repeats: each entry has at most one mirrored entry)
+            found = np.take(preimage, images)
+            if found.min(initial=0) < 0:
+                kept = found >= 0
+                run, backwards, found = run[kept], backwards[kept], found[kept]
+            block = slice(written, written + run.size)
+            mirrored_rows[block], mirrored_cols[block], source[block] = run, found, backwards
+            written += run.size
+            continue
         counts = n_preimages[images]
         size = int(counts.sum())
         offsets = np.arange(size) - np.repeat(np.cumsum(counts) - counts, counts)
