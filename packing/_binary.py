@@ -236,10 +236,9 @@ def _lengths_into(vectors: np.ndarray, lengths: np.ndarray, scratch: np.ndarray)
     """Fill ``lengths`` (contiguous) with the lengths of (b, N, 3) ``vectors`` (``scratch``: at least 3 b N
     floats).
 
-    The squares are summed as ``(x x + z z) + y y``: the order in which `displacement_norms` (NumPy's
-    ``einsum``, whose 128-bit vectors add the third coordinate to the first) sums them, so that the lengths
-    are equal bit for bit. Squaring the coordinates in one contiguous pass first is faster than three strided
-    products.
+    The squares are summed as ``(x x + z z) + y y``: the order in which `displacement_norms`
+    (`rigs.vector_lengths`) sums them on every machine, so that the lengths are equal bit for bit.
+    Squaring the coordinates in one contiguous pass first is faster than three strided products.
     """
     flat = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1)
     square = scratch[: flat.size]

@@ -49,7 +49,7 @@ def vector_lengths(vectors: np.ndarray) -> np.ndarray:
     """
     vectors = np.asarray(vectors, dtype=np.float64)
     if vectors.ndim == 1:
-        return np.sqrt(np.einsum("d,d->", vectors, vectors))
+        return np.sqrt((vectors[0] * vectors[0] + vectors[2] * vectors[2]) + vectors[1] * vectors[1])
     lengths = np.empty(vectors.shape[:-1])
     parts = min(_usable_cpus(), vectors.shape[0], -(-lengths.size // THREADED_LENGTHS))
     if parts <= 1:
@@ -77,14 +77,24 @@ def _usable_cpus() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+#: Vectors squared at a time by `_lengths_into` (its scratch is three floats a vector).
+LENGTH_BLOCK = 1 << 16
+
+
 def _lengths_into(vectors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Fill ``lengths`` (the shape of ``vectors`` without its last axis) with the vectors' lengths, as a
-    plain ``einsum`` sums them (into ``lengths`` directly only for contiguous vectors, where that gives the
-    same sums)."""
-    if vectors.flags.c_contiguous:
-        np.einsum("...d,...d->...", vectors, vectors, out=lengths)
-    else:
-        lengths[...] = np.einsum("...d,...d->...", vectors, vectors)
+    """Fill ``lengths`` (the shape of ``vectors`` without its last axis) with the vectors' lengths.
+
+    The squares are summed as ``(x x + z z) + y y`` on every machine (``einsum``'s order depends on the
+    vector width of the CPU: on 128-bit vectors it is this one), so that the lengths, and the masks of eq. 2
+    drawn from them, are the same bit for bit wherever the rig is analysed, and `packing._binary`, which
+    sums in this order too, agrees with them. A block of first-axis rows at a time keeps the scratch small.
+    """
+    rows = max(1, LENGTH_BLOCK // max(1, lengths[:1].size))
+    for start in range(0, vectors.shape[0], rows):
+        squares = np.square(vectors[start : start + rows])
+        part = lengths[start : start + rows]
+        np.add(squares[..., 0], squares[..., 2], out=part)
+        part += squares[..., 1]
     return np.sqrt(lengths, out=lengths)
 
 
