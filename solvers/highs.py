@@ -27,7 +27,8 @@ ORTOOLS_BUNDLED_HIGHS = {"9.15": "1.12.0"}
 class HighsSolver(ExactSolver):
     """Eq. 3 (cliques as at-most-one rows, the cap as one row) solved by HiGHS's branch and cut.
 
-    Options: ``mip_rel_gap = mip_abs_gap = 0``, one thread, ``random_seed = seed``, native time limit.
+    Options: ``mip_rel_gap = mip_abs_gap = 0``, one thread, ``random_seed = seed``, native time limit, no
+    restart after the root search (``mip_allow_restart``).
     """
 
     name: ClassVar[str] = "highs"
@@ -69,6 +70,10 @@ class HighsSolver(ExactSolver):
         clock = Stopwatch()
         highs = configured_highs(highspy, time_limit, seed)
         highs.setOptionValue("mip_abs_gap", 0.0)
+        # The model is presolved already (`packing._presolve`, `solvers._reduce`, `solvers._cliques`): a
+        # restart after HiGHS's root search finds little to remove and repeats the root's work. Without it
+        # the 208 backend solves of a 2,000-shape film sequence take two thirds of the time (same optima).
+        highs.setOptionValue("mip_allow_restart", False)
         matrix = model.matrix()
         n_items = model.n_items
         highs.passModel(
