@@ -352,11 +352,17 @@ def _differ(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _not_inside(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Bool array: set ``a`` is not a subset of set ``b`` (index arrays that broadcast)."""
-    outside = words[0][a] & ~words[0][b]
-    for word in words[1:]:
-        outside |= word[a] & ~word[b]
-    return outside != 0
+    """Bool array: set ``a`` is not a subset of set ``b`` (index arrays that broadcast). Word by word, on
+    the pairs still inside: most pairs are told apart by their first words."""
+    a, b = np.broadcast_arrays(a, b)
+    inside = np.arange(a.size)
+    pair_a, pair_b = a.ravel(), b.ravel()
+    for word in words:
+        keep = (word[pair_a] & ~word[pair_b]) == 0
+        inside, pair_a, pair_b = inside[keep], pair_a[keep], pair_b[keep]
+    outside = np.ones(a.shape, dtype=bool)
+    outside.reshape(-1)[inside] = False
+    return outside
 
 
 #: Set pairs `_dominated_by_larger` compares at once (bounds its temporaries to about 10 MB).
