@@ -75,16 +75,6 @@ class SymmetryField:
         table = np.zeros(n_table, dtype=index_type(active))
         return cls(active, rows, displacements, reflected, lengths, reflection, table)
 
-    def offsets(self, entry: np.ndarray | None = None) -> np.ndarray:
-        """Position of the x coordinate of the displacement of each active entry ``entry`` (positions; all by
-        default) among the rig's deltas, flattened: ``3 (k N + n)``."""
-        rows = self.rows if entry is None else np.take(self.rows, entry)
-        offsets = rows.astype(np.int64)
-        offsets *= self.active.shape[1]
-        offsets += self.active.indices if entry is None else np.take(self.active.indices, entry)
-        offsets *= 3
-        return offsets
-
     def moved(self, entry: np.ndarray) -> np.ndarray:
         """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions), read from the rig's
         deltas."""

@@ -42,12 +42,14 @@ THREADED_LENGTHS = 1 << 20
 
 def vector_lengths(vectors: np.ndarray) -> np.ndarray:
     """Euclidean length of every 3-vector of a (..., 3) array, e.g. the (K, N) ``|dv_k^n|`` of a rig's
-    deltas (Carrigan et al. 2020, eq. 2): one pass without the temporaries of ``numpy.linalg.norm``.
+    deltas (Carrigan et al. 2020, eq. 2), the squares summed in one fixed order (`_lengths_into`).
 
     An array of more than `THREADED_LENGTHS` vectors is split along its first axis over the CPUs this
     process may use (NumPy releases the GIL in the sums); each length is computed exactly as on one thread.
     """
     vectors = np.asarray(vectors, dtype=np.float64)
+    if vectors.ndim == 0 or vectors.shape[-1] != 3:
+        raise ValueError(f"vector_lengths needs 3-vectors, an array of shape (..., 3); got {vectors.shape}")
     if vectors.ndim == 1:
         return np.sqrt((vectors[0] * vectors[0] + vectors[2] * vectors[2]) + vectors[1] * vectors[1])
     lengths = np.empty(vectors.shape[:-1])

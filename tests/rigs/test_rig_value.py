@@ -173,3 +173,9 @@ def test_records_ride_along_when_a_rig_is_derived():
 def test_a_surface_holds_an_obj_file_or_a_gltf_surface():
     with pytest.raises(ValueError, match="either an OBJ file or a glTF surface"):
         rigs.Surface()
+
+
+@pytest.mark.parametrize("shape", [(), (2,), (5, 4), (3, 2, 2)])
+def test_vector_lengths_refuse_anything_but_three_vectors(shape) -> None:
+    with pytest.raises(ValueError, match=r"3-vectors"):
+        rigs.vector_lengths(np.ones(shape))
