@@ -55,9 +55,9 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     members = np.zeros((n_rows, n_items), dtype=bool)
     members[owner, rank[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
-    keys = np.ascontiguousarray(pack_bits(members))
-    _, distinct = np.unique(keys.view(np.dtype((np.void, keys.shape[1] * 8))).ravel(), return_index=True)
-    member_bits, n_rows = keys[distinct], distinct.size
+    member_bits = pack_bits(members)
+    _, distinct = np.unique(member_bits, axis=0, return_index=True)
+    member_bits, n_rows = member_bits[distinct], distinct.size
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     common = np.bitwise_and.reduceat(ranked[rank[model.row_items]], model.row_starts[:-1], axis=0)[distinct]
     growing, grown_bits = np.arange(n_rows), member_bits.copy()  # the rows still growing, their members
