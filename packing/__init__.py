@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from packing._face_rules import FaceRule, MatchedRules, match_rules, read_rules
     from packing._importance import DegenerateDistortionWarning, MissingTargetWarning, importance
     from packing._params import DEFAULT_REGION_PAIRS, PackingParams
+    from packing._presolve import ConflictSets, ConflictView, pack_bit_rows, unpack_bit_rows
     from packing._problem import PackingProblem, problem_from_incidence
     from packing._sequence import PackingSolver, sequence
     from packing._solution import Expression, Solution, SolutionStatus, Termination
@@ -49,6 +50,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_constraints": ["parse_pair", "read_constraints"],
         "_importance": ["DegenerateDistortionWarning", "MissingTargetWarning", "importance"],
         "_params": ["DEFAULT_REGION_PAIRS", "PackingParams"],
+        "_presolve": ["ConflictSets", "ConflictView", "pack_bit_rows", "unpack_bit_rows"],
         "_problem": ["PackingProblem", "problem_from_incidence"],
         "_sequence": ["PackingSolver", "sequence"],
         "_solution": ["Expression", "Solution", "SolutionStatus", "Termination"],

@@ -207,7 +207,7 @@ def active_entries(
     floor = noise_floor * scale
     empty = np.zeros(n_shapes, dtype=bool)
     counts = np.zeros(n_shapes + 1, dtype=np.int64)
-    lengths, columns, moved = [], [], []
+    lengths, columns, moved = [np.empty(0)], [np.empty(0, dtype=np.int64)], [np.empty((0, 3))]
     buffer, scratch = np.empty(min(per_block, n_shapes) * n_vertices), np.empty(3 * step * n_vertices)
     for start in range(0, n_shapes, per_block):
         block = slice(start, min(start + per_block, n_shapes))

@@ -394,6 +394,9 @@ def importance(
 
 def require_nonempty(rig: Rig, empty: np.ndarray) -> None:
     """Refuse a rig with nothing to pack."""
+    if empty.size == 0:
+        source = rig.provenance.source or "?"
+        raise HarnessError(f"rig {source!r} has no blendshapes; there is nothing to pack")
     if empty.all():
         raise HarnessError(
             f"rig {rig.provenance.source or '?'!r}: every one of its {rig.n_shapes} blendshapes is empty "

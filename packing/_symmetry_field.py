@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from packing._binary import active_lengths
+from rigs import vector_lengths
 
 #: Cells of the (shapes, N) lookup table `SymmetryField.image_entries` fills at once (bounds its memory).
 TABLE_CELLS = 1 << 21
@@ -62,12 +63,24 @@ class SymmetryField:
         moved: np.ndarray | None = None,
     ) -> SymmetryField:
         """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
-        unit normal ``normal``. The displacements are gathered once (unless given as ``moved``), and
-        reflected in place (one matrix product over all of them), so they become `reflected`."""
+        unit normal ``normal``. The displacements are gathered once (unless given as ``moved``, the
+        (nnz, 3) float64 displacements of the active entries in their order, which this overwrites), and
+        reflected in place (one matrix product over all of them), so they become `reflected`.
+
+        Raises
+        ------
+        ValueError
+            For a ``moved`` of another shape, type or layout.
+        """
         n_vertices = active.shape[1]
         displacements = deltas.reshape(-1, 3)
         if moved is None:
             moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
+        elif moved.shape != (rows.size, 3) or moved.dtype != np.float64 or not moved.flags.c_contiguous:
+            raise ValueError(
+                f"moved must be the ({rows.size}, 3) float64 C-contiguous displacements of the active "
+                f"entries (it is reflected in place); got a {moved.dtype} array of shape {moved.shape}"
+            )
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
         reflected = reflect(moved, reflection, out=moved)
         lengths = active_lengths(norms, active)
@@ -85,11 +98,10 @@ class SymmetryField:
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
-        (positions among the active entries)."""
+        (positions among the active entries), eq. 9's term for one vertex."""
         difference = self.moved(entry)
         difference -= np.take(self.reflected, image_entry, axis=0)
-        distance = np.einsum("ij,ij->i", difference, difference)
-        np.sqrt(distance, out=distance)
+        distance = vector_lengths(difference)  # (squares summed in one order on every machine)
         distance -= np.take(self.lengths, entry)
         distance -= np.take(self.lengths, image_entry)
         return distance

@@ -146,14 +146,16 @@ class CbcOutcome:
     message: str = ""
 
 
-def read_cbc_log(log: str, time_limited: bool = False) -> CbcOutcome:
+def read_cbc_log(log: str, time_limit: float | None = None) -> CbcOutcome:
     """Parse CBC's final ``Result - ...`` block (termination, incumbent, best possible objective).
 
     For a maximisation run with ``-max``, CBC prints the objective and the bound in the original sense.
     A packing problem is always feasible (choose nothing), so an "infeasible" verdict is CBC stopping
     inside preprocessing: CBC 2.10.3 reports "Pre-processing says infeasible or unbounded" when its
     time limit strikes there. With a time limit that is a TIME_LIMIT without incumbent, otherwise an
-    error.
+    error. CBC's development builds (cbcbox) print no result at all when the limit strikes right after
+    the root LP: a log without a result whose total wall time reached ``time_limit`` (the run uses
+    ``-timeMode elapsed``) is a TIME_LIMIT without incumbent too.
     """
     result = re.search(r"Result - (.*)", log)
     text = result.group(1) if result else ""
@@ -169,8 +171,11 @@ def read_cbc_log(log: str, time_limited: bool = False) -> CbcOutcome:
     if result is None and re.search(r"stopped on time limit", log, re.IGNORECASE):
         return CbcOutcome(Termination.TIME_LIMIT, False, None)  # stopped in the root LP: nothing proved
     claims_infeasible = "infeasible" in text.lower() or "says infeasible" in log
-    if claims_infeasible and time_limited:
+    if claims_infeasible and time_limit is not None:
         return CbcOutcome(Termination.TIME_LIMIT, False, None, "CBC stopped in preprocessing")
+    elapsed = _last_float(r"Total time \(Wallclock seconds\):\s*(\S+)", log)
+    if result is None and time_limit is not None and elapsed is not None and elapsed >= time_limit:
+        return CbcOutcome(Termination.TIME_LIMIT, False, None, "CBC stopped after its root LP")
     return CbcOutcome(Termination.ERROR, False, None, "CBC log ends: " + " ".join(log.split()[-40:]))
 
 
@@ -219,5 +224,5 @@ def run_cbc(
         lp.solve(command)
         seconds = clock.lap()
         with open(log_path) as handle:
-            outcome = read_cbc_log(handle.read(), time_limited=time_limit is not None)
+            outcome = read_cbc_log(handle.read(), time_limit)
     return outcome, seconds

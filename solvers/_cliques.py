@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from packing import pack_bit_rows, unpack_bit_rows
 from solvers._model import CliqueModel
-from solvers._reduce import pack_bits
 
 
 def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
@@ -50,12 +50,12 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     order = np.argsort(-model.weights, kind="stable")
     rank = np.empty(n_items, dtype=np.int64)
     rank[order] = np.arange(n_items)
-    ranked = pack_bits(unpack_bits(closed, n_items)[order][:, order])  # item order[p] is bit p
+    ranked = pack_bit_rows(unpack_bit_rows(closed, n_items)[order][:, order])  # item order[p] is bit p
     owner = np.repeat(np.arange(n_rows), np.diff(model.row_starts))
     members = np.zeros((n_rows, n_items), dtype=bool)
     members[owner, rank[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
-    member_bits = pack_bits(members)
+    member_bits = pack_bit_rows(members)
     _, distinct = np.unique(member_bits, axis=0, return_index=True)
     member_bits, n_rows = member_bits[distinct], distinct.size
     # Items conflicting with every member (the members included: neighbourhoods are closed).
@@ -76,9 +76,9 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
         grown_bits[row, word] |= np.left_shift(np.uint64(1), bit.astype(np.uint64))
         common &= ranked[word * 64 + 63 - bit]
     by_item = np.zeros((n_rows, n_items), dtype=bool)
-    by_item[:, order] = unpack_bits(member_bits, n_items)
-    grown = np.unique(pack_bits(by_item), axis=0)
-    rows = unpack_bits(grown, n_items)
+    by_item[:, order] = unpack_bit_rows(member_bits, n_items)
+    grown = np.unique(pack_bit_rows(by_item), axis=0)
+    rows = unpack_bit_rows(grown, n_items)
     row_of, items = np.nonzero(rows)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
     np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
@@ -94,12 +94,7 @@ def _highest_bit(words: np.ndarray) -> np.ndarray:
     return np.where(high > 0, high + 31, low - 1).astype(np.int64)
 
 
-def unpack_bits(words: np.ndarray, n_columns: int) -> np.ndarray:
-    """(n, n_columns) bool rows of (n, W) uint64 words (the inverse of `solvers._reduce.pack_bits`)."""
-    return np.unpackbits(words.astype(">u8").view(np.uint8), axis=1, count=n_columns).astype(bool)
-
-
 def kernel_neighbourhoods(closed: np.ndarray, kept: np.ndarray, n_items: int) -> np.ndarray:
     """(I', W') uint64 closed neighbourhoods among the items ``kept`` (ascending) of a problem whose closed
     neighbourhoods over its ``n_items`` items are ``closed``, renumbered as ``kept`` orders them."""
-    return pack_bits(unpack_bits(closed[kept], n_items)[:, kept])
+    return pack_bit_rows(unpack_bit_rows(closed[kept], n_items)[:, kept])

@@ -24,9 +24,9 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from packing import Termination
+from packing import Termination, unpack_bit_rows
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
-from solvers._cliques import grown_cliques, kernel_neighbourhoods, unpack_bits
+from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._enumerate import ENUMERATION_MAX_ITEMS, enumerated_optimum
 from solvers._fixing import FIXING_MIN_ITEMS, reduced_costs, solve_with_fixing
 from solvers._model import CliqueModel
@@ -151,7 +151,7 @@ class ExactSolver:
             closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
             model = grown_cliques(reduction.cut_model(), closed)
             if self.fixes_by_reduced_costs and model.n_items >= FIXING_MIN_ITEMS:
-                conflicts = unpack_bits(closed, model.n_items)
+                conflicts = unpack_bit_rows(closed, model.n_items)
                 np.fill_diagonal(conflicts, False)
         else:
             model = reduction.model
@@ -256,7 +256,8 @@ def _enumerated(problem: PackingProblem, reduction: Reduction, cap_binds: bool, 
     """The optimum of a problem whose kernel holds at most `ENUMERATION_MAX_ITEMS` items, by listing the
     kernel's packings (`solvers._enumerate`): proved optimal, no backend run."""
     kept = reduction.kept
-    conflicts = unpack_bits(kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items), kept.size)
+    closed = kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items)
+    conflicts = unpack_bit_rows(closed, kept.size)
     weights = np.asarray(problem.weights, dtype=np.float64)[kept]
     cap = problem.cap if cap_binds else None
     build_time = clock.lap()

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from packing import pack_bit_rows
 from solvers._model import CliqueModel
 
 if TYPE_CHECKING:
@@ -120,7 +121,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     taken = np.zeros(n_items, dtype=bool)
     previous_degree = np.full(n_items, -1, dtype=np.int64)
     while True:
-        live = closed & pack_bits(alive[None, :])[0]
+        live = closed & pack_bit_rows(alive[None, :])[0]
         degree = np.bitwise_count(live).sum(axis=1, dtype=np.int64) - 1
         isolated = alive & (degree == 0) & (weights > 0) if not cap_binds else np.zeros(n_items, dtype=bool)
         # N[j] inside N[i] can only become true when N[j] shrank: only pairs whose j lost a neighbour
@@ -150,11 +151,3 @@ def _dominated(live: np.ndarray, degree: np.ndarray, pairs: tuple[np.ndarray, np
     dominated = np.zeros(live.shape[0], dtype=bool)
     dominated[candidate] = True
     return dominated
-
-
-def pack_bits(rows: np.ndarray) -> np.ndarray:
-    """(n, W) uint64 words of n bool rows; column 0 is the highest bit of word 0 (`np.packbits` order)."""
-    width = -(-rows.shape[1] // 64) * 64
-    padded = np.zeros((rows.shape[0], width), dtype=bool)
-    padded[:, : rows.shape[1]] = rows
-    return np.packbits(padded, axis=1).view(">u8").astype(np.uint64)

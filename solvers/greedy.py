@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from solvers._base import Availability, Capabilities, Result, Stopwatch, distrib
 from solvers._open import OpenExpression
 
 if TYPE_CHECKING:
-    from packing import PackingProblem
+    from packing import ConflictSets, PackingProblem
 
 #: Distribution that ships the built-in pure-numpy solvers (their version is the project's).
 PROJECT_DISTRIBUTION = "expression-packing-harness"
@@ -111,7 +111,7 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
     their place in ``order``, so that the next item not blocked is found by one search of the places after
     the last one visited.
 
-    The neighbours are the sets' neighbour lists (`packing._presolve.ConflictSets.neighbours`) when they
+    The neighbours are the sets' neighbour lists (`packing.ConflictSets.neighbours`) when they
     are made or worth making: for a restricted problem, whose sets serve the whole lineage of an expression
     sequence (at 2,000 shapes the lists make its greedy sequence 3x faster). A problem solved on its own
     sets reads the members of the sets holding the chosen item instead (each neighbour once per set
@@ -140,10 +140,10 @@ def _strict_greedy(problem: PackingProblem, order: np.ndarray, counts: np.ndarra
     return tuple(chosen)
 
 
-def _neighbours_of(sets: Any, reused: bool) -> Callable[[int], np.ndarray]:
+def _neighbours_of(sets: ConflictSets, reused: bool) -> Callable[[int], np.ndarray]:
     """A function of an item giving the items it conflicts with (itself included; repeated when read
     from the sets), from the sets' neighbour lists when they exist or ``reused`` says they will pay.
-    ``sets`` is a `PackingProblem.conflict_view`'s ``sets``."""
+    ``sets`` are a `PackingProblem.conflict_view`'s."""
     if reused or sets.has_neighbours:
         starts, neighbours = sets.neighbours
         return lambda item: neighbours[starts[item] : starts[item + 1]]

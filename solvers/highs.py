@@ -68,12 +68,10 @@ class HighsSolver(ExactSolver):
         import highspy
 
         clock = Stopwatch()
-        highs = configured_highs(highspy, time_limit, seed)
-        highs.setOptionValue("mip_abs_gap", 0.0)
         # The model is presolved already (`packing._presolve`, `solvers._reduce`, `solvers._cliques`): a
         # restart after HiGHS's root search finds little to remove and repeats the root's work. Without it
         # the 208 backend solves of a 2,000-shape film sequence take two thirds of the time (same optima).
-        highs.setOptionValue("mip_allow_restart", False)
+        highs = configured_highs(highspy, time_limit, seed, mip_abs_gap=0.0, mip_allow_restart=False)
         matrix = model.matrix()
         n_items = model.n_items
         highs.passModel(
@@ -105,18 +103,28 @@ class HighsSolver(ExactSolver):
         return Result((), Termination.ERROR, None, build_time, solve_time, version, message)
 
 
-def configured_highs(highspy, time_limit: float | None, seed: int):
-    """A silent, single-threaded ``highspy.Highs`` with relative MIP gap 0, the seed and the time limit."""
+def configured_highs(highspy, time_limit: float | None, seed: int, **options: float | bool):
+    """A silent, single-threaded ``highspy.Highs`` with relative MIP gap 0, the seed, the time limit and
+    ``options``.
+
+    Raises
+    ------
+    RuntimeError
+        When this HiGHS refuses an option (renamed or out of range in its version): a solve under
+        settings other than the ones recorded would be a silently different benchmark.
+    """
     highs = highspy.Highs()
-    for option, value in (
-        ("output_flag", False),
-        ("threads", 1),
-        ("random_seed", int(seed)),
-        ("mip_rel_gap", 0.0),
-    ):
-        highs.setOptionValue(option, value)
-    if time_limit is not None:
-        highs.setOptionValue("time_limit", float(time_limit))
+    settings: dict[str, float | bool] = {
+        "output_flag": False,
+        "threads": 1,
+        "random_seed": int(seed),
+        "mip_rel_gap": 0.0,
+        **({} if time_limit is None else {"time_limit": float(time_limit)}),
+        **options,
+    }
+    for option, value in settings.items():
+        if highs.setOptionValue(option, value) != highspy.HighsStatus.kOk:
+            raise RuntimeError(f"HiGHS {highs.version()} refused the option {option}={value!r}")
     return highs
 
 

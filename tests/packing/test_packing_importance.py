@@ -11,6 +11,7 @@ import pytest
 import packing
 import rigs
 from packing._importance import DegenerateDistortionWarning, triangle_distortion
+from registry import HarnessError
 from rigs import Rig, RigError
 
 # Unit square in the z = 0 plane, split into triangles (0, 1, 2) and (1, 3, 2).
@@ -208,6 +209,15 @@ def test_rig_whose_every_shape_is_empty_is_refused():
         packing.importance(rig, STRETCHED)
     with pytest.raises(ValueError, match="every one of its 2 blendshapes is empty"):
         packing.analyse(rig, STRETCHED)
+
+
+@pytest.mark.parametrize("shape_symmetry", [True, False])
+def test_rig_without_blendshapes_is_refused_by_name(shape_symmetry):
+    rig = Rig(SQUARE, np.zeros((0, 4, 3)), TRIANGLES, (), provenance=rigs.Provenance(source="bare.npz"))
+    with pytest.raises(HarnessError, match="rig 'bare.npz' has no blendshapes"):
+        packing.analyse(rig, STRETCHED, shape_symmetry=shape_symmetry)
+    with pytest.raises(HarnessError, match="rig 'bare.npz' has no blendshapes"):
+        packing.importance(rig, STRETCHED)
 
 
 # The excess variant of eq. 6 (the authors' code: s_t - 2) ---------------------------------------------

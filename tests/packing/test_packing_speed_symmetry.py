@@ -16,6 +16,7 @@ import packing._symmetry_candidates as candidates
 import packing._symmetry_field as symmetry_field
 import rigs
 from packing._binary import (
+    active_entries,
     displacement_norms,
     empty_mask,
     entries,
@@ -219,3 +220,30 @@ def test_reflecting_in_runs_of_rows_is_one_matrix_product_to_rounding(n_rows):
     whole = vectors @ reflection
     bound = 4 * np.finfo(float).eps * np.abs(vectors).sum(axis=1, keepdims=True)
     assert np.all(np.abs(symmetry_field.reflect(vectors, reflection) - whole) <= bound)
+
+
+def test_displacements_gathered_with_the_masks_give_the_same_pairs_bit_for_bit():
+    """`analyse` hands the symmetry step the active displacements it gathered with the masks (`moved`):
+    the pairs, their errors and the refused matches are those of gathering them again."""
+    rig = rigs.generate("digidouble")
+    _, masks, mirror, normal, eligible, axis = inputs(rig)
+    norms, _, active, moved = active_entries(rig.deltas, 0.3, 1e-6, rig.diagonal(), gather=True)
+    arguments = (rig.deltas, norms, active.toarray(), mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral)
+    gathered = symmetry.shape_symmetry(*arguments)
+    given_moved = symmetry.shape_symmetry(*arguments, moved=moved.copy())
+    assert gathered[0] and given_moved[0] == gathered[0] and given_moved[2] == gathered[2]
+    assert np.array_equal(given_moved[1], gathered[1])
+
+
+@pytest.mark.parametrize(
+    "wrong",
+    [lambda m: m[:-1], lambda m: m.astype(np.float32), lambda m: np.asfortranarray(m), lambda m: m[:, :2]],
+    ids=["short", "float32", "fortran", "two-columns"],
+)
+def test_given_displacements_of_another_shape_type_or_layout_are_refused(wrong):
+    rig = rigs.generate("arkit52")
+    norms, _, active, moved = active_entries(rig.deltas, 0.3, 1e-6, rig.diagonal(), gather=True)
+    rows, cols = entries(active)
+    _, _, _, normal, _, _ = inputs(rig)
+    with pytest.raises(ValueError, match=r"moved must be the \(\d+, 3\) float64"):
+        symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal, wrong(moved))

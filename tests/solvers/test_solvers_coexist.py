@@ -92,3 +92,17 @@ def test_bad_arguments_raise_one_clear_error():
         solvers.get("cpsat").solve(problem, seed=2**40)
     with pytest.raises(TypeError, match="problem must be a packing.PackingProblem"):
         solvers.get("greedy").solve(problem.incidence)
+
+
+def test_highs_runs_under_the_options_it_records_and_fails_loudly_on_a_refused_one():
+    highspy = pytest.importorskip("highspy")
+    from solvers.highs import configured_highs
+
+    highs = configured_highs(highspy, 2.5, 7, mip_abs_gap=0.0, mip_allow_restart=False)
+    recorded = {"mip_allow_restart": False, "time_limit": 2.5, "random_seed": 7, "threads": 1}
+    for option, value in recorded.items():
+        assert highs.getOptionValue(option)[1] == value
+    with pytest.raises(RuntimeError, match="refused the option mip_rel_gap=-1.0"):
+        configured_highs(highspy, None, 0, mip_rel_gap=-1.0)
+    with pytest.raises(RuntimeError, match="refused the option no_such_option"):
+        configured_highs(highspy, None, 0, no_such_option=True)

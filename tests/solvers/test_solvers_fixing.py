@@ -96,3 +96,21 @@ def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
     assert solution.bound is not None and solution.bound >= solution.objective - 1e-9
     full = _plain("cpsat").solve(problem, time_limit=None, seed=0)
     assert solution.bound >= full.objective - 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_kernels_conflicts_given_to_fixing_are_the_models_own(monkeypatch, seed):
+    """The exact path hands `reduced_costs` the conflict graph unpacked from the kernel's neighbourhoods
+    (no rebuild from the clique rows): it is the grown model's graph, so the bounds and packing are too."""
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    problem = random_problem(40, 60, seed=seed, active=(4, 9), pairs=0.2)
+    reduction = reduce_problem(problem, False)
+    closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
+    model = grown_cliques(reduction.model, closed)
+    conflicts = packing.unpack_bit_rows(closed, model.n_items)
+    np.fill_diagonal(conflicts, False)
+    assert np.array_equal(conflicts, model.conflict_graph().toarray())
+    start = start_packing(problem, reduction)
+    given, rebuilt = fixing.reduced_costs(model, start, conflicts), fixing.reduced_costs(model, start)
+    assert given is not None and rebuilt is not None and given.packing == rebuilt.packing
+    assert np.array_equal(given.with_item, rebuilt.with_item) and given.bound == rebuilt.bound

@@ -121,3 +121,17 @@ def test_strict_greedy_on_conflict_sets_equals_greedy_on_vertices(seed, cap, apa
     """Overlap 0 runs on the conflict sets; a vanishing allowed overlap runs the vertex-by-vertex loop."""
     problem = _problem(seed, cap, apart)
     assert greedy_items(problem, 0.0) == greedy_items(problem, 1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 100_000), cap=st.sampled_from([None, 2, 4]), apart=st.integers(0, 3))
+def test_strict_greedy_down_a_sequence_of_restrictions_equals_greedy_on_vertices(seed, cap, apart):
+    """Each restricted problem of a sequence reads its first ancestor's sets through their neighbour
+    lists (made once, for the whole lineage): the same items as the vertex loop at every step."""
+    problem = _problem(seed, cap, apart)
+    lineage = problem.conflict_view.sets
+    while problem.n_items:
+        chosen = greedy_items(problem, 0.0)
+        assert chosen and chosen == greedy_items(problem, 1e-12)
+        assert problem.conflict_view.sets is lineage
+        problem = problem.restrict(np.setdiff1d(np.arange(problem.n_items), chosen))
