@@ -171,7 +171,11 @@ def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> Path | Non
             if error.errno not in (errno.ENOTEMPTY, errno.EEXIST):
                 raise
             aside = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
-            os.rename(target, aside)
+            try:
+                os.rename(target, aside)
+            except BaseException:
+                os.rmdir(aside)  # (still the empty folder made for it)
+                raise
             try:
                 os.rename(new, target)
             except BaseException:
