@@ -8,6 +8,7 @@ and what is read from it, so a read takes a small multiple of the file's size, w
 
 from __future__ import annotations
 
+import codecs
 import hashlib
 from array import array
 from collections.abc import Iterator
@@ -90,7 +91,8 @@ def parse_obj(
     Parameters
     ----------
     text : str or bytes
-        The file's content (bytes: UTF-8, undecodable bytes read as replacement characters).
+        The file's content (bytes: UTF-8, undecodable bytes read as replacement characters, a leading
+        byte-order mark skipped).
     source : str
         Name used in error messages (the file path).
     with_faces : bool
@@ -111,6 +113,8 @@ def parse_obj(
         vertices.
     """
     data = text.encode("utf-8", errors="surrogatepass") if isinstance(text, str) else bytes(text)
+    if data.startswith(codecs.BOM_UTF8):  # (a byte-order mark, which Windows editors write)
+        data = data[len(codecs.BOM_UTF8) :]
     if faces_of is not None and faces_of.layout is not None and not with_faces:
         shape = _shape(data, source, faces_of, faces_of.layout)
         if shape is not None:

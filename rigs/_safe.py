@@ -194,8 +194,9 @@ def read_bytes(
 
 
 def read_text(path: Path, *, root: Path | None = None, limit: int | None = None, why: str = "") -> str:
-    """:func:`read_bytes` decoded as UTF-8 (undecodable bytes replaced)."""
-    return read_bytes(path, root=root, limit=limit, why=why).decode("utf-8", errors="replace")
+    """:func:`read_bytes` decoded as UTF-8 (undecodable bytes replaced, a leading byte-order mark, which
+    Windows editors write, dropped)."""
+    return read_bytes(path, root=root, limit=limit, why=why).decode("utf-8-sig", errors="replace")
 
 
 def read_json(path: Path, *, root: Path | None = None, limit: int, what: str) -> Any:
@@ -214,7 +215,7 @@ def read_json(path: Path, *, root: Path | None = None, limit: int, what: str) ->
     """
     data = read_bytes(path, root=root, limit=limit, why=f"a {what}")
     try:
-        return json.loads(data.decode("utf-8"))
+        return json.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as error:
         detail = f"not UTF-8: {error.reason} at byte {error.start}"
     except json.JSONDecodeError as error:

@@ -76,7 +76,7 @@ def _decode(data: bytes, label: str, n_vertices: int) -> str:
     """The text of a target file's bytes, inflating ``.gz`` ones up to :func:`target_limit`."""
     if label.endswith(".gz"):
         data = gunzip(data, target_limit(n_vertices), label, f"a target for {n_vertices} vertices")
-    return data.decode("utf-8", errors="replace")
+    return data.decode("utf-8-sig", errors="replace")  # (a byte-order mark is no part of the first line)
 
 
 def _read_target(path: Path, root: Path, n_vertices: int) -> str:

@@ -185,6 +185,23 @@ def test_folder_gives_deltas_names_from_stems_and_keeps_quads(tmp_path):
     assert rigs.rig_surface(rig).n_vertices == rig.n_vertices
 
 
+@pytest.mark.parametrize("marked", ["neutral", "smile", "every file"])
+def test_a_byte_order_mark_is_no_part_of_the_first_line(tmp_path, marked):
+    """Windows editors start UTF-8 files with a byte-order mark: the first line (a vertex, or ``mtllib``)
+    is read as without it, and the surface the session writes from carries no mark either."""
+    plain = rigs.load(write_folder(tmp_path / "plain", {"smile": moved(5, [0, 0, 0.3])}))
+    folder = write_folder(tmp_path / "marked", {"smile": moved(5, [0, 0, 0.3])})
+    for name in ("neutral", "smile"):
+        if marked in (name, "every file"):
+            path = folder / f"{name}.obj"
+            header = "mtllib face.mtl\n" if name == "neutral" else ""
+            path.write_bytes(b"\xef\xbb\xbf" + (header + path.read_text()).encode())
+    rig = rigs.load(folder)
+    np.testing.assert_array_equal(rig.neutral, plain.neutral)
+    np.testing.assert_array_equal(rig.deltas, plain.deltas)
+    assert all("\ufeff" not in line for line in rigs.rig_surface(rig).lines)
+
+
 def test_round_trip_through_writer_keeps_order_regions_units_and_faces(tmp_path):
     generator = np.random.default_rng(3)
     rig = Rig(

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import rigs
-from tests.rigs.test_hostile_inputs import gltf_document
+from tests.rigs.hostile_gltf import gltf_document
 from tests.rigs.test_io_target import write_set
 
 
