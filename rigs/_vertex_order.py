@@ -93,6 +93,32 @@ class VertexOrder:
                 stacklevel=4,
             )
 
+    def check_target(self, target: np.ndarray, path: Path) -> None:
+        """Refuse another character's neutral (``--target``) whose vertices are not in this mesh's order.
+
+        A target may be proportioned otherwise (scaled, its nose longer), so its edges are measured against
+        its overall scale, the RMS distance of its vertices from their centroid over the neutral's (which no
+        reordering changes): more than half of them changing more than `PERMUTED` times against that is a
+        `RigError`.
+        """
+        if not len(self.first):
+            return
+        spread = _squared_lengths(target - target.mean(axis=0)).mean()
+        scale = spread / _squared_lengths(self.neutral - self.neutral.mean(axis=0)).mean()
+        if not scale > 0:
+            raise RigError(f"{path}: every vertex of the target neutral is at one point; not a face mesh")
+        ratios = _squared_lengths(target[self.first] - target[self.second]) / (
+            scale * _squared_lengths(self.neutral[self.first] - self.neutral[self.second])
+        )
+        permuted = np.count_nonzero((ratios > self.PERMUTED**2) | (ratios < self.PERMUTED**-2)) / len(ratios)
+        if permuted > 0.5:
+            raise RigError(
+                f"{path}: its vertices are not in the order of the rig's neutral {self.neutral_path.name} "
+                f"({permuted:.0%} of the mesh's edges change length more than {self.PERMUTED:g} times "
+                "against the target's overall scale); a target must be the same mesh: same topology and "
+                "vertex order"
+            )
+
 
 def _squared_lengths(vectors: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", vectors, vectors)

@@ -83,12 +83,13 @@ def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
     Raises
     ------
     rigs.RigError
-        When the file cannot be read or has another vertex count than the rig; the message names the file.
+        When the file cannot be read, has another vertex count than the rig, or lists its vertices in
+        another order (`rigs.VertexOrder.check_target`); the message names the file.
     """
     if path is None:
         return None
     import rigs
-    from rigs import parse_obj, read_surface
+    from rigs import VertexOrder, parse_obj, read_surface
 
     path = Path(path)
     surface = None
@@ -102,6 +103,8 @@ def read_target(path: str | Path | None, rig: Rig) -> TargetMesh | None:
             f"{path}: target neutral has {len(vertices)} vertices, the rig has {rig.n_vertices}; "
             "it must be the same mesh (same topology and vertex order)"
         )
+    source = Path(rig.provenance.source or "the rig")
+    VertexOrder(rig.neutral, rig.triangles, source).check_target(vertices, path)
     return TargetMesh(path, vertices, surface)
 
 

@@ -20,6 +20,7 @@ from harness.cli import cli
 from registry._outdir import MANIFEST_NAME
 from rigs._faceunits import CACHE_VARIABLE, cached_rig_path, surface_path
 from tests.chromium import run_chromium
+from tests.harness.cli_helpers import assert_one_line_error
 
 BACKGROUND = np.array([1.0, 1.0, 1.0])
 
@@ -438,3 +439,35 @@ def test_the_scan_sheet_renders_in_headless_chromium(faceunits_session, tmp_path
     tinted = np.ptp(image, axis=2) > 0.15  # the pictures' coloured shapes came through
     assert tinted.sum() > 2000
     assert len(re.findall(rb"/Type\s*/Page\b", pdf.read_bytes())) == 1  # one printed page
+
+
+@pytest.mark.parametrize("faces", [False, True])
+def test_a_target_whose_vertices_are_in_another_order_is_refused_and_other_proportions_are_not(
+    tmp_path, faces
+) -> None:
+    """A target listing the rig's vertices in another order passes the vertex count and would put every
+    expression's offsets on the wrong vertices; a character of other proportions, or 100 times larger, is
+    what a target is."""
+    rig = rigs.generate("arkit52")
+    folder = tmp_path / "rig.npz"
+    rigs.save(rig, folder)
+    order = np.random.default_rng(0).permutation(rig.n_vertices)
+
+    def target(name: str, vertices: np.ndarray, triangles: np.ndarray) -> Path:
+        path = tmp_path / f"{name}.obj"
+        lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
+        lines += [f"f {a} {b} {c}" for a, b, c in (triangles + 1).tolist()] if faces else []
+        path.write_text("\n".join(lines) + "\n")
+        return path
+
+    shuffled = target("shuffled", rig.neutral[order], np.argsort(order)[rig.triangles])
+    result = invoke("pack", folder, "--target", shuffled, "--no-pictures", "--out", tmp_path / "refused")
+    assert_one_line_error(result, f"{shuffled}: its vertices are not in the order")
+    assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
+    for name, vertices in [
+        ("alien", rigs.warp(rig, "alien").neutral),
+        ("giant", rig.neutral * 100.0),
+    ]:
+        accepted = target(name, vertices, rig.triangles)
+        document, _ = pack(folder, tmp_path / name, "--target", accepted, "--no-pictures", "--jmax", "2")
+        assert document["target"] == str(accepted)
