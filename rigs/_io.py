@@ -151,13 +151,13 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
     -----
     RigWarning
         For a neutral that is no surface (no triangles, or every triangle of zero area: collapsed or
-        colinear), which packs by its vertices but cannot be pictured or transferred; and naming shapes
-        that are identical, or whose names are equal up to case (one is likely a duplicate export; both
-        are kept).
+        colinear), which packs by its vertices but cannot be pictured or transferred; for a neutral out of
+        line with its shapes (`common_offset`); and naming shapes that are identical, or whose names are
+        equal up to case (one is likely a duplicate export; both are kept).
 
     Notes
     -----
-    O(K N); two passes over the deltas.
+    O(K N); four passes over the deltas.
     """
 
     step = rig.provenance.decimal_step
@@ -187,6 +187,16 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             RigWarning,
             stacklevel=3,
         )
+    offset, largest = common_offset(deltas, max(floor, COMMON_OFFSET_SHARE * rig.diagonal()))
+    if offset:
+        warnings.warn(
+            f"{label}: {offset} of its {rig.n_vertices} vertices are moved the same way by every one of its "
+            f"{rig.n_shapes} blendshapes (by up to {largest:.3g}, {largest / rig.diagonal():.2%} of the "
+            "neutral's size): the neutral does not line up with the shapes (moved, or saved from another "
+            "pose?), and every blendshape carries that offset",
+            RigWarning,
+            stacklevel=3,
+        )
     for group in report.identical_shapes:
         warnings.warn(
             f"{label}: shapes {', '.join(group)} are identical (the same displacement at every vertex)",
@@ -200,6 +210,39 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             stacklevel=3,
         )
     return replace(rig, deltas=deltas, load_report=report)
+
+
+#: Fewest blendshapes for `common_offset` to judge: with fewer, all of them moving a vertex alike can be
+#: the rig's own design (a rig of a few jaw shapes).
+COMMON_OFFSET_MIN_SHAPES = 8
+#: Least offset `common_offset` reports, as a share of the neutral's bounding-box diagonal (20 um on a
+#: 20 cm head): below it, sculpted falloffs that never quite reach zero move a vertex alike in every shape.
+COMMON_OFFSET_SHARE = 1e-4
+
+
+def common_offset(deltas: np.ndarray, floor: float) -> tuple[int, float]:
+    """The vertices that every blendshape moves the same way, and how far at least.
+
+    In a rig each vertex is left still by most shapes, so the displacements of a vertex over the K shapes
+    span a box holding the origin. A neutral moved, or saved from another pose than its shapes, adds its
+    error to every delta: the box of each vertex it moved is shifted off the origin. A vertex whose box
+    lies further than ``floor`` from the origin (every shape moving it further, each coordinate the same
+    way; `with_report` passes the larger of the noise floor and `COMMON_OFFSET_SHARE` of the size) is
+    counted, with the largest such distance, for rigs of at least `COMMON_OFFSET_MIN_SHAPES` shapes (the
+    odds of chance noise doing it are 2^(1 - K) per coordinate).
+
+    Returns
+    -------
+    count : int
+    largest : float
+        The largest distance of a counted vertex's box from the origin (0 when none is).
+    """
+    if deltas.shape[0] < COMMON_OFFSET_MIN_SHAPES:
+        return 0, 0.0
+    low, high = deltas.min(axis=0), deltas.max(axis=0)
+    distance = vector_lengths(np.maximum(low, 0.0) + np.minimum(high, 0.0))  # (origin to the box)
+    off = distance > floor
+    return int(np.count_nonzero(off)), float(distance.max(initial=0.0))
 
 
 #: Every this many vertices, one is compared first when looking for identical shapes.

@@ -70,7 +70,7 @@ from harness import check_settings, format_duration, input_paths, resolve_rig
 from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
-from session._mesh import read_target
+from session._mesh import TargetMesh, read_target
 from session._minimum import minimum_sequence
 from session._pictures import prepare_scene
 from session._solver import IsolatedSolver, LoudSolver, no_answer
@@ -249,8 +249,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
         with (
             nullcontext() if config.minimum else IsolatedSolver(config.solver) as isolated
         ):  # starts while loading
-            full_rig = resolve_rig(config.rig, seed=config.seed)
-            target_mesh = read_target(config.target, full_rig)
+            full_rig, target_mesh, read_notes = _read_inputs(config)
             for name in sorted({name for names in (rejections or {}).values() for name in names}):
                 full_rig.index(name)  # RigError names the rig, the shape and close matches
             if rejections and config.jmax is not None and max(rejections) > config.jmax:
@@ -279,7 +278,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
             )
             deadline = None if config.timeout is None else Deadline(isolated, started + config.timeout)
             rejected: dict[int, set[str]] = {}  # filled as the artist decides
-            found: list[str] = []
+            found: list[str] = list(read_notes)
             if config.minimum:
                 result = minimum_sequence(analysis, time_limit=config.time_limit, seed=config.seed)
                 expressions = result.expressions
@@ -481,6 +480,22 @@ def _symmetry_note(analysis: Analysis) -> str:
         f"{len(symmetry.pairs)} symmetry pairs kept together "
         f"({len(symmetry.shape_pairs)} mirror, {len(symmetry.motion_pairs)} motion)"
     )
+
+
+def _read_inputs(config: PackConfig) -> tuple[Rig, TargetMesh | None, list[str]]:
+    """The rig and the target of ``config``, and what their readers warned (`rigs.RigWarning`: a neutral out
+    of line with its shapes, identical shapes, ...): shown as they come, and kept for the session's
+    ``warnings``, the sheet the TD hands on."""
+    from rigs import RigWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rig = resolve_rig(config.rig, seed=config.seed)
+        target = read_target(config.target, rig)
+    for warning in caught:
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+    said = [str(warning.message) for warning in caught if issubclass(warning.category, RigWarning)]
+    return rig, target, said
 
 
 def _refining(

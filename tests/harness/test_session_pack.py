@@ -471,3 +471,18 @@ def test_a_target_whose_vertices_are_in_another_order_is_refused_and_other_propo
         accepted = target(name, vertices, rig.triangles)
         document, _ = pack(folder, tmp_path / name, "--target", accepted, "--no-pictures", "--jmax", "2")
         assert document["target"] == str(accepted)
+
+
+def test_what_the_rig_reader_warned_is_on_the_session_sheet(tmp_path) -> None:
+    """A neutral out of line with its shapes is said when the rig is read, and kept in the session's
+    warnings (expressions.json and the scan sheet), not only printed."""
+    rig = rigs.generate("arkit52")
+    offset = np.zeros_like(rig.neutral)
+    offset[:] = [0.0, 0.005 * rig.diagonal(), 0.0]
+    path = rigs.save(
+        rigs.Rig(rig.neutral + offset, rig.deltas - offset, rig.triangles, rig.names), tmp_path / "r.npz"
+    )
+    document, output = pack(path, tmp_path / "out", "--no-pictures", "--jmax", "2")
+    said = [line for line in document["warnings"] if "the neutral does not line up with the shapes" in line]
+    assert len(said) == 1 and said[0].startswith(f"{path}: ") and "line up" in output
+    assert "the neutral does not line up" in (tmp_path / "out" / "session.html").read_text()

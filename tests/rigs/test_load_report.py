@@ -3,6 +3,8 @@ surface. Each is named in one `RigWarning` and in the rig's ``load_report``."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -56,3 +58,36 @@ def test_a_plain_rig_loads_without_notes(tmp_path, recwarn) -> None:
     loaded = rigs.load(rigs.save(_rig(names=("lift", "rest")), tmp_path / "face.npz"), noise_floor=1e-6)
     assert loaded.load_report.identical_shapes == () and loaded.load_report.case_twins == ()
     assert not [w for w in recwarn if issubclass(w.category, RigWarning)]
+
+
+@pytest.mark.parametrize(
+    ("case", "expected"),
+    [("shifted", range(600, 1222)), ("five moved", range(1, 6)), ("noisy", None)],
+)
+def test_a_neutral_out_of_line_with_its_shapes_is_noted(case, expected, tmp_path, recwarn) -> None:
+    """A neutral moved after its shapes were made (or saved from another pose) adds the same offset to
+    every delta: said, with how many vertices and how far. Noise of either sign on every shape is not."""
+    rig = rigs.generate("arkit52")
+    rng = np.random.default_rng(0)
+    offset = np.zeros_like(rig.neutral)
+    if case == "shifted":
+        offset[:] = [0.0, 0.005 * rig.diagonal(), 0.0]
+    elif case == "five moved":
+        offset[rng.choice(rig.n_vertices, 5, replace=False)] = (
+            0.005 * rig.diagonal() * rng.normal(size=(5, 3))
+        )
+    deltas = rig.deltas - offset
+    if case == "noisy":
+        deltas = deltas + rng.normal(scale=2e-4 * rig.diagonal(), size=deltas.shape)
+    moved = rigs.Rig(rig.neutral + offset, deltas, rig.triangles, rig.names)
+    loaded = rigs.load(rigs.save(moved, tmp_path / "face.npz"))
+    said = [str(w.message) for w in recwarn if issubclass(w.category, RigWarning)]
+    noted = [line for line in said if "the neutral does not line up with the shapes" in line]
+    if expected is None:
+        assert not noted, said
+    else:  # (a vertex some shape moves against the offset, further than it, is not counted)
+        counted = re.search(
+            r"face\.npz: (\d+) of its 1221 vertices are moved the same way by every one", noted[0]
+        )
+        assert len(noted) == 1 and counted and int(counted[1]) in expected, said
+    assert loaded.n_shapes == rig.n_shapes
