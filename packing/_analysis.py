@@ -275,8 +275,9 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     if settings.max_per_expression == 1 and symmetry.pairs:
         a, b = symmetry.pairs[0]
         raise HarnessError(
-            f"max_per_expression=1 cannot hold the symmetry pair {rig.names[a]}+{rig.names[b]} "
-            f"({len(symmetry.pairs)} pairs found); use a cap >= 2 or symmetry=False"
+            f"a cap of 1 shape per expression (max_per_expression=1, --cap 1) cannot hold the symmetry pair "
+            f"{rig.names[a]}+{rig.names[b]} ({len(symmetry.pairs)} pairs found): allow 2 or more, or turn "
+            "symmetry off (symmetry=False, --no-symmetry)"
         )
     item_shapes = _item_matrix(rig.n_shapes, empty, symmetry.pairs)
     bounds = zip(item_shapes.indptr[:-1], item_shapes.indptr[1:], strict=True)

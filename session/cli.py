@@ -151,10 +151,15 @@ def pack(
 
     if refine and reject:
         raise click.UsageError("use either --refine (interactive) or --reject (listed), not both")
-    if minimum and (refine or reject or extra_examples or timeout is not None):
+    context = click.get_current_context()
+    given = {
+        name: context.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
+        for name in ("jmax", "solver")
+    }
+    if minimum and (refine or reject or extra_examples or timeout is not None or any(given.values())):
         raise click.UsageError(
-            "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
-            "--extra-examples or --timeout (use --time-limit for the proof)"
+            "--minimum covers every shape in the fewest expressions, with CP-SAT: it takes no --jmax, "
+            "--solver, --refine, --reject, --extra-examples or --timeout (use --time-limit for the proof)"
         )
     expand_names([solver], solver_names(), "solver", "--solver")
 

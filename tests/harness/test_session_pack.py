@@ -424,9 +424,14 @@ def test_minimum_not_proven_in_time_says_what_was_proven(monkeypatch, tmp_path) 
     assert message in output and any(message in warning for warning in document["warnings"])
 
 
-def test_minimum_refuses_what_it_cannot_honour(tmp_path) -> None:
-    result = invoke("pack", "tiny", "--minimum", "--extra-examples", "--out", tmp_path / "out")
-    assert result.exit_code == 2 and "--minimum covers every shape" in result.output
+@pytest.mark.parametrize(
+    "extra", [["--extra-examples"], ["--jmax", "3"], ["--jmax", "20"], ["--solver", "highs"]], ids=" ".join
+)
+def test_minimum_refuses_what_it_cannot_honour(tmp_path, extra) -> None:
+    """Even a --jmax or --solver given at its default value: --minimum would silently ignore it."""
+    result = invoke("pack", "tiny", "--minimum", *extra, "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "--minimum covers every shape" in result.output, result.output
+    assert not (tmp_path / "out").exists()
 
 
 def test_the_scan_sheet_renders_in_headless_chromium(faceunits_session, tmp_path) -> None:
