@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from session._materials import material_files
+
 if TYPE_CHECKING:
     from rigs import GltfSurface, ObjSurface, Rig
 
@@ -139,12 +141,19 @@ def session_meshes(
     yield NEUTRAL_FILE, _obj(surface, rig.neutral, exact, f"neutral of {source}")
     if library is not None:
         yield MATERIALS_FILE, library
+    copied = list(_copied_materials(rig, surface))
+    yield from copied
     deltas = expression_poses(rig, expressions)
     if target is not None:
         on_target = target.surface if target.surface is not None else surface
         target_precision = exact.combine(precision(target.vertices))
         if library is not None and target.surface is None:
             yield f"{ON_TARGET}/{MATERIALS_FILE}", library
+        if target.surface is None:
+            yield from ((f"{ON_TARGET}/{name}", data) for name, data in copied)
+        else:
+            found = material_files(target.surface, target.path, target.path.parent)
+            yield from ((f"{ON_TARGET}/{name}", data) for name, data in found if _free(name))
     for index, (delta, expression) in enumerate(zip(deltas, expressions, strict=True), start=1):
         name = expression_name(index, len(expressions))
         shapes = " ".join(expression["shapes"])
@@ -153,6 +162,22 @@ def session_meshes(
             comment = f"expression {index} on the target {target.path.name}: {shapes}"
             posed = target.vertices + delta
             yield f"{ON_TARGET}/{name}.obj", _obj(on_target, posed, target_precision, comment)
+
+
+def _copied_materials(rig: Rig, surface: ObjSurface) -> Iterator[tuple[str, bytes]]:
+    """The material libraries and texture maps of the OBJ ``surface`` was read from (`session._materials`),
+    read inside the rig's folder (the OBJ's own when the rig has none)."""
+    obj = rig.surface.obj if rig.surface is not None else None
+    if obj is None or surface.source != str(obj):
+        return
+    folder = rig.surface.folder if rig.surface.folder is not None else obj.parent
+    yield from ((name, data) for name, data in material_files(surface, obj, folder) if _free(name))
+
+
+def _free(name: str) -> bool:
+    """Whether a copied material file's name leaves the session's own files alone."""
+    first = name.split("/", 1)[0]
+    return first not in (ON_TARGET, "pictures") and not name.endswith((".obj", ".json", ".html", ".glb"))
 
 
 def _obj(surface: ObjSurface, vertices: np.ndarray, precision: Precision, comment: str) -> bytes:

@@ -491,3 +491,36 @@ def test_what_the_rig_reader_warned_is_on_the_session_sheet(tmp_path) -> None:
     said = [line for line in document["warnings"] if "the neutral does not line up with the shapes" in line]
     assert len(said) == 1 and said[0].startswith(f"{path}: ") and "line up" in output
     assert "the neutral does not line up" in (tmp_path / "out" / "session.html").read_text()
+
+
+def test_the_material_libraries_and_texture_maps_of_an_obj_rig_travel_with_the_session(tmp_path) -> None:
+    """``mtllib`` lines pass through, so the libraries they name, and the maps those name, are copied at
+    the same relative paths (also beside the on-target files that keep the lines); a library outside the
+    rig's folder is never read."""
+    tiny = rigs.generate("tiny")
+    folder = obj_rig_folder(tiny, tmp_path / "face")
+    (tmp_path / "secret.mtl").write_text("newmtl secret\n")
+    for path in folder.glob("*.obj"):
+        path.write_text(path.read_text().replace("mtllib face.mtl", "mtllib mtl/face.mtl ../secret.mtl"))
+    (folder / "mtl" / "maps").mkdir(parents=True)
+    library = "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump maps/skin_n.png # normal\nnewmtl lips\n"
+    (folder / "mtl" / "face.mtl").write_text(library)
+    (folder / "mtl" / "maps" / "skin.png").write_bytes(b"\x89PNG colour")
+    (folder / "mtl" / "maps" / "skin_n.png").write_bytes(b"\x89PNG normals")
+    rigs.save(rigs.Rig(tiny.neutral * 1.1, tiny.deltas[:0], tiny.triangles, ()), tmp_path / "actor.npz")
+    actor = tmp_path / "actor"
+    (actor / "mtl").mkdir(parents=True)
+    (actor / "target.obj").write_text((folder / "neutral.obj").read_text())
+    (actor / "mtl" / "face.mtl").write_text("newmtl skin\nKd 0.8 0.6 0.5\n")  # (the actor's own)
+    out = tmp_path / "out"
+    pack(folder, out, "--target", actor / "target.obj", "--no-pictures", "--jmax", "2")
+    assert (out / "mtl" / "face.mtl").read_text() == library
+    assert (out / "mtl" / "maps" / "skin.png").read_bytes() == b"\x89PNG colour"
+    assert (out / "mtl" / "maps" / "skin_n.png").read_bytes() == b"\x89PNG normals"
+    assert (out / "on_target" / "mtl" / "face.mtl").read_text() == "newmtl skin\nKd 0.8 0.6 0.5\n"
+    for place in (out, out / "on_target"):
+        assert lines_of(place / "expression_01.obj", "mtllib") == ["mtllib mtl/face.mtl ../secret.mtl"]
+    assert not list(out.rglob("secret.mtl"))
+    again = tmp_path / "again"  # the template's lines on the target: the template's files beside them
+    pack(folder, again, "--target", tmp_path / "actor.npz", "--no-pictures", "--jmax", "2")
+    assert (again / "on_target" / "mtl" / "maps" / "skin.png").read_bytes() == b"\x89PNG colour"
