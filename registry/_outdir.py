@@ -28,7 +28,7 @@ output of it, `OutputFolder.record` lists a file found whole on resuming.
 
 What a killed command leaves is recognisable as its own, never by its name alone (a user's
 ``.notes.20241204.tmp`` is named just like one): a sibling folder of an unfinished replacement holds the
-`STAGING_MARKER` written first into it, or is a whole earlier output with its manifest (renamed aside); a
+`STAGING_MARKER` folder made first in it, or is a whole earlier output with its manifest (renamed aside); a
 temporary file of an unfinished atomic write (`registry.staged_target`) was written for a file the manifest
 lists, or for the manifest itself. A folder holding only those counts as empty, and a successful `claim`
 removes them. Anything else is the user's: refused, never removed.
@@ -56,8 +56,8 @@ from registry._atomic import atomic_write, staged_target, swap_folder, sync_file
 from registry._errors import HarnessError
 
 MANIFEST_NAME = ".harness-manifest.json"
-#: The file `OutputFolder.replace` writes first into its staging folder, and removes just before the swap:
-#: what tells a killed replacement's folder from a user's folder of the same name.
+#: The empty folder `OutputFolder.replace` makes first in its staging folder, and removes just before the
+#: swap: what tells a killed replacement's folder from a user's folder of the same name.
 STAGING_MARKER = ".harness-staging"
 MANIFEST_FORMAT = "harness-output-folder"
 MANIFEST_VERSION = 1
@@ -147,7 +147,7 @@ class OutputFolder:
         except OSError as error:
             raise _write_error(self.path, error) from None
         try:
-            (staging / STAGING_MARKER).write_bytes(b"")
+            (staging / STAGING_MARKER).mkdir()
             os.chmod(staging, self.path.stat().st_mode & 0o7777)  # (the folder's own, not a private one)
             with ThreadPoolExecutor(FLUSHING) as flushing:
                 flushed = self._fill(staging, pairs, flushing)
@@ -161,7 +161,7 @@ class OutputFolder:
                 _flushed(atomic_write(staging / MANIFEST_NAME, _manifest_text(files), sync=False))
             except OSError as error:
                 raise _write_error(self.path / MANIFEST_NAME, error) from None
-            (staging / STAGING_MARKER).unlink()  # (from here a whole output: its manifest tells it)
+            (staging / STAGING_MARKER).rmdir()  # (from here a whole output: its manifest tells it)
             sync_folders([*(staging / name for name in names), staging / MANIFEST_NAME])
             self._check_unchanged()
             try:
@@ -465,7 +465,8 @@ def _abandoned_replacement(sibling: Path) -> bool:
     holds)."""
     if not sibling.is_dir() or sibling.is_symlink():
         return False
-    if _regular(sibling / STAGING_MARKER):
+    marker = sibling / STAGING_MARKER
+    if marker.is_dir() and not marker.is_symlink():
         return True
     files, problem = _read_manifest(sibling / MANIFEST_NAME)
     return bool(files) and not problem and not _foreign(sibling, files, None)

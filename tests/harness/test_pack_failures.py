@@ -163,8 +163,8 @@ def _alive(pid: int) -> bool:
 
 def test_ctrl_c_during_a_minimum_solve_stops_its_worker_and_leaves_the_folder_as_it_was(tmp_path):
     out, mark = tmp_path / "out", tmp_path / "mark"
-    arguments = ["pack", "tiny", "--solver", "greedy", "--no-pictures", "--out", str(out)]
-    assert invoke(*arguments).exit_code == 0
+    arguments = ["pack", "tiny", "--no-pictures", "--out", str(out)]
+    assert invoke(*arguments, "--solver", "greedy").exit_code == 0
     before = {path: path.read_bytes() for path in out.rglob("*") if path.is_file()}
     process = subprocess.Popen(
         [sys.executable, "-c", STALLING_MINIMUM, *arguments, "--minimum", "--force"],

@@ -151,7 +151,7 @@ def test_what_a_killed_pack_left_is_removed_by_the_next_one_and_the_users_look_a
     out = tmp_path / "session"
     staging = tmp_path / ".session.abcd_123.tmp"
     (staging / "pictures").mkdir(parents=True)
-    (staging / STAGING_MARKER).write_bytes(b"")
+    (staging / STAGING_MARKER).mkdir()
     (staging / "pictures" / "expression_01_front.png").write_bytes(b"half a file")
     aside = tmp_path / ".session.zz_aside.tmp"
     claim(aside, kind="pack", force=False).replace({"expression_01.obj": "v 0 0 0\n"})
