@@ -21,6 +21,8 @@ NONE_WORDS = ("none", "off", "no")
 SEED_MAX = 2**31 - 1
 #: Most seeds a `SeedList` expands to (each one a grid axis value: thousands of runs already).
 SEEDS_MAX = 10_000
+#: Largest seed of a generated rig or actor: the records keep seeds as 64-bit integers.
+RIG_SEED_MAX = 2**63 - 1
 
 #: A command's callback, as click's option decorators take and return it.
 Command = TypeVar("Command", bound=Callable[..., object])
@@ -116,6 +118,8 @@ class SeedList(click.ParamType):
                 self.fail(f"{part!r} is not a seed or a range of seeds like 0-4 (in {value!r})", param, ctx)
             if high < low:
                 self.fail(f"{part!r}: a range goes up (in {value!r})", param, ctx)
+            if high > RIG_SEED_MAX:
+                self.fail(f"{part!r}: seeds go up to 2**63 - 1 = {RIG_SEED_MAX} (in {value!r})", param, ctx)
             if high - low + len(seeds) >= SEEDS_MAX:
                 self.fail(f"{value!r} makes more than {SEEDS_MAX} seeds", param, ctx)
             seeds += range(low, high + 1)
