@@ -19,8 +19,10 @@ Two rules, checked on every instance among the ``ok`` cells:
   never reported by the solver) differ only by float64 summation, about 1e-15 relative for a few hundred
   weights in [0, 1]. Packings that matter differ by at least the tie-break's smallest step,
   ``1e-5 / (4 (I + 1))`` (1.2e-9 at I = 2000 items). 1e-9 relative to ``max(1, |objective|)`` lies between
-  the two. When claims disagree, which solver is wrong is not always known: the claims that differ from the
-  majority are marked, or every claim when no value has a strict majority.
+  the two. A claim below another solver's packing (checked valid) is refuted by it, whatever the others
+  claim: it is marked, and takes no part in the vote (one plugin claiming a low optimum cannot take the
+  reference solver down with it). When the claims left disagree, which solver is wrong is not known: the
+  claims that differ from the majority are marked, or every claim when no value has a strict majority.
 - **No packing beats a proved bound.** A bound recorded with ``optimal`` or ``time_limit`` is a claim of
   proof; every other solver's packing of that instance was checked valid by the harness, so an objective
   above the bound refutes the bound, and the cell that claimed it is marked. The bound of an ``optimal``
@@ -121,8 +123,19 @@ def _where(key: Instance, row: pd.Series) -> str:
 
 
 def _disagreeing_optima(key: Instance, rows: pd.DataFrame, found: dict[str, list[str]]) -> None:
-    """Mark optimal claims outside the strict majority of agreeing values (all of them without one)."""
+    """Mark optimal claims that a packing refutes, then, among the others, those outside the strict majority
+    of agreeing values (all of them without one)."""
     claims = rows[rows["termination"] == "optimal"]
+    best = rows.loc[rows["objective"].idxmax()] if rows["objective"].notna().any() else None
+    if best is not None:
+        slack = TIE_BREAK_SCALE * claims["n_chosen"] + TOLERANCE * claims["objective"].abs().clip(lower=1.0)
+        refuted = claims["objective"] + slack < best["objective"]
+        for row in claims[refuted].itertuples():
+            found[row.cell].append(
+                f"{_where(key, rows.loc[row.Index])}: {row.solver} claims the optimum {row.objective:.12g}, "
+                f"{best['solver']}'s packing reaches {best['objective']:.12g}"
+            )
+        claims = claims[~refuted]
     values: list[float] = []  # one representative per cluster of agreeing objectives
     cluster = []
     for objective in claims["objective"]:
@@ -146,8 +159,10 @@ def _disagreeing_optima(key: Instance, rows: pd.DataFrame, found: dict[str, list
 
 
 def _refuted_bounds(key: Instance, rows: pd.DataFrame, found: dict[str, list[str]]) -> None:
-    """Mark the cell whose proved bound another solver's (valid) packing exceeds."""
+    """Mark the cell whose proved bound another solver's (valid) packing exceeds (an optimal claim's bound
+    only when it is above its objective: the objective is `_disagreeing_optima`'s)."""
     proving = rows[rows["termination"].isin(_PROVING) & rows["bound"].notna()]
+    proving = proving[(proving["termination"] != "optimal") | (proving["bound"] > proving["objective"])]
     for claim in proving.itertuples():
         slack = TIE_BREAK_SCALE * claim.n_chosen if claim.termination == "optimal" else 0.0
         above = rows[rows["objective"] > claim.bound + slack + TOLERANCE * max(1.0, abs(claim.bound))]

@@ -63,13 +63,28 @@ def test_the_minority_optimal_claim_is_marked_and_without_majority_every_claim()
     found = violations(two_to_one)
     assert set(found) == {"c"}
     assert "liar claims the optimum 0.9999" in found["c"][0] and "expression 1" in found["c"][0]
-    one_to_one = pd.DataFrame(
-        _rows("a", "x", [(["s1"], 1.0, "optimal", None)])
-        + _rows("c", "y", [(["s2"], 0.9999, "optimal", None)])
+    one_to_one = pd.DataFrame(  # (within the tie-break of 100 shapes: neither packing refutes the other)
+        _rows("a", "x", [([f"s{i}" for i in range(100)], 1.0, "optimal", None)])
+        + _rows("c", "y", [([f"t{i}" for i in range(100)], 1.0 - 1e-7, "optimal", None)])
     )
     found = violations(one_to_one)
     assert set(found) == {"a", "c"}
     assert "no majority" in found["a"][0]
+
+
+@pytest.mark.parametrize("bound", [None, "own"])
+def test_a_claim_below_another_packing_is_refuted_and_takes_the_honest_claim_down_with_it_no_more(bound):
+    """One plugin claiming a low optimum beside the one reference solver is no tie: the reference's
+    packing (and greedy's) refute it, so the reference stays ``ok``."""
+    liar = 1.68482262651
+    records = pd.DataFrame(
+        _rows("a", "cpsat", [(["s1", "s2"], 2.39372716262, "optimal", 2.39372716262)])
+        + _rows("b", "greedy", [(["s1"], 2.055, "completed", None)])
+        + _rows("c", "liar", [(["s3"], liar, "optimal", liar if bound else None)])
+    )
+    found = violations(records)
+    assert set(found) == {"c"}
+    assert "liar" in found["c"][0] and "packing reaches 2.39372716262" in found["c"][0]
 
 
 def test_a_packing_above_a_proved_bound_marks_the_bound():
@@ -94,7 +109,7 @@ def test_a_solver_allowed_to_overlap_solves_other_instances():
     )
     assert violations(records) == {}
     wrong = pd.DataFrame(_rows("d", "other-exact", [(["s2"], 0.7, "optimal", 0.7)]))
-    assert set(violations(pd.concat([records, wrong], ignore_index=True))) == {"a", "d"}  # no majority
+    assert set(violations(pd.concat([records, wrong], ignore_index=True))) == {"d"}  # (a's packing refutes d)
 
 
 @pytest.fixture
@@ -122,9 +137,11 @@ def test_a_run_marks_the_optimal_liar_and_keeps_the_honest_exact_solvers(liar_pl
     message = cells.loc["liar-optimal", "message"]
     assert "rig arkit52" in message and "expression 1" in message
     assert "liar-optimal claims the optimum" in message and (
-        "highs claims" in message or "cpsat claims" in message
+        "highs's packing reaches" in message or "cpsat's packing reaches" in message
     )
     assert list(cells.loc[["highs", "cpsat"], "status"]) == ["ok", "ok"]
+    alone = _run(tmp_path / "alone", "cpsat,liar-optimal")  # one honest exact solver: no tie either
+    assert alone.loc["liar-optimal", "status"] == INCONSISTENT and alone.loc["cpsat", "status"] == "ok"
     records = read_records(tmp_path / "run")
     liar = cells.loc["liar-optimal", "cell"]
     assert (records["cell"] == liar).sum() == 1  # like an invalid cell: its cell row alone
