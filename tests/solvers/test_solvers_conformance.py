@@ -162,6 +162,34 @@ def test_a_plugin_that_raises_is_an_error_solution_naming_it():
     assert "do-nothing: RuntimeError: backend crashed" in solution.message
 
 
+@pytest.mark.parametrize("honours_limits", [True, False])
+def test_a_search_well_past_its_time_limit_is_said_in_the_answer(monkeypatch, honours_limits):
+    """A plugin that declares it honours time limits and searches past one keeps its answer, with the
+    overrun said; one that never claimed to is not judged by the limit (the cell's timeout stops it)."""
+    import solvers._loaded as loaded_module
+
+    clock = iter([0.0, 2.5])
+    monkeypatch.setattr(loaded_module.time, "perf_counter", lambda: next(clock))
+
+    class Overrunning(DoNothing):
+        name = "overrunning"
+        capabilities = Capabilities(exact=False, time_limit=honours_limits)
+
+        def solve(self, problem, *, time_limit=None, seed=0):
+            return Result((), Termination.COMPLETED)
+
+    solution = solvers.load(Overrunning).solve(solvers.testing.random_problem(5, 10, seed=1), time_limit=1.0)
+    said = "overran its time limit: searched 2.5 s, limit 1 s"
+    assert (said in solution.message) == honours_limits and solution.termination is Termination.COMPLETED
+    clock = iter([0.0, 1.7])  # (within the allowed overshoot: 1.25 + 0.5 s)
+    assert (
+        "overran"
+        not in solvers.load(Overrunning)
+        .solve(solvers.testing.random_problem(5, 10, seed=1), time_limit=1.0)
+        .message
+    )
+
+
 def test_an_exact_plugin_answering_items_outside_its_model_is_an_error():
     class Wrapping(solvers.ExactSolver):
         name = "wrapping"
