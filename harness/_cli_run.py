@@ -369,9 +369,7 @@ def run(
             constraint_origins=constraint_origins,
         )
     except KeyboardInterrupt:
-        terminal(stderr=True).print(
-            f"[yellow]interrupted[/]: finished cells are recorded; resume with harness run --resume {target}"
-        )
+        terminal(stderr=True).print(f"[yellow]interrupted[/]: {_where_interrupted(target)}")
         sys.exit(128 + (stop_signal() or signal.SIGINT))
     except RecordsWriteError as error:
         fix = "free space" if error.errno == errno.ENOSPC else "fix that"
@@ -393,3 +391,17 @@ def run(
             f"(first: {escape(reason)}); run them with: harness run --resume {escape(str(target))}"
         )
         sys.exit(EXIT_INCOMPLETE)
+
+
+def _where_interrupted(target: Path) -> str:
+    """What a stopped run left, as ``run.json`` says: nothing yet, a run to resume, or a finished one (the
+    stop came as its workers closed)."""
+    try:
+        state = read_run(target)["state"] if (target / RUN_FILE).is_file() else None
+    except (HarnessError, OSError, KeyError, TypeError):
+        state = "unreadable"
+    if state is None:
+        return "no cell was recorded"
+    if state in ("complete", "incomplete"):
+        return f"as its workers closed; the run is {state} ({target})"
+    return f"finished cells are recorded; resume with harness run --resume {target}"

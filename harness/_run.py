@@ -74,7 +74,7 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
-from registry import HarnessError, OutputFolder, OutputFolderError, check_apart
+from registry import HarnessError, OutputFolder, OutputFolderError, check_apart, stop_signals_deferred
 
 if TYPE_CHECKING:
     from rigs import RigInputs
@@ -464,6 +464,7 @@ def _run_locked(
         out, total=len(cells), already_done=len(cells) - len(pending), set_aside=set_aside_parts
     )
     info: dict[str, Any] = {}
+    state, failure = "interrupted", None  # (what the run is, once it ends however it ends)
     try:
         if previous is None:
             remove_previous(folder)
@@ -499,16 +500,20 @@ def _run_locked(
                     _record(out, folder, spec, outcome, summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         summary.seconds = time.perf_counter() - clock
+        state, failure = ("incomplete" if summary.lost else "complete"), None
     except KeyboardInterrupt:
-        _mark(out, folder, info, "interrupted")
+        state, failure = "interrupted", None
         raise
     except BaseException as error:
-        _mark(out, folder, info, "failed", error=str(error))
+        state, failure = "failed", str(error)
         raise
     finally:
-        _close_quietly(executor)
-        reporter.end()
-    _mark(out, folder, info, "incomplete" if summary.lost else "complete")
+        try:
+            _close_quietly(executor)
+            reporter.end()
+        finally:  # (a stop that comes while the workers close cannot keep run.json "running")
+            with stop_signals_deferred():
+                _mark(out, folder, info, state, error=failure)
     return summary
 
 

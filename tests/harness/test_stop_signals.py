@@ -324,3 +324,30 @@ def test_a_full_disk_anywhere_is_one_line_not_a_fault(monkeypatch) -> None:
     monkeypatch.setattr(harness, "expand_names", full)
     result = invoke("pack", "tiny", "--out", "unused")
     assert_one_line_error(result, "No space left on device", "/somewhere/file")
+
+
+@pytest.mark.parametrize(("stopped_in", "state"), [("map", "interrupted"), ("close", "complete")])
+def test_a_stop_while_the_workers_close_leaves_run_json_true(rig_file, tmp_path, stopped_in, state) -> None:
+    """A Ctrl-C among the cells marks the run interrupted; one that comes as the workers close, every cell
+    recorded, leaves it complete: never "running" after the process is gone."""
+    from harness._grid import RunConfig
+    from tests.harness.conftest import InlineExecutor
+
+    class Stopping(InlineExecutor):
+        def map(self, cells):
+            for index, outcome in enumerate(super().map(cells)):
+                if stopped_in == "map" and index == 1:
+                    raise KeyboardInterrupt
+                yield outcome
+
+        def close(self):
+            if stopped_in == "close":
+                raise KeyboardInterrupt
+
+    config = RunConfig(rigs=(str(rig_file),), warps=("none",), solvers=("greedy", "cpsat"), transfers=())
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        harness.run_grid(config, out, make_executor=lambda timeout: Stopping())
+    assert harness.read_run(out)["state"] == state
+    recorded = harness.read_records(out).query("kind == 'cell'")
+    assert len(recorded) == (1 if stopped_in == "map" else 2)
