@@ -54,6 +54,9 @@ def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
     counts = ", ".join(
         f"{count} {status}" for status, count in cells["status"].value_counts().sort_index().items()
     )
+    missing = int(run.get("n_cells") or 0) - len(cells)
+    if missing > 0:  # (an interrupted or incomplete run: its grid's other cells were never recorded)
+        counts = f"{counts or 'none'}; {missing} of the grid's {run['n_cells']} not run (resume the run)"
     git = run.get("git") or {}
     machine = run.get("machine") or {}
     solvers = (run.get("versions") or {}).get("solvers") or {}

@@ -221,3 +221,13 @@ def test_the_agreement_of_solvers_is_counted_from_the_records(make_run, expected
     assert ordered[0].astype(str).equals(ordered[1].astype(str))
     _, text = build_report(run)
     assert "## Agreement of chosen shapes" in text.read_text()
+
+
+def test_an_interrupted_run_says_how_many_of_its_cells_never_ran(make_run):
+    run = make_run("run")
+    info = json.loads((run / "run.json").read_text())
+    recorded = len(harness.read_records(run).query("kind == 'cell'"))
+    info.update(state="interrupted", n_cells=recorded + 3)
+    (run / "run.json").write_text(json.dumps(info))
+    _, text = build_report(run)
+    assert f"; 3 of the grid's {recorded + 3} not run (resume the run)" in text.read_text()
