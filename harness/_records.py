@@ -163,7 +163,16 @@ import pyarrow.parquet as pq
 
 from harness._cell import ColumnType, RecordValue, expression_columns
 from packing import Expression
-from registry import HarnessError, OutputFolder, OutputFolderError, atomic_write, claim, move_apart, reopen
+from registry import (
+    HarnessError,
+    OutputFolder,
+    OutputFolderError,
+    atomic_write,
+    claim,
+    move_apart,
+    reopen,
+    staged_target,
+)
 
 if TYPE_CHECKING:
     import numpy as np
@@ -331,8 +340,6 @@ RUN_KIND = "run"
 #: Where `check_parts` moves part files that do not read back whole.
 BROKEN_DIR = "broken-parts"
 _PART_NAME = re.compile(r"[0-9a-f]{16}\.parquet")
-#: Temporary files of `registry.atomic_write`: ``.<name>.<random>.tmp``.
-_TEMP_NAME = re.compile(r"\.(?P<name>.+)\.[^.]+\.tmp")
 _CELL_KEY, _ROWS_KEY = b"harness.cell", b"harness.rows"
 
 
@@ -504,8 +511,8 @@ def remove_partial_files(out: Path, names: Iterable[str] = ()) -> list[Path]:
         if not folder.is_dir():
             continue
         for path in sorted(folder.iterdir()):
-            match = _TEMP_NAME.fullmatch(path.name)
-            if match and ours(match["name"]) and path.is_file() and not path.is_symlink():
+            target = staged_target(path.name)  # (`registry.atomic_write`'s temporary files only)
+            if target is not None and ours(target) and path.is_file() and not path.is_symlink():
                 path.unlink(missing_ok=True)
                 stale.append(path)
     return stale

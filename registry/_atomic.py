@@ -31,9 +31,11 @@ def _current_umask() -> int:
     return mask
 
 
-#: The name a temporary file gets: ``.<name>.<8 random characters>.tmp`` for the file ``<name>`` (the
-#: random part is ``tempfile.mkstemp``'s: lowercase letters, digits and ``_``).
-STAGED_NAME = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}\.tmp")
+#: The name a temporary file or folder gets: ``.<name>.harness-<8 random characters>.tmp`` for the file or
+#: folder ``<name>`` (the random part is ``tempfile``'s: lowercase letters, digits and ``_``). The word
+#: ``harness`` tells it from a user's ``.notes.20241204.tmp``: only what bears it is ever removed as left
+#: by a killed writer.
+STAGED_NAME = re.compile(r"\.(?P<target>.+)\.harness-[a-z0-9_]{8}\.tmp")
 
 #: Permissions of new files (a temporary file is created private): what ``open()`` would give.
 NEW_FILE_MODE = 0o666 & ~_current_umask()
@@ -68,7 +70,7 @@ def atomic_write(
     """
     path = Path(path)
     mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
-    descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    descriptor, name = tempfile.mkstemp(prefix=staged_prefix(path.name), suffix=".tmp", dir=path.parent)
     try:
         with open(descriptor, "wb") as handle:
             os.fchmod(descriptor, mode)
@@ -103,7 +105,7 @@ def atomic_path(path: str | os.PathLike, *, sync: bool = True) -> Iterator[Path]
     """
     path = Path(path)
     mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
-    descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    descriptor, name = tempfile.mkstemp(prefix=staged_prefix(path.name), suffix=".tmp", dir=path.parent)
     temporary = Path(name)
     try:
         os.close(descriptor)
@@ -170,7 +172,9 @@ def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> Path | Non
         except OSError as error:
             if error.errno not in (errno.ENOTEMPTY, errno.EEXIST):
                 raise
-            aside = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+            aside = Path(
+                tempfile.mkdtemp(prefix=staged_prefix(target.name), suffix=".tmp", dir=target.parent)
+            )
             try:
                 os.rename(target, aside)
             except BaseException:
@@ -183,6 +187,11 @@ def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> Path | Non
                 raise
     _sync_folder(target.parent)
     return aside
+
+
+def staged_prefix(name: str) -> str:
+    """The start of the name of a temporary file or folder for ``name`` (`STAGED_NAME`), for ``tempfile``."""
+    return f".{name}.harness-"
 
 
 def staged_target(name: str) -> str | None:

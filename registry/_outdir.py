@@ -18,20 +18,19 @@ folder for a command of one kind:
   refused, so that writing the output can never touch the input (`check_apart`).
 
 A command that writes its output as a whole (`OutputFolder.replace`: ``harness pack``'s session folder,
-``harness instances``, a run's report) writes it into a fresh hidden sibling folder, ``.<name>.<random>.tmp``,
-and renames that into place once every file and the manifest are on disk; an earlier output is renamed aside
-first and removed once the new one is in place. Until then the folder is as it was, whatever stops the
-command (a full disk, Ctrl-C, a kill). A command that adds its files one by one to the folder itself
-(``harness run``, so that ``--resume`` can finish an interrupted run) lists each in ``files`` and saves the
-manifest (`OutputFolder.save`) before it writes the file atomically; `OutputFolder.clear` removes an earlier
-output of it, `OutputFolder.record` lists a file found whole on resuming.
+``harness instances``, a run's report) writes it into a fresh hidden sibling folder,
+``.<name>.harness-<random>.tmp``, and renames that into place once every file and the manifest are on disk;
+an earlier output is renamed aside first and removed once the new one is in place. Until then the folder is
+as it was, whatever stops the command (a full disk, Ctrl-C, a kill). A command that adds its files one by one
+to the folder itself (``harness run``, so that ``--resume`` can finish an interrupted run) lists each in
+``files`` and saves the manifest (`OutputFolder.save`) before it writes the file atomically;
+`OutputFolder.clear` removes an earlier output of it, `OutputFolder.record` lists a file found whole on
+resuming.
 
-What a killed command leaves is recognisable as its own, never by its name alone (a user's
-``.notes.20241204.tmp`` is named just like one): a sibling folder of an unfinished replacement holds the
-`STAGING_MARKER` folder made first in it, or is a whole earlier output with its manifest (renamed aside); a
-temporary file of an unfinished atomic write (`registry.staged_target`) was written for a file the manifest
-lists, or for the manifest itself. A folder holding only those counts as empty, and a successful `claim`
-removes them. Anything else is the user's: refused, never removed.
+What a killed command leaves is recognisable by its name (`registry.staged_target`: the word ``harness`` in
+it tells it from a user's ``.notes.20241204.tmp``): the sibling folders of an unfinished replacement and the
+temporary files of unfinished atomic writes. A folder holding only those counts as empty, and a successful
+`claim` removes them.
 
 One process writes a folder at a time: a claim with ``lock`` holds an exclusive ``flock`` on the folder
 itself until `OutputFolder.close` (or the process ends, however it ends), taken before the folder is read, so
@@ -52,13 +51,17 @@ from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 
-from registry._atomic import atomic_write, staged_target, swap_folder, sync_file, sync_folders
+from registry._atomic import (
+    atomic_write,
+    staged_prefix,
+    staged_target,
+    swap_folder,
+    sync_file,
+    sync_folders,
+)
 from registry._errors import HarnessError
 
 MANIFEST_NAME = ".harness-manifest.json"
-#: The empty folder `OutputFolder.replace` makes first in its staging folder, and removes just before the
-#: swap: what tells a killed replacement's folder from a user's folder of the same name.
-STAGING_MARKER = ".harness-staging"
 MANIFEST_FORMAT = "harness-output-folder"
 MANIFEST_VERSION = 1
 #: Files flushed to disk at once, beside the making of the next file (`OutputFolder.replace`).
@@ -143,11 +146,10 @@ class OutputFolder:
         pairs = contents.items() if isinstance(contents, Mapping) else contents
         parent = self.path.parent
         try:
-            staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=parent))
+            staging = Path(tempfile.mkdtemp(prefix=staged_prefix(self.path.name), suffix=".tmp", dir=parent))
         except OSError as error:
             raise _write_error(self.path, error) from None
         try:
-            (staging / STAGING_MARKER).mkdir()
             os.chmod(staging, self.path.stat().st_mode & 0o7777)  # (the folder's own, not a private one)
             with ThreadPoolExecutor(FLUSHING) as flushing:
                 flushed = self._fill(staging, pairs, flushing)
@@ -161,7 +163,6 @@ class OutputFolder:
                 _flushed(atomic_write(staging / MANIFEST_NAME, _manifest_text(files), sync=False))
             except OSError as error:
                 raise _write_error(self.path / MANIFEST_NAME, error) from None
-            (staging / STAGING_MARKER).rmdir()  # (from here a whole output: its manifest tells it)
             sync_folders([*(staging / name for name in names), staging / MANIFEST_NAME])
             self._check_unchanged()
             try:
@@ -381,6 +382,7 @@ def _foreign(folder: Path, files: Mapping[str, Mapping[str, str]], kind: str | N
     anything else. The manifest and the leftovers of killed commands are no such thing, and a subfolder
     with a manifest of its own (a run's report) is judged by that manifest."""
     found = []
+    places = _leftover_places(folder, files)
     for root, folders, names in os.walk(folder):
         place = Path(root)
         relative = place.relative_to(folder).as_posix()
@@ -400,7 +402,7 @@ def _foreign(folder: Path, files: Mapping[str, Mapping[str, str]], kind: str | N
                 found += [f"{prefix}{name}/{entry}" for entry in inside] if not problem else inside
         for name in names:
             path = place / name
-            if prefix + name == MANIFEST_NAME or _leftover(folder, prefix + name, files):
+            if prefix + name == MANIFEST_NAME or _leftover(path, places):
                 continue
             entry = files.get(prefix + name)
             if entry is None or kind not in (None, entry["kind"]) or not _regular(path):
@@ -446,45 +448,48 @@ def _lock(folder: Path) -> int:
     return descriptor
 
 
-def _leftover(folder: Path, name: str, files: Mapping[str, object]) -> bool:
-    """Whether ``folder/name`` is a temporary file a killed writer left: a regular file named as staged
-    for a file the manifest lists (``files``) in the same folder, or for the manifest itself. Any other
-    look-alike is the user's."""
-    path = folder / name
-    target = staged_target(path.name)
-    if target is None or not _regular(path):
-        return False
-    written_for = PurePosixPath(name).with_name(target).as_posix()
-    return written_for in files or written_for == MANIFEST_NAME
+def _leftover_places(folder: Path, files: Iterable[str]) -> set[Path] | None:
+    """The folders where a file named as staged is a leftover of a killed writer: ``folder`` and the
+    folders of its listed ``files``; None (everywhere) when nothing is listed and ``folder`` holds nothing
+    but such files. Elsewhere a look-alike is the user's."""
+    files = list(files)
+    if not files and _only_leftovers(folder):
+        return None
+    return {folder, *((folder / name).parent for name in files)}
 
 
-def _abandoned_replacement(sibling: Path) -> bool:
-    """Whether ``sibling``, a folder named as staged for an output folder, is what a killed
-    `OutputFolder.replace` left: its staging folder (holding `STAGING_MARKER`), or a whole output, the
-    earlier one renamed aside or the new one not yet renamed into place (its own manifest lists all it
-    holds)."""
-    if not sibling.is_dir() or sibling.is_symlink():
-        return False
-    marker = sibling / STAGING_MARKER
-    if marker.is_dir() and not marker.is_symlink():
-        return True
-    files, problem = _read_manifest(sibling / MANIFEST_NAME)
-    return bool(files) and not problem and not _foreign(sibling, files, None)
+def _leftover(path: Path, places: set[Path] | None) -> bool:
+    """Whether ``path`` is a temporary file a killed writer left (a regular file named as staged, in one
+    of the ``places``)."""
+    return (
+        staged_target(path.name) is not None and _regular(path) and (places is None or path.parent in places)
+    )
 
 
-def _remove_leftovers(folder: Path, files: Mapping[str, object]) -> None:
-    """Remove what killed commands left (the module docstring says how it is told from the user's
-    files): abandoned replacements of ``folder`` beside it, temporary files of atomic writes in it, and
-    the folders that leaves empty."""
+def _only_leftovers(folder: Path) -> bool:
+    """Whether ``folder`` holds nothing but files named as staged and folders holding only those."""
+    for path in folder.iterdir():
+        if path.is_dir() and not path.is_symlink():
+            if not _only_leftovers(path):
+                return False
+        elif not _leftover(path, None):
+            return False
+    return True
+
+
+def _remove_leftovers(folder: Path, files: Iterable[str]) -> None:
+    """Remove what killed commands left: unfinished replacements of ``folder`` beside it (hidden sibling
+    folders named for it), temporary files of atomic writes in it (`_leftover_places`), and the folders
+    that leaves empty."""
     with contextlib.suppress(OSError):
         for sibling in folder.parent.iterdir():
-            if staged_target(sibling.name) == folder.name and _abandoned_replacement(sibling):
+            if staged_target(sibling.name) == folder.name and sibling.is_dir() and not sibling.is_symlink():
                 shutil.rmtree(sibling, ignore_errors=True)
+    places = _leftover_places(folder, files)
     emptied = set()
     for root, _, names in os.walk(folder):
-        prefix = Path(root).relative_to(folder).as_posix()
         for name in names:
-            if _leftover(folder, name if prefix == "." else f"{prefix}/{name}", files):
+            if _leftover(Path(root) / name, places):
                 (Path(root) / name).unlink(missing_ok=True)
                 emptied.add(Path(root))
     for place in sorted(emptied - {folder}, key=lambda path: -len(path.parts)):

@@ -109,9 +109,13 @@ def test_full_disk_leaves_no_part_file_behind(tmp_path, monkeypatch) -> None:
 
 def test_temporary_files_are_invisible_and_removed_on_resume(tmp_path) -> None:
     _records.write_part(tmp_path, "a" * 16, _cell_rows("a" * 16))
-    stale = tmp_path / "records" / f".{'b' * 16}.parquet.x1y2z3.tmp"
+    stale = tmp_path / "records" / f".{'b' * 16}.parquet.harness-x1y2z3_4.tmp"
     stale.write_bytes(b"PAR1 torn")
-    users = [tmp_path / "records" / ".mine.txt.abc.tmp", tmp_path / "records" / "notes.parquet"]
+    users = [
+        tmp_path / "records" / ".mine.txt.abc.tmp",
+        tmp_path / "records" / f".{'c' * 16}.parquet.20241204.tmp",  # (a user's dated copy of a part)
+        tmp_path / "records" / "notes.parquet",
+    ]
     for path in users:
         path.write_bytes(b"the user's")
     assert _records.check_parts(tmp_path) == ({"a" * 16}, {})

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -21,7 +22,7 @@ import rigs
 import solvers
 from harness.cli import main
 from registry import OutputFolderError, claim, handle_stop_signals, stop_signal, stop_signals_deferred
-from registry._outdir import MANIFEST_NAME, STAGING_MARKER
+from registry._outdir import MANIFEST_NAME
 from solvers._minimum import colour_cpsat
 from solvers.cpsat import CpSatSolver, interruptible
 from solvers.greedy import GreedySolver
@@ -146,24 +147,28 @@ def test_a_pack_stopped_after_cp_sat_leaves_the_folder_as_it_was_and_runs_again(
 
 
 def test_what_a_killed_pack_left_is_removed_by_the_next_one_and_the_users_look_alikes_stay(tmp_path) -> None:
-    """A killed pack leaves its staging folder (marked) or a whole output renamed aside (its manifest lists
-    all it holds); a user's folder or file with a name of the same shape is neither, and stays."""
+    """What harness writes on the way bears ``harness`` in its name; a user's dated backup beside the
+    session (a whole copy, manifest and all) or inside it is named otherwise, and stays."""
     out = tmp_path / "session"
-    staging = tmp_path / ".session.abcd_123.tmp"
+    (out / "pictures").mkdir(parents=True)
+    staging = tmp_path / ".session.harness-abcd_123.tmp"
     (staging / "pictures").mkdir(parents=True)
-    (staging / STAGING_MARKER).mkdir()
-    (staging / "pictures" / "expression_01_front.png").write_bytes(b"half a file")
-    aside = tmp_path / ".session.zz_aside.tmp"
-    claim(aside, kind="pack", force=False).replace({"expression_01.obj": "v 0 0 0\n"})
-    users = tmp_path / ".session.20241204.tmp"  # a dated backup, named like a staging folder
-    users.mkdir()
-    (users / "important.txt").write_text("the user's")
-    (users / MANIFEST_NAME).write_text("{}")
+    leftovers = [
+        out / ".expression_01.obj.harness-k2x_9abc.tmp",
+        out / "pictures" / ".expression_01_front.png.harness-a1b2c3d4.tmp",
+        staging / "pictures" / "expression_01_front.png",
+    ]
+    for path in leftovers:
+        path.write_bytes(b"half a file")
+    earlier = tmp_path / "earlier"
+    claim(earlier, kind="pack", force=False).replace({"expressions.json": "{}\n"})
+    backup = tmp_path / ".session.20241204.tmp"  # (cp -a of an earlier session: its manifest holds)
+    shutil.copytree(earlier, backup)
     result = invoke("pack", "tiny", "--solver", "greedy", "--no-pictures", "--out", out)
     assert result.exit_code == 0, result.output
-    assert not staging.exists() and not aside.exists()
-    assert (users / "important.txt").read_text() == "the user's"
-    assert not list(out.rglob("*.tmp"))
+    assert not any(path.exists() for path in leftovers) and not (out / "pictures").exists()
+    assert not list(out.rglob("*.tmp")) and not staging.exists()
+    assert (backup / "expressions.json").read_text() == "{}\n" and (backup / MANIFEST_NAME).is_file()
 
 
 def test_leftovers_of_a_replaced_session_go_with_force_and_the_users_look_alikes_stay(tmp_path) -> None:
@@ -171,23 +176,22 @@ def test_leftovers_of_a_replaced_session_go_with_force_and_the_users_look_alikes
     first = claim(out, kind="pack", force=False)
     first.replace({"expression_01.obj": "v 0 0 0\n", "pictures/front.png": b"png"})
     staged = [
-        out / ".expression_01.obj.abcdefgh.tmp",
-        out / "pictures" / ".front.png.zz_00000.tmp",
-        out / f".{MANIFEST_NAME}.k2x_9abc.tmp",
+        out / ".expression_02.obj.harness-abcdefgh.tmp",
+        out / "pictures" / ".front.png.harness-zz_00000.tmp",
     ]
     users = [
         out / "notes.tmp",
         out / ".notes.txt.tmp",  # no random part
-        out / ".notes.txt.ABCDEFGH.tmp",  # not the random part tempfile makes
-        out / ".expression_02.obj.abcdefgh.tmp",  # for a file harness did not write here
-        out / "drafts" / ".take.obj.abcdefgh.tmp",  # in a folder harness writes nothing into
+        out / ".expression_01.obj.20241204.tmp",  # a dated copy of a file harness wrote
+        out / ".notes.txt.harness-ABCDEFGH.tmp",  # not the random part tempfile makes
+        out / "drafts" / ".take.obj.harness-abcdefgh.tmp",  # in a folder harness writes nothing into
     ]
     for path in [*staged, *users]:
         path.parent.mkdir(exist_ok=True)
         path.write_text("x")
-    link = out / ".expression_01.obj.linkedxx.tmp"
+    link = out / ".expression_03.obj.harness-linkedxx.tmp"
     link.symlink_to(users[0])
-    with pytest.raises(OutputFolderError, match=r"\(\.expression_01\.obj\.linkedxx\.tmp, \.expression_02"):
+    with pytest.raises(OutputFolderError, match=r"\(\.expression_01\.obj\.20241204\.tmp, \.expression_03"):
         claim(out, kind="pack", force=True)  # the look-alikes are the user's: nothing is removed
     assert all(path.exists() for path in [*staged, *users]) and link.is_symlink()
     for path in [*users, link]:
@@ -198,20 +202,21 @@ def test_leftovers_of_a_replaced_session_go_with_force_and_the_users_look_alikes
     assert sorted(path.name for path in out.iterdir()) == [MANIFEST_NAME, "expression_01.obj", "pictures"]
 
 
-def test_only_a_killed_first_manifest_write_counts_as_empty(tmp_path) -> None:
-    """Without a manifest nothing in a folder was listed by harness: its temporary-looking files are the
-    user's (refused, kept), all but the temporary file of the manifest's own first write."""
+def test_a_folder_of_only_leftovers_is_empty_and_one_with_more_holds_no_harness_output(tmp_path) -> None:
     out = tmp_path / "out"
-    out.mkdir()
-    (out / f".{MANIFEST_NAME}.abcdefgh.tmp").write_text("{")
+    (out / "pictures").mkdir(parents=True)
+    (out / "pictures" / ".a.png.harness-abcdefgh.tmp").write_text("x")
     claim(out, kind="pack", force=False)
     assert list(out.iterdir()) == []
-    (out / "deep").mkdir()
-    notes = [out / ".notes.20241204.tmp", out / "deep" / ".draft.20241205.tmp"]
-    for path in notes:
-        path.write_text("the user's")
+    (out / ".a.obj.harness-abcdefgh.tmp").write_text("x")
+    (out / "take3.obj").write_text("the user's")
     assert_one_line_error(invoke("pack", "tiny", "--out", out), "holds no harness output")
-    assert all(path.read_text() == "the user's" for path in notes)
+    assert (out / ".a.obj.harness-abcdefgh.tmp").exists()
+    only_dated = tmp_path / "dated"
+    only_dated.mkdir()
+    (only_dated / ".notes.20241204.tmp").write_text("the user's")  # (named like a temporary file, once)
+    assert_one_line_error(invoke("pack", "tiny", "--out", only_dated), "holds no harness output")
+    assert (only_dated / ".notes.20241204.tmp").read_text() == "the user's"
 
 
 def test_a_run_stopped_by_sigterm_is_marked_interrupted(grid_arguments, module_plugins, tmp_path) -> None:
