@@ -369,7 +369,8 @@ def run(
             constraint_origins=constraint_origins,
         )
     except KeyboardInterrupt:
-        terminal(stderr=True).print(f"[yellow]interrupted[/]: {_where_interrupted(target)}")
+        left = _where_interrupted(target, resume is not None)
+        terminal(stderr=True).print(f"[yellow]interrupted[/]: {left}")
         sys.exit(128 + (stop_signal() or signal.SIGINT))
     except RecordsWriteError as error:
         fix = "free space" if error.errno == errno.ENOSPC else "fix that"
@@ -393,15 +394,18 @@ def run(
         sys.exit(EXIT_INCOMPLETE)
 
 
-def _where_interrupted(target: Path) -> str:
-    """What a stopped run left, as ``run.json`` says: nothing yet, a run to resume, or a finished one (the
+def _where_interrupted(target: Path, resuming: bool) -> str:
+    """What the stopped run left, as its ``run.json`` says (one this process wrote: an earlier run's,
+    still in the folder, says nothing of this one): nothing yet, cells to resume, or a finished run (the
     stop came as its workers closed)."""
+    resume = f"resume with harness run --resume {target}"
     try:
-        state = read_run(target)["state"] if (target / RUN_FILE).is_file() else None
-    except (HarnessError, OSError, KeyError, TypeError):
-        state = "unreadable"
-    if state is None:
-        return "no cell was recorded"
-    if state in ("complete", "incomplete"):
-        return f"as its workers closed; the run is {state} ({target})"
-    return f"finished cells are recorded; resume with harness run --resume {target}"
+        info = read_run(target) if (target / RUN_FILE).is_file() else {}
+        state = info.get("state") if (info.get("execution") or {}).get("pid") == os.getpid() else None
+    except (HarnessError, OSError, AttributeError):
+        state = None
+    if state == "complete":
+        return f"as its workers closed; the run is complete ({target})"
+    if state is not None:
+        return f"finished cells are recorded; {resume}"
+    return f"before this run recorded anything; {resume}" if resuming else "no cell was recorded"

@@ -191,9 +191,9 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
     if offset:
         warnings.warn(
             f"{label}: {offset} of its {rig.n_vertices} vertices are moved the same way by every one of its "
-            f"{rig.n_shapes} blendshapes (by up to {largest:.3g}, {largest / rig.diagonal():.2%} of the "
-            "neutral's size): the neutral does not line up with the shapes (moved, or saved from another "
-            "pose?), and every blendshape carries that offset",
+            f"{rig.n_shapes} blendshapes (by up to {largest:.3g}{_share_of_size(largest, rig)}): the neutral "
+            "does not line up with the shapes (moved, or saved from another pose?), and every blendshape "
+            "carries that offset",
             RigWarning,
             stacklevel=3,
         )
@@ -243,6 +243,12 @@ def common_offset(deltas: np.ndarray, floor: float) -> tuple[int, float]:
     distance = vector_lengths(np.maximum(low, 0.0) + np.minimum(high, 0.0))  # (origin to the box)
     off = distance > floor
     return int(np.count_nonzero(off)), float(distance.max(initial=0.0))
+
+
+def _share_of_size(length: float, rig: Rig) -> str:
+    """``, 0.50% of the neutral's size`` (nothing for a neutral of no size)."""
+    size = rig.diagonal()
+    return f", {length / size:.2%} of the neutral's size" if size > 0 else ""
 
 
 #: Every this many vertices, one is compared first when looking for identical shapes.

@@ -97,14 +97,13 @@ class VertexOrder:
         """Refuse another character's neutral (``--target``) whose vertices are not in this mesh's order.
 
         A target may be proportioned otherwise (scaled, its nose longer), so its edges are measured against
-        its overall scale, the RMS distance of its vertices from their centroid over the neutral's (which no
-        reordering changes): more than half of them changing more than `PERMUTED` times against that is a
-        `RigError`.
+        its overall scale: the median distance of its vertices from their median point over the neutral's
+        (which no reordering changes, nor a few vertices parked far away). More than half of the edges
+        changing more than `PERMUTED` times against that is a `RigError`.
         """
         if not len(self.first):
             return
-        spread = _squared_lengths(target - target.mean(axis=0)).mean()
-        scale = spread / _squared_lengths(self.neutral - self.neutral.mean(axis=0)).mean()
+        scale = _spread(target) / _spread(self.neutral)
         if not scale > 0:
             raise RigError(f"{path}: every vertex of the target neutral is at one point; not a face mesh")
         ratios = _squared_lengths(target[self.first] - target[self.second]) / (
@@ -118,6 +117,11 @@ class VertexOrder:
                 "against the target's overall scale); a target must be the same mesh: same topology and "
                 "vertex order"
             )
+
+
+def _spread(points: np.ndarray) -> float:
+    """The median squared distance of the points from their (coordinate-wise) median point."""
+    return float(np.median(_squared_lengths(points - np.median(points, axis=0))))
 
 
 def _squared_lengths(vectors: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ each is written at the path the line names, relative to the session's OBJ as it 
 
 from __future__ import annotations
 
+import posixpath
 from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING
@@ -45,8 +46,8 @@ def material_files(surface: ObjSurface, obj: Path, folder: Path) -> Iterator[tup
         yield library, data
         text = data.decode("utf-8-sig", errors="replace")
         for texture in _texture_names(text):
-            name = (PurePosixPath(library).parent / texture).as_posix()
-            if _relative(name) is None or name in seen:
+            name = _relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
+            if name is None or name in seen:  # (``../maps/skin.png`` beside ``mtl/face.mtl`` is inside)
                 continue
             image = _read(base / name, folder)
             if image is not None:

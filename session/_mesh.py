@@ -141,16 +141,15 @@ def session_meshes(
     yield NEUTRAL_FILE, _obj(surface, rig.neutral, exact, f"neutral of {source}")
     if library is not None:
         yield MATERIALS_FILE, library
-    copied = list(_copied_materials(rig, surface))
-    yield from copied
+    yield from _copied_materials(rig, surface)
     deltas = expression_poses(rig, expressions)
     if target is not None:
         on_target = target.surface if target.surface is not None else surface
         target_precision = exact.combine(precision(target.vertices))
         if library is not None and target.surface is None:
             yield f"{ON_TARGET}/{MATERIALS_FILE}", library
-        if target.surface is None:
-            yield from ((f"{ON_TARGET}/{name}", data) for name, data in copied)
+        if target.surface is None:  # (read again rather than held: maps may be hundreds of MB)
+            yield from ((f"{ON_TARGET}/{name}", data) for name, data in _copied_materials(rig, surface))
         else:
             found = material_files(target.surface, target.path, target.path.parent)
             yield from ((f"{ON_TARGET}/{name}", data) for name, data in found if _free(name))

@@ -36,6 +36,11 @@ if TYPE_CHECKING:
     from packing import PackingProblem
 
 
+#: Seconds a backend call still gets when reduced-cost fixing's earlier calls used up the time limit (the
+#: start packing is its incumbent).
+LEAST_SEARCH_SECONDS = 0.01
+
+
 class ExactSolver:
     """A `Solver` whose subclasses solve eq. 3 on the presolved model (MILP, CP-SAT, ...).
 
@@ -161,11 +166,17 @@ class ExactSolver:
             costs = reduced_costs(model, () if start is None else start, conflicts)
         prepare_time = clock.lap()
 
+        searched = [0.0]  # seconds in the backend so far: the calls of reduced-cost fixing share the limit
+
         def backend(solved: CliqueModel, begin: Sequence[int] | None) -> Result:
             if solved.n_items == 0:  # the reductions decided every item
                 return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
             hint = {} if begin is None else {"start": begin}  # `solve_problem` overrides may not take one
-            return self.solve_problem(problem, solved, time_limit=time_limit, seed=seed, **hint)
+            left = None if time_limit is None else max(time_limit - searched[0], LEAST_SEARCH_SECONDS)
+            call = Stopwatch()
+            answer = self.solve_problem(problem, solved, time_limit=left, seed=seed, **hint)
+            searched[0] += call.lap()
+            return answer
 
         if costs is None:
             result = backend(model, start)

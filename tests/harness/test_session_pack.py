@@ -469,9 +469,12 @@ def test_a_target_whose_vertices_are_in_another_order_is_refused_and_other_propo
     result = invoke("pack", folder, "--target", shuffled, "--no-pictures", "--out", tmp_path / "refused")
     assert_one_line_error(result, f"{shuffled}: its vertices are not in the order")
     assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
+    parked = rig.neutral.copy()
+    parked[:20] += 5.0 * rig.diagonal()  # (hidden parts parked far away: the overall scale holds)
     for name, vertices in [
         ("alien", rigs.warp(rig, "alien").neutral),
         ("giant", rig.neutral * 100.0),
+        ("parked", parked),
     ]:
         accepted = target(name, vertices, rig.triangles)
         document, _ = pack(folder, tmp_path / name, "--target", accepted, "--no-pictures", "--jmax", "2")
@@ -504,6 +507,8 @@ def test_the_material_libraries_and_texture_maps_of_an_obj_rig_travel_with_the_s
         path.write_text(path.read_text().replace("mtllib face.mtl", "mtllib mtl/face.mtl ../secret.mtl"))
     (folder / "mtl" / "maps").mkdir(parents=True)
     library = "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump maps/skin_n.png # normal\nnewmtl lips\n"
+    library += "map_Kd ../lips.png\n"  # (up from the library's folder, still inside the rig's)
+    (folder / "lips.png").write_bytes(b"\x89PNG lips")
     (folder / "mtl" / "face.mtl").write_text(library)
     (folder / "mtl" / "maps" / "skin.png").write_bytes(b"\x89PNG colour")
     (folder / "mtl" / "maps" / "skin_n.png").write_bytes(b"\x89PNG normals")
@@ -517,6 +522,7 @@ def test_the_material_libraries_and_texture_maps_of_an_obj_rig_travel_with_the_s
     assert (out / "mtl" / "face.mtl").read_text() == library
     assert (out / "mtl" / "maps" / "skin.png").read_bytes() == b"\x89PNG colour"
     assert (out / "mtl" / "maps" / "skin_n.png").read_bytes() == b"\x89PNG normals"
+    assert (out / "lips.png").read_bytes() == b"\x89PNG lips"
     assert (out / "on_target" / "mtl" / "face.mtl").read_text() == "newmtl skin\nKd 0.8 0.6 0.5\n"
     for place in (out, out / "on_target"):
         assert lines_of(place / "expression_01.obj", "mtllib") == ["mtllib mtl/face.mtl ../secret.mtl"]

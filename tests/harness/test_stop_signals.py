@@ -356,3 +356,24 @@ def test_a_stop_while_the_workers_close_leaves_run_json_true(rig_file, tmp_path,
     assert harness.read_run(out)["state"] == state
     recorded = harness.read_records(out).query("kind == 'cell'")
     assert len(recorded) == (1 if stopped_in == "map" else 2)
+
+
+@pytest.mark.parametrize(
+    ("writer", "state", "resuming", "said"),
+    [
+        (None, None, False, "no cell was recorded"),
+        ("other", "complete", False, "no cell was recorded"),  # (an earlier run, still in the folder)
+        ("other", "interrupted", True, "before this run recorded anything; resume with"),
+        ("this", "complete", False, "as its workers closed; the run is complete"),
+        ("this", "incomplete", False, "finished cells are recorded; resume with"),
+        ("this", "interrupted", True, "finished cells are recorded; resume with"),
+    ],
+)
+def test_the_interrupted_line_speaks_of_this_run_only(monkeypatch, tmp_path, writer, state, resuming, said):
+    import harness._cli_run as cli_run
+
+    if writer is not None:
+        (tmp_path / "run.json").write_text("{}")
+        pid = os.getpid() if writer == "this" else os.getpid() + 1
+        monkeypatch.setattr(cli_run, "read_run", lambda out: {"state": state, "execution": {"pid": pid}})
+    assert said in cli_run._where_interrupted(tmp_path, resuming)

@@ -91,3 +91,14 @@ def test_a_neutral_out_of_line_with_its_shapes_is_noted(case, expected, tmp_path
         )
         assert len(noted) == 1 and counted and int(counted[1]) in expected, said
     assert loaded.n_shapes == rig.n_shapes
+
+
+def test_a_collapsed_neutral_whose_shapes_all_move_one_vertex_loads_with_its_notes(tmp_path, recwarn) -> None:
+    deltas = np.zeros((8, 4, 3))
+    deltas[:, 0, 2] = np.linspace(0.1, 0.8, 8)  # (every shape lifts vertex 0, none alike)
+    names = tuple(f"s{k}" for k in range(8))
+    rig = rigs.Rig(np.zeros((4, 3)), deltas, np.array([[0, 1, 2], [1, 3, 2]]), names)
+    loaded = rigs.load(rigs.save(rig, tmp_path / "face.npz"))
+    said = [str(w.message) for w in recwarn if issubclass(w.category, RigWarning)]
+    assert loaded.n_shapes == 8 and any("moved the same way by every one of its 8" in line for line in said)
+    assert any("zero area" in line for line in said)

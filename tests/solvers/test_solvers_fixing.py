@@ -13,6 +13,7 @@ import packing
 import rigs
 import solvers
 import solvers._fixing as fixing
+from packing import Termination
 from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._exact import start_packing
 from solvers._reduce import reduce_problem
@@ -114,3 +115,29 @@ def test_the_kernels_conflicts_given_to_fixing_are_the_models_own(monkeypatch, s
     given, rebuilt = fixing.reduced_costs(model, start, conflicts), fixing.reduced_costs(model, start)
     assert given is not None and rebuilt is not None and given.packing == rebuilt.packing
     assert np.array_equal(given.with_item, rebuilt.with_item) and given.bound == rebuilt.bound
+
+
+def test_the_backend_calls_of_fixing_share_the_time_limit(monkeypatch):
+    """A fixed model whose target is missed is solved again, larger: the second call gets what the first
+    left of the limit (at least `LEAST_SEARCH_SECONDS`), so the whole search stays within it."""
+    import time
+
+    import solvers._exact as exact
+
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    monkeypatch.setattr(exact, "ENUMERATION_MAX_ITEMS", 1)
+    monkeypatch.setattr(fixing, "TARGET_FRACTIONS", (1.0,))  # (the LP bound: missed, so a second call)
+    limits: list[float | None] = []
+    plugin = type(available("cpsat").plugin)
+
+    def slow_solve_model(self, model, *, time_limit, seed, start=()):
+        limits.append(time_limit)
+        time.sleep(0.3)
+        return plugin.solve_model(self, model, time_limit=time_limit, seed=seed, start=start)
+
+    loaded = variant("cpsat", "Slow", solve_model=slow_solve_model)
+    problem = random_problem(40, 60, seed=1, active=(4, 9), pairs=0.2)
+    solution = loaded.solve(problem, time_limit=0.5, seed=0)
+    assert len(limits) == 2 and limits[0] == 0.5
+    assert limits[1] == pytest.approx(0.2, abs=0.1) or limits[1] == exact.LEAST_SEARCH_SECONDS
+    assert solution.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT)
