@@ -1,9 +1,10 @@
 """The native rig format: a NumPy ``.npz`` archive.
 
 The archive holds exactly the keys ``neutral`` (N, 3) float64, ``deltas`` (K, N, 3) float64,
-``triangles`` (T, 3) int64, ``names`` (K,) unicode, and ``region__<name>`` (int64 vertex indices) for
-each region. Nothing else is stored: ``faces`` (original polygons), ``landmarks`` and the records
-(``provenance``, ``surface``, ``truth``) do not survive; every array does, bit for bit.
+``triangles`` (T, 3) int64, ``names`` (K,) unicode, ``region__<name>`` (int64 vertex indices) for
+each region, and ``units`` (a unicode scalar: ``provenance.units``) when the length unit is known. Nothing
+else is stored: ``faces`` (original polygons), ``landmarks`` and the rest of the records (``provenance``,
+``surface``, ``truth``) do not survive; every array does, bit for bit.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from rigs._safe_npz import NpzArchive
 
 REQUIRED_KEYS = ("neutral", "deltas", "triangles", "names")
 REGION_PREFIX = "region__"
+#: The optional key holding the length unit.
+UNITS_KEY = "units"
 
 
 def save_npz(rig: Rig, path: str | Path) -> Path:
@@ -43,6 +46,8 @@ def save_npz(rig: Rig, path: str | Path) -> Path:
         if not name:
             raise RigError(f"{path}: a region has an empty name")
         arrays[REGION_PREFIX + name] = indices
+    if rig.provenance.units not in (None, "", "unknown"):
+        arrays[UNITS_KEY] = np.array(rig.provenance.units, dtype=np.str_)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, lambda stream: np.savez_compressed(stream, **arrays))
     return path
@@ -53,7 +58,8 @@ def load_npz(path: str | Path) -> Rig:
 
     Returns
     -------
-    Rig with ``provenance = Provenance(source=str(path), format="npz")``.
+    Rig with ``provenance = Provenance(source=str(path), format="npz", units=...)`` (the stored unit,
+    ``unknown`` when none is).
 
     Raises
     ------
@@ -76,10 +82,12 @@ def load_npz(path: str | Path) -> Rig:
         missing = [key for key in REQUIRED_KEYS if key not in keys]
         if missing:
             raise RigError(f"{path}: missing key {missing[0]!r} (a rig needs {', '.join(REQUIRED_KEYS)})")
-        unexpected = sorted(key for key in keys - set(REQUIRED_KEYS) if not key.startswith(REGION_PREFIX))
+        known = {*REQUIRED_KEYS, UNITS_KEY}
+        unexpected = sorted(key for key in keys - known if not key.startswith(REGION_PREFIX))
         if unexpected:
             raise RigError(
-                f"{path}: unexpected key {unexpected[0]!r} (only {', '.join(REQUIRED_KEYS)}, region__*)"
+                f"{path}: unexpected key {unexpected[0]!r} (only {', '.join(REQUIRED_KEYS)}, region__*, "
+                f"{UNITS_KEY})"
             )
         arrays = {key: archive.read(key) for key in sorted(keys)}
     names = arrays["names"]
@@ -95,11 +103,16 @@ def load_npz(path: str | Path) -> Rig:
     regions = {
         key[len(REGION_PREFIX) :]: value for key, value in arrays.items() if key.startswith(REGION_PREFIX)
     }
+    units = arrays.get(UNITS_KEY)
+    if units is not None and (units.ndim != 0 or units.dtype.kind != "U" or not 0 < len(str(units)) <= 32):
+        raise RigError(f"{path}: '{UNITS_KEY}' must be a short text scalar such as 'cm', got {units!r:.60}")
     return Rig(
         neutral=arrays["neutral"],
         deltas=arrays["deltas"],
         triangles=arrays["triangles"],
         names=tuple(str(name) for name in names.tolist()),
         regions=regions,
-        provenance=Provenance(source=str(path), format="npz"),
+        provenance=Provenance(
+            source=str(path), format="npz", units="unknown" if units is None else str(units)
+        ),
     )

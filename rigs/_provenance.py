@@ -19,6 +19,11 @@ if TYPE_CHECKING:
     from rigs._gltf_surface import GltfSurface
 
 
+#: Metres per unit of the length units a rig's ``provenance.units`` may name (glTF's unit is the metre, USD
+#: states its own, OBJ and generated rigs say theirs where known).
+METERS_PER_UNIT = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}
+
+
 @dataclass(frozen=True)
 class GeneratorSettings:
     """The procedural generator's inputs of a generated rig (`rigs.generate`).

@@ -23,13 +23,11 @@ from typing import Any
 import numpy as np
 
 from registry import atomic_path
-from rigs._provenance import Provenance
+from rigs._provenance import METERS_PER_UNIT, Provenance
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import named_path, read_bytes, regular_file
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
-#: Length units by ``metersPerUnit`` (the stage metadata), and back.
-_UNITS = {1.0: "m", 0.1: "dm", 0.01: "cm", 0.001: "mm"}
 _INVALID = re.compile(r"[^A-Za-z0-9_]")
 
 
@@ -159,7 +157,9 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
         source=source,
         format="usd",
         mesh=str(prim.GetPath()),
-        units=next((unit for value, unit in _UNITS.items() if np.isclose(value, meters)), f"{meters:g} m"),
+        units=next(
+            (unit for unit, value in METERS_PER_UNIT.items() if np.isclose(value, meters)), f"{meters:g} m"
+        ),
     )
     return Rig(
         neutral=neutral,
@@ -222,9 +222,8 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     stage = Usd.Stage.CreateInMemory(path.name)  # (the name's suffix chooses text or binary)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
-    units = {unit: value for value, unit in _UNITS.items()}
-    if rig.provenance.units in units:
-        UsdGeom.SetStageMetersPerUnit(stage, units[rig.provenance.units])
+    if rig.provenance.units in METERS_PER_UNIT:
+        UsdGeom.SetStageMetersPerUnit(stage, METERS_PER_UNIT[rig.provenance.units])
     root = UsdSkel.Root.Define(stage, "/Rig")
     stage.SetDefaultPrim(root.GetPrim())
     mesh = UsdGeom.Mesh.Define(stage, "/Rig/Face")

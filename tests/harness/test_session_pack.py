@@ -321,12 +321,13 @@ def test_glb_holds_the_expressions_as_morph_targets(tmp_path) -> None:
     document, _ = pack("tiny", tmp_path / "out", "--glb", "--no-pictures")
     glb = rigs.load(tmp_path / "out" / "expressions.glb", noise_floor=0.0)
     tiny = rigs.generate("tiny")
+    assert tiny.provenance.units == "cm" and glb.provenance.units == "m"  # (glTF's unit: scaled to it)
     count = len(document["expressions"])
     assert glb.names == tuple(f"expression_{i:02d}" for i in range(1, count + 1))
     for delta, expression in zip(glb.deltas, document["expressions"], strict=True):
-        expected = tiny.deltas[tiny.indices(expression["shapes"])].sum(axis=0)
-        assert np.abs(delta - expected).max() < 1e-5
-    assert np.abs(glb.neutral - tiny.neutral).max() < 1e-5 and glb.n_triangles == tiny.n_triangles
+        expected = tiny.deltas[tiny.indices(expression["shapes"])].sum(axis=0) / 100.0
+        assert np.abs(delta - expected).max() < 1e-7
+    assert np.abs(glb.neutral - tiny.neutral / 100.0).max() < 1e-7 and glb.n_triangles == tiny.n_triangles
 
 
 def test_empty_shapes_are_recorded_as_excluded_with_the_reason(tmp_path) -> None:

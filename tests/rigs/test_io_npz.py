@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -41,7 +43,7 @@ def test_round_trip_is_bit_exact_with_exactly_the_documented_keys(tmp_path):
     path = rigs.save(rig, tmp_path / "rig.npz")
     with np.load(path) as archive:
         assert sorted(archive.files) == sorted(
-            ["neutral", "deltas", "triangles", "names", "region__upper_lip", "region__lower_lip"]
+            ["neutral", "deltas", "triangles", "names", "region__upper_lip", "region__lower_lip", "units"]
         )
     loaded = rigs.load(path)
     assert_same_arrays(loaded, rig)
@@ -140,3 +142,20 @@ def test_bad_content_names_file_and_problem(tmp_path):
     arrays["names"] = np.zeros(3)
     with pytest.raises(RigError, match=r"numbers\.npz: 'names' must be a 1-D string array"):
         rigs.load(write_archive(tmp_path / "numbers.npz", **arrays))
+
+
+def test_a_known_length_unit_round_trips_and_a_bad_one_is_refused(tmp_path):
+    rig = small_rig()
+    in_cm = rigs.Rig(
+        rig.neutral, rig.deltas, rig.triangles, rig.names, provenance=rigs.Provenance(units="cm")
+    )
+    path = rigs.save(in_cm, tmp_path / "cm.npz")
+    with np.load(path) as archive:
+        assert str(archive["units"]) == "cm"
+    assert rigs.load(path).provenance.units == "cm"
+    unknown = replace(rig, provenance=rigs.Provenance())
+    assert rigs.load(rigs.save(unknown, tmp_path / "plain.npz")).provenance.units == "unknown"
+    arrays = {"neutral": rig.neutral, "deltas": rig.deltas, "triangles": rig.triangles, "names": rig.names}
+    np.savez(tmp_path / "bad.npz", **arrays, units=np.array([1.0, 2.0]))
+    with pytest.raises(RigError, match=r"bad\.npz: 'units' must be a short text scalar"):
+        rigs.load(tmp_path / "bad.npz")
