@@ -123,9 +123,10 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
         raise RigError(f"{label}: a face indexes a point outside 0..{len(neutral) - 1}")
     faces = tuple(np.split(corners, np.cumsum(counts)[:-1])) if len(counts) else ()
     binding = UsdSkel.BindingAPI(prim)
-    names = list(binding.GetBlendShapesAttr().Get() or [])
+    names = list(binding.GetBlendShapesAttr().Get() or [])  # (optional: else the target prims' names)
     if names and len(names) != len(targets):
         raise RigError(f"{label}: {len(names)} skel:blendShapes names for {len(targets)} targets")
+    named = bool(names)
     deltas = np.zeros((len(targets), len(neutral), 3))
     for k, target in enumerate(targets):
         shape = UsdSkel.BlendShape(stage.GetPrimAtPath(target))
@@ -144,7 +145,7 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
         deltas[k, points] = offsets
         if shape.GetInbetweens():
             warnings.warn(f"{where}: in-between shapes left out", RigWarning, stacklevel=2)
-        if not names:
+        if not named:
             names.append(shape.GetPrim().GetName())
     matrix = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default()))
     if not np.allclose(matrix, np.eye(4)):  # (USD matrices act on row vectors)

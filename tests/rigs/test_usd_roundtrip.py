@@ -54,3 +54,17 @@ def test_bad_point_indices_are_one_line_errors(tmp_path):
     stage.GetRootLayer().Save()
     with pytest.raises(RigError, match=r"rig\.usda: mesh /Rig/Face blend shape /Rig/Face/jawOpen: "):
         rigs.load(path)
+
+
+def test_without_skel_blend_shapes_names_the_target_prims_name_the_shapes(tmp_path):
+    """``skel:blendShapes`` is optional in UsdSkel: without it every target is named by its prim."""
+    from pxr import Usd, UsdSkel
+
+    rig = rigs.generate("tiny")
+    path = rigs.save(rig, tmp_path / "rig.usda")
+    stage = Usd.Stage.Open(str(path))
+    UsdSkel.BindingAPI(stage.GetPrimAtPath("/Rig/Face")).GetBlendShapesAttr().Clear()
+    stage.GetRootLayer().Save()
+    loaded = rigs.load(path, noise_floor=0.0)
+    assert loaded.names == rig.names
+    assert np.abs(loaded.deltas - rig.deltas).max() < 1e-6 * rig.diagonal()
