@@ -154,13 +154,24 @@ def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
 @rigs.command("convert")
 @click.argument("source")
 @click.argument("destination", type=click.Path(path_type=Path))
-def convert(source: str, destination: Path) -> None:
+@click.option("--mesh", help="The glTF mesh (name or index) to read, when SOURCE holds several.")
+@click.option("--primitive", type=click.IntRange(min=0), help="The one glTF primitive to read of the mesh.")
+def convert(source: str, destination: Path, mesh: str | None, primitive: int | None) -> None:
     """Read the rig SOURCE (any format rigs reads) and write it as DESTINATION (format by extension), a
-    path that does not exist yet or an empty folder (a file or folder already there is never overwritten)."""
+    path that does not exist yet or an empty folder (a file or folder already there is never overwritten).
+    With --mesh or --primitive, one part of a glTF file that cannot be read whole (every other command
+    then takes DESTINATION)."""
     import rigs as rigs_package
 
     _check_new_destination(destination)
-    rig = resolve_rig(source)
+    options = {
+        key: value
+        for key, value in (("mesh", int(mesh) if mesh and mesh.isdigit() else mesh), ("primitive", primitive))
+        if value is not None
+    }
+    if options and not Path(source).is_file():
+        raise HarnessError(f"{source}: --mesh and --primitive read a glTF file; no such file")
+    rig = rigs_package.load(source, **options) if options else resolve_rig(source)
     rigs_package.save(rig, destination)
     terminal().print(f"wrote {destination}: {_one_line(rig)}")
 

@@ -292,12 +292,13 @@ def _same_targets(
         if theirs != count:
             raise RigError(
                 f"{label}: has {theirs} morph targets, primitive {chosen} has {count} (glTF gives every "
-                "primitive of a mesh the same targets); pass primitive=N to read one primitive"
+                "primitive of a mesh the same targets); read one primitive with primitive=N "
+                "(harness rigs convert --primitive N)"
             )
         if _target_names(document, mesh, other, count, label) != names:
             raise RigError(
                 f"{label}: its morph targets are named differently from those of primitive {chosen}; "
-                "pass primitive=N to read one primitive"
+                "read one primitive with primitive=N (harness rigs convert --primitive N)"
             )
         members.append(j)
     return members
@@ -322,7 +323,7 @@ def _warn_other_meshes(document: Document, chosen: int, source: str) -> None:
     if left_out:
         warnings.warn(
             f"{source}: only one mesh is read; left out: {', '.join(left_out)} "
-            "(pass mesh=NAME to read another)",
+            "(read another with mesh=NAME: harness rigs convert --mesh NAME)",
             RigWarning,
             stacklevel=4,
         )

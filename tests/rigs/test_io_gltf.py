@@ -477,5 +477,27 @@ def test_the_command_line_prints_a_reader_warning_as_one_plain_line(tmp_path):
         check=True,
     )
     lines = [line for line in done.stderr.splitlines() if line.strip()]
-    left_out = "only one mesh is read; left out: 'Teeth' (no morph targets) (pass mesh=NAME to read another)"
+    left_out = (
+        "only one mesh is read; left out: 'Teeth' (no morph targets) "
+        "(read another with mesh=NAME: harness rigs convert --mesh NAME)"
+    )
     assert lines == [f"warning: {path}: {left_out}"]
+
+
+def test_the_command_line_converts_the_one_mesh_the_warning_names(tmp_path):
+    """What the reader's hint says to do works from the command line: the left-out mesh, by name or
+    index, is read into a rig file every command takes."""
+    from click.testing import CliRunner
+
+    from harness.cli import cli
+
+    builder = Builder()
+    builder.mesh("Teeth", NEUTRAL, target_deltas()[:1], TRIANGLES, names=["bite"])
+    builder.mesh("Head", NEUTRAL, target_deltas(), TRIANGLES, names=["a", "b", "c"])
+    path = builder.save(tmp_path / "two.glb")
+    for mesh, out in (("Teeth", "teeth.npz"), ("0", "first.npz")):
+        result = CliRunner().invoke(cli, ["rigs", "convert", str(path), str(tmp_path / out), "--mesh", mesh])
+        assert result.exit_code == 0, result.output
+        assert rigs.load(tmp_path / out).names == ("bite",)
+    result = CliRunner().invoke(cli, ["rigs", "convert", "tiny", str(tmp_path / "t.npz"), "--mesh", "Head"])
+    assert result.exit_code == 2 and "--mesh and --primitive read a glTF file" in result.output
