@@ -145,10 +145,15 @@ def load_gltf(
         _read_primitive(document, buffers, primitives[j], label, count)
         for j, label, count in zip(members, labels, counts, strict=True)
     ]
-    offsets = np.cumsum([0, *counts[:-1]])
-    neutral = np.concatenate([part[0] for part in parts])
-    deltas = np.concatenate([part[1] for part in parts], axis=1)
-    triangles = np.concatenate([part[2] + offset for part, offset in zip(parts, offsets, strict=True)])
+    # Primitives of one vertex set (the same POSITION, target, TEXCOORD_0 and NORMAL accessors: one index
+    # buffer per material) share their vertices: each set is read once, and their triangles index it.
+    keys = [_vertex_key(document, primitives[j], label) for j, label in zip(members, labels, strict=True)]
+    owner = [keys.index(key) for key in keys]  # (the first primitive of each set)
+    blocks = sorted(set(owner))
+    starts = dict(zip(blocks, np.cumsum([0, *[counts[b] for b in blocks[:-1]]]).tolist(), strict=True))
+    neutral = np.concatenate([parts[b][0] for b in blocks])
+    deltas = np.concatenate([parts[b][1] for b in blocks], axis=1)
+    triangles = np.concatenate([part[2] + starts[first] for part, first in zip(parts, owner, strict=True)])
     looks = [
         appearance(document, buffers, primitives[j], label, count)
         for j, label, count in zip(members, labels, counts, strict=True)
@@ -161,7 +166,14 @@ def load_gltf(
         mesh=str(chosen_mesh.get("name") or mesh_index),
         primitives=tuple(members),
     )
-    surface = surface_of(document, looks, counts, [len(part[2]) for part in parts], triangles)
+    surface = surface_of(
+        document,
+        [looks[b][:2] for b in blocks],
+        [counts[b] for b in blocks],
+        [look[2] for look in looks],
+        [len(part[2]) for part in parts],
+        triangles,
+    )
     parents = node_parents(document, source)
     if transform:
         matrix, node_name = world_matrix(document, parents, mesh_index, source)
@@ -349,6 +361,19 @@ def _target_names(document: Document, mesh: dict, primitive: dict, count: int, l
             raise RigError(f"{label}: duplicate morph target name {name!r} in extras.targetNames")
         seen.add(name)
     return tuple(names)
+
+
+def _vertex_key(document: Document, primitive: dict, label: str) -> tuple:
+    """What a primitive's vertices are read from: its POSITION, target POSITION, TEXCOORD_0 and NORMAL
+    accessors (two primitives with equal keys have the same vertices)."""
+    attributes = _attributes(document, primitive, "attributes", label)
+    targets = tuple(target.get("POSITION") for target in _targets(document, primitive, label))
+    return (
+        _position_index(document, primitive, label),
+        targets,
+        attributes.get("TEXCOORD_0"),
+        attributes.get("NORMAL"),
+    )
 
 
 def _position_index(document: Document, primitive: dict, label: str) -> int:

@@ -72,32 +72,31 @@ def _unit(vectors: np.ndarray) -> np.ndarray:
 
 def surface_of(
     document: Document,
-    looks: list[tuple[np.ndarray | None, np.ndarray | None, int | None]],
+    looks: list[tuple[np.ndarray | None, np.ndarray | None]],
     counts: list[int],
+    materials: list[int | None],
     sizes: list[int],
     triangles: np.ndarray,
 ) -> GltfSurface | None:
-    """The `GltfSurface` of the primitives read, from each one's `appearance`, vertex count and
-    triangle count; None when none has texture coordinates, normals or a material."""
-    if all(part is None for look in looks for part in look):
+    """The `GltfSurface` of the primitives read: the texture coordinates and normals (`appearance`) of each
+    vertex set read, with its vertex count, and the material of each primitive, with its triangle count;
+    None when there are no texture coordinates, normals or materials."""
+    if all(part is None for look in looks for part in look) and all(index is None for index in materials):
         return None
     uvs = np.concatenate(
-        [
-            uv if uv is not None else np.full((n, 2), np.nan)
-            for (uv, _, _), n in zip(looks, counts, strict=True)
-        ]
+        [uv if uv is not None else np.full((n, 2), np.nan) for (uv, _), n in zip(looks, counts, strict=True)]
     )
     normals = np.concatenate(
         [
             _unit(normal) if normal is not None else np.full((n, 3), np.nan)
-            for (_, normal, _), n in zip(looks, counts, strict=True)
+            for (_, normal), n in zip(looks, counts, strict=True)
         ]
     )
-    used = list(dict.fromkeys(index for _, _, index in looks if index is not None))
+    used = list(dict.fromkeys(index for index in materials if index is not None))
     material = np.concatenate(
         [
             np.full(size, -1 if index is None else used.index(index), dtype=np.int64)
-            for (_, _, index), size in zip(looks, sizes, strict=True)
+            for index, size in zip(materials, sizes, strict=True)
         ]
     )
     return GltfSurface(

@@ -501,3 +501,28 @@ def test_the_command_line_converts_the_one_mesh_the_warning_names(tmp_path):
         assert rigs.load(tmp_path / out).names == ("bite",)
     result = CliRunner().invoke(cli, ["rigs", "convert", "tiny", str(tmp_path / "t.npz"), "--mesh", "Head"])
     assert result.exit_code == 2 and "--mesh and --primitive read a glTF file" in result.output
+
+
+def test_primitives_sharing_one_vertex_set_share_its_vertices(tmp_path):
+    """One index buffer per material over one POSITION accessor (and the same targets): the vertices are
+    read once, as from a single primitive, and each primitive keeps its material."""
+    whole = rigs.load(simple(tmp_path, name="whole.glb"))
+    builder = Builder()
+    first = builder.mesh("Face", NEUTRAL, target_deltas(), TRIANGLES, names=["jawOpen", "smile", "idle"])
+    builder.gltf.materials = [Material(name="skin"), Material(name="lips")]
+    first.indices = builder.accessor(TRIANGLES[:2].ravel(), "SCALAR", UINT)
+    first.material = 0
+    second = Primitive(
+        attributes=first.attributes,
+        indices=builder.accessor(TRIANGLES[2:].ravel(), "SCALAR", UINT),
+        targets=first.targets,
+        material=1,
+    )
+    builder.gltf.meshes[0].primitives.append(second)
+    split = rigs.load(builder.save(tmp_path / "split.glb"))
+    assert split.n_vertices == whole.n_vertices == len(NEUTRAL)
+    np.testing.assert_array_equal(split.neutral, whole.neutral)
+    np.testing.assert_array_equal(split.deltas, whole.deltas)
+    np.testing.assert_array_equal(split.triangles, whole.triangles)
+    assert split.provenance.primitives == (0, 1)
+    assert split.surface.gltf.material.tolist() == [0, 0, 1, 1]
