@@ -154,12 +154,14 @@ def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
 @rigs.command("convert")
 @click.argument("source")
 @click.argument("destination", type=click.Path(path_type=Path))
-@click.option("--mesh", help="The glTF mesh (name or index) to read, when SOURCE holds several.")
+@click.option(
+    "--mesh", help="The mesh to read when SOURCE holds several: glTF mesh name or index, USD prim path."
+)
 @click.option("--primitive", type=click.IntRange(min=0), help="The one glTF primitive to read of the mesh.")
 def convert(source: str, destination: Path, mesh: str | None, primitive: int | None) -> None:
     """Read the rig SOURCE (any format rigs reads) and write it as DESTINATION (format by extension), a
     path that does not exist yet or an empty folder (a file or folder already there is never overwritten).
-    With --mesh or --primitive, one part of a glTF file that cannot be read whole (every other command
+    With --mesh or --primitive, one part of a glTF or USD file that holds several (every other command
     then takes DESTINATION)."""
     import rigs as rigs_package
 
@@ -170,7 +172,7 @@ def convert(source: str, destination: Path, mesh: str | None, primitive: int | N
         if value is not None
     }
     if options and not Path(source).is_file():
-        raise HarnessError(f"{source}: --mesh and --primitive read a glTF file; no such file")
+        raise HarnessError(f"{source}: --mesh and --primitive read a glTF or USD file; no such file")
     rig = rigs_package.load(source, **options) if options else resolve_rig(source)
     rigs_package.save(rig, destination)
     terminal().print(f"wrote {destination}: {_one_line(rig)}")

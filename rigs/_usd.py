@@ -94,14 +94,25 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
     stage = Usd.Stage.Open(str(path))
     if stage is None:
         raise RigError(f"{source}: not a readable USD stage")
-    candidates = []
+    candidates, unbound = [], []
     for prim in stage.Traverse():
-        if prim.IsA(UsdGeom.Mesh) and prim.HasAPI(UsdSkel.BindingAPI):
-            targets = UsdSkel.BindingAPI(prim).GetBlendShapeTargetsRel().GetTargets()
-            if targets:
-                candidates.append((prim, targets))
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        relation = prim.GetRelationship("skel:blendShapeTargets")
+        if not (relation and relation.GetTargets()):
+            continue
+        if prim.HasAPI(UsdSkel.BindingAPI):
+            candidates.append((prim, relation.GetTargets()))
+        else:
+            unbound.append(str(prim.GetPath()))
+    if not candidates and unbound:
+        raise RigError(
+            f"{source}: mesh {unbound[0]} has skel:blendShapeTargets but does not apply the SkelBindingAPI "
+            '(prepend apiSchemas = ["SkelBindingAPI"] to it)'
+        )
     if not candidates:
         raise RigError(f"{source}: no mesh with UsdSkel blend shapes (skel:blendShapeTargets)")
+
     if mesh is not None:
         chosen = [c for c in candidates if str(c[0].GetPath()) == mesh or c[0].GetName() == mesh]
         if not chosen:
@@ -110,8 +121,26 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
         prim, targets = chosen[0]
     else:
         prim, targets = max(candidates, key=lambda c: len(c[1]))
+        others = [
+            f"{c[0].GetPath()} ({len(c[1])} blend shape{'s' if len(c[1]) > 1 else ''})"
+            for c in candidates
+            if c[0] != prim
+        ]
+        if others:  # (eyes, teeth, a tongue with their own blend shapes)
+            warnings.warn(
+                f"{source}: only one mesh is read; left out: {', '.join(others)} (read another with "
+                "mesh=PATH: harness rigs convert --mesh PATH)",
+                RigWarning,
+                stacklevel=3,
+            )
     label = f"{source}: mesh {prim.GetPath()}"
     geometry = UsdGeom.Mesh(prim)
+    points = geometry.GetPointsAttr()
+    if points.Get() is None and points.GetNumTimeSamples():
+        raise RigError(
+            f"{label}: its points have no default value, only {points.GetNumTimeSamples()} time samples; "
+            "save the rest pose as the points' default value"
+        )
     neutral = _finite(
         np.asarray(geometry.GetPointsAttr().Get() or [], dtype=np.float64).reshape(-1, 3), label
     )

@@ -500,7 +500,7 @@ def test_the_command_line_converts_the_one_mesh_the_warning_names(tmp_path):
         assert result.exit_code == 0, result.output
         assert rigs.load(tmp_path / out).names == ("bite",)
     result = CliRunner().invoke(cli, ["rigs", "convert", "tiny", str(tmp_path / "t.npz"), "--mesh", "Head"])
-    assert result.exit_code == 2 and "--mesh and --primitive read a glTF file" in result.output
+    assert result.exit_code == 2 and "--mesh and --primitive read a glTF or USD file" in result.output
 
 
 def test_primitives_sharing_one_vertex_set_share_its_vertices(tmp_path):

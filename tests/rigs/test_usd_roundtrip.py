@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import rigs
-from rigs import RigError
+from rigs import RigError, RigWarning
 
 pytest.importorskip("pxr", reason="usd-core is not installed (pip install 'expression-packing-harness[usd]')")
 
@@ -68,3 +70,57 @@ def test_without_skel_blend_shapes_names_the_target_prims_name_the_shapes(tmp_pa
     loaded = rigs.load(path, noise_floor=0.0)
     assert loaded.names == rig.names
     assert np.abs(loaded.deltas - rig.deltas).max() < 1e-6 * rig.diagonal()
+
+
+def _edited(tmp_path, edit) -> Path:
+    """The tiny rig as USD, changed by ``edit(stage)``."""
+    from pxr import Usd
+
+    path = rigs.save(rigs.generate("tiny"), tmp_path / "rig.usda")
+    stage = Usd.Stage.Open(str(path))
+    edit(stage)
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_time_sampled_points_and_an_unapplied_binding_say_what_is_wrong(tmp_path):
+    from pxr import UsdGeom, UsdSkel
+
+    def sampled(stage):
+        points = UsdGeom.Mesh(stage.GetPrimAtPath("/Rig/Face")).GetPointsAttr()
+        rest = points.Get()
+        points.Clear()
+        points.Set(rest, 1.0)
+        points.Set(rest, 2.0)
+
+    with pytest.raises(
+        RigError, match=r"mesh /Rig/Face: its points have no default value, only 2 time samples"
+    ):
+        rigs.load(_edited(tmp_path / "a", sampled))
+
+    def unapplied(stage):
+        stage.GetPrimAtPath("/Rig/Face").RemoveAPI(UsdSkel.BindingAPI)
+
+    with pytest.raises(
+        RigError, match=r"mesh /Rig/Face has skel:blendShapeTargets but does not apply the Skel"
+    ):
+        rigs.load(_edited(tmp_path / "b", unapplied))
+
+
+def test_every_mesh_left_out_is_named(tmp_path):
+    from pxr import UsdGeom, UsdSkel
+
+    def with_eye(stage):
+        eye = UsdGeom.Mesh.Define(stage, "/Rig/Eye")
+        eye.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+        eye.CreateFaceVertexCountsAttr([3])
+        eye.CreateFaceVertexIndicesAttr([0, 1, 2])
+        blink = UsdSkel.BlendShape.Define(stage, "/Rig/Eye/blink")
+        blink.CreateOffsetsAttr([(0, 0, 0.1), (0, 0, 0), (0, 0, 0)])
+        binding = UsdSkel.BindingAPI.Apply(eye.GetPrim())
+        binding.CreateBlendShapeTargetsRel().SetTargets([blink.GetPath()])
+
+    path = _edited(tmp_path, with_eye)
+    with pytest.warns(RigWarning, match=r"only one mesh is read; left out: /Rig/Eye \(1 blend shape\)"):
+        assert rigs.load(path).names == rigs.generate("tiny").names
+    assert rigs.load(path, mesh="/Rig/Eye").names == ("blink",)
