@@ -168,14 +168,19 @@ def convert(source: str, destination: Path, mesh: str | None, primitive: int | N
     _check_new_destination(destination)
     options = {
         key: value
-        for key, value in (("mesh", int(mesh) if mesh and mesh.isdigit() else mesh), ("primitive", primitive))
+        for key, value in (("mesh", _mesh_choice(mesh)), ("primitive", primitive))
         if value is not None
     }
     if options and not Path(source).is_file():
-        raise HarnessError(f"{source}: --mesh and --primitive read a glTF or USD file; no such file")
+        raise HarnessError(f"{source}: --mesh and --primitive read a glTF or USD file, and this is none")
     rig = rigs_package.load(source, **options) if options else resolve_rig(source)
     rigs_package.save(rig, destination)
     terminal().print(f"wrote {destination}: {_one_line(rig)}")
+
+
+def _mesh_choice(mesh: str | None) -> str | int | None:
+    """``--mesh`` as `rigs.load` takes it: an index when it is ASCII digits, else a name or prim path."""
+    return int(mesh) if mesh is not None and mesh.isascii() and mesh.isdigit() else mesh
 
 
 def _check_new_destination(destination: Path) -> None:

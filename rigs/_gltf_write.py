@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigs._provenance import METERS_PER_UNIT
+from rigs._provenance import meters_per_unit
 from rigs._rig import Rig, RigError
 
 
@@ -14,8 +14,8 @@ def glb_bytes(rig: Rig, *, mesh_name: str = "face") -> bytes:
     Positions and morph-target displacements are float32 (``POSITION`` accessors with their ``min`` and
     ``max``, as glTF 2.0 sec. 3.7.2.1 requires), triangles are uint32 indices, and the shape names are
     ``mesh.extras.targetNames``, the convention :func:`load_gltf` and most tools read. glTF's unit is the
-    metre: a rig in another known unit (``provenance.units``: ``cm``, ``mm``, ``dm``) is scaled to metres;
-    one of unknown units is written as it is. The result loads back with :func:`load_gltf` to the same
+    metre: a rig in another known unit (``provenance.units``: ``cm``, ``mm``, ``in``, ...) is scaled to
+    metres; one of unknown units is written as it is. The result loads back with :func:`load_gltf` to the same
     names and, up to float32 rounding and that scale, the same deltas.
 
     Raises
@@ -30,7 +30,7 @@ def glb_bytes(rig: Rig, *, mesh_name: str = "face") -> bytes:
             f"{rig.provenance.label}: writing glTF needs pygltflib "
             "(pip install 'expression-packing-harness[gltf]')"
         ) from None
-    scale = METERS_PER_UNIT.get(rig.provenance.units or "", 1.0)
+    scale = meters_per_unit(rig.provenance.units) or 1.0
     arrays = [np.asarray(rig.neutral * scale, dtype=np.float32)]
     arrays += [np.asarray(delta * scale, dtype=np.float32) for delta in rig.deltas]
     indices = np.asarray(rig.triangles, dtype=np.uint32).ravel()

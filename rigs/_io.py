@@ -73,8 +73,8 @@ def load(
         Displacements shorter than ``noise_floor`` times the neutral's bounding-box diagonal are zeroed.
         Default ``1e-6`` for interchange formats; ``.npz`` files are loaded verbatim unless it is given.
     units : str, optional
-        Length unit recorded in ``provenance.units``, overriding what the file says (OBJ and ``.npz`` say
-        nothing; glTF says metres; manifests may say).
+        Length unit recorded in ``provenance.units``, overriding what the file says (OBJ says nothing;
+        glTF says metres; USD its ``metersPerUnit``; ``.npz`` and manifests may say).
     **options
         Format options. ``obj-folder``: ``neutral`` (file name, default ``neutral.obj``).
         ``gltf``: ``mesh``, ``primitive``, ``weld``, ``weld_tolerance``, ``transform``

@@ -104,8 +104,11 @@ def load_npz(path: str | Path) -> Rig:
         key[len(REGION_PREFIX) :]: value for key, value in arrays.items() if key.startswith(REGION_PREFIX)
     }
     units = arrays.get(UNITS_KEY)
-    if units is not None and (units.ndim != 0 or units.dtype.kind != "U" or not 0 < len(str(units)) <= 32):
-        raise RigError(f"{path}: '{UNITS_KEY}' must be a short text scalar such as 'cm', got {units!r:.60}")
+    if units is not None and (units.ndim != 0 or units.dtype.kind != "U" or not str(units)):
+        raise RigError(
+            f"{path}: '{UNITS_KEY}' must be a text scalar such as 'cm', got a {units.dtype} array of shape "
+            f"{units.shape}"
+        )
     return Rig(
         neutral=arrays["neutral"],
         deltas=arrays["deltas"],

@@ -8,6 +8,7 @@ what its format says and leaves the rest at the defaults, which mean "not known"
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +22,20 @@ if TYPE_CHECKING:
 
 #: Metres per unit of the length units a rig's ``provenance.units`` may name (glTF's unit is the metre, USD
 #: states its own, OBJ and generated rigs say theirs where known).
-METERS_PER_UNIT = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}
+METERS_PER_UNIT = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+
+
+def meters_per_unit(units: str | None) -> float | None:
+    """Metres per unit of ``units``: a `METERS_PER_UNIT` name or ``"<factor> m"`` (a USD stage's odd
+    ``metersPerUnit``); None when unknown."""
+    if units in METERS_PER_UNIT:
+        return METERS_PER_UNIT[units]
+    number, _, unit = (units or "").partition(" ")
+    try:
+        factor = float(number)
+    except ValueError:
+        return None
+    return factor if unit == "m" and math.isfinite(factor) and factor > 0 else None
 
 
 @dataclass(frozen=True)

@@ -23,11 +23,13 @@ from typing import Any
 import numpy as np
 
 from registry import atomic_path
-from rigs._provenance import METERS_PER_UNIT, Provenance
+from rigs._provenance import METERS_PER_UNIT, Provenance, meters_per_unit
 from rigs._rig import Rig, RigError, RigWarning
 from rigs._safe import named_path, read_bytes, regular_file
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
+#: The root layer's custom data key saying a rig's length unit is unknown (written without metersPerUnit).
+UNITS_NOTE = "expressionPackingUnits"
 _INVALID = re.compile(r"[^A-Za-z0-9_]")
 
 
@@ -125,7 +127,7 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
             f"{c[0].GetPath()} ({len(c[1])} blend shape{'s' if len(c[1]) > 1 else ''})"
             for c in candidates
             if c[0] != prim
-        ]
+        ] + [f"{path} (skel:blendShapeTargets without the SkelBindingAPI)" for path in unbound]
         if others:  # (eyes, teeth, a tongue with their own blend shapes)
             warnings.warn(
                 f"{source}: only one mesh is read; left out: {', '.join(others)} (read another with "
@@ -182,12 +184,17 @@ def _read_stage(path: Path, source: str, mesh: str | None) -> Rig:
         deltas = deltas @ matrix[:3, :3]
     from rigs._triangulate import faces_are_triangles, triangulate
 
-    meters = float(UsdGeom.GetStageMetersPerUnit(stage))
+    meters = float(UsdGeom.GetStageMetersPerUnit(stage))  # (USD's default when not authored: 0.01, cm)
+    unknown = not stage.HasAuthoredMetadata("metersPerUnit") and (
+        stage.GetRootLayer().customLayerData.get(UNITS_NOTE) == "unknown"
+    )
     provenance = Provenance(
         source=source,
         format="usd",
         mesh=str(prim.GetPath()),
-        units=next(
+        units="unknown"
+        if unknown
+        else next(
             (unit for unit, value in METERS_PER_UNIT.items() if np.isclose(value, meters)), f"{meters:g} m"
         ),
     )
@@ -252,8 +259,11 @@ def save_usd(rig: Rig, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     stage = Usd.Stage.CreateInMemory(path.name)  # (the name's suffix chooses text or binary)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
-    if rig.provenance.units in METERS_PER_UNIT:
-        UsdGeom.SetStageMetersPerUnit(stage, METERS_PER_UNIT[rig.provenance.units])
+    meters = meters_per_unit(rig.provenance.units)
+    if meters is not None:
+        UsdGeom.SetStageMetersPerUnit(stage, meters)
+    else:  # (no metersPerUnit would read as USD's default, centimetres)
+        stage.GetRootLayer().customLayerData = {UNITS_NOTE: "unknown"}
     root = UsdSkel.Root.Define(stage, "/Rig")
     stage.SetDefaultPrim(root.GetPrim())
     mesh = UsdGeom.Mesh.Define(stage, "/Rig/Face")

@@ -500,7 +500,10 @@ def test_the_command_line_converts_the_one_mesh_the_warning_names(tmp_path):
         assert result.exit_code == 0, result.output
         assert rigs.load(tmp_path / out).names == ("bite",)
     result = CliRunner().invoke(cli, ["rigs", "convert", "tiny", str(tmp_path / "t.npz"), "--mesh", "Head"])
-    assert result.exit_code == 2 and "--mesh and --primitive read a glTF or USD file" in result.output
+    assert (
+        result.exit_code == 2
+        and "--mesh and --primitive read a glTF or USD file, and this is none" in result.output
+    )
 
 
 def test_primitives_sharing_one_vertex_set_share_its_vertices(tmp_path):
@@ -526,3 +529,13 @@ def test_primitives_sharing_one_vertex_set_share_its_vertices(tmp_path):
     np.testing.assert_array_equal(split.triangles, whole.triangles)
     assert split.provenance.primitives == (0, 1)
     assert split.surface.gltf.material.tolist() == [0, 0, 1, 1]
+
+
+def test_a_rig_in_inches_is_written_to_gltf_in_metres(tmp_path):
+    from dataclasses import replace
+
+    rig = replace(rigs.generate("tiny"), provenance=rigs.Provenance(units="in"))
+    (tmp_path / "rig.glb").write_bytes(rigs.glb_bytes(rig))
+    glb = rigs.load(tmp_path / "rig.glb", noise_floor=0.0)
+    assert glb.provenance.units == "m"
+    np.testing.assert_allclose(glb.neutral, rig.neutral * 0.0254, rtol=1e-6, atol=1e-7)

@@ -124,3 +124,31 @@ def test_every_mesh_left_out_is_named(tmp_path):
     with pytest.warns(RigWarning, match=r"only one mesh is read; left out: /Rig/Eye \(1 blend shape\)"):
         assert rigs.load(path).names == rigs.generate("tiny").names
     assert rigs.load(path, mesh="/Rig/Eye").names == ("blink",)
+
+
+@pytest.mark.parametrize(("units", "read"), [(None, "unknown"), ("in", "in"), ("mm", "mm")])
+def test_a_length_unit_round_trips_even_unknown(tmp_path, units, read):
+    """A stage without metersPerUnit is in centimetres by USD's rule, so a rig of unknown units says so
+    in its layer's custom data rather than come back as centimetres (and a glTF written from it scaled)."""
+    from dataclasses import replace
+
+    rig = replace(rigs.generate("tiny"), provenance=rigs.Provenance(units=units))
+    assert rigs.load(rigs.save(rig, tmp_path / "rig.usda")).provenance.units == read
+
+
+def test_an_unbound_mesh_beside_a_bound_one_is_named_as_left_out(tmp_path):
+    from pxr import UsdGeom, UsdSkel
+
+    def unbound_face_and_bound_eye(stage):
+        stage.GetPrimAtPath("/Rig/Face").RemoveAPI(UsdSkel.BindingAPI)
+        eye = UsdGeom.Mesh.Define(stage, "/Rig/Eye")
+        eye.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+        eye.CreateFaceVertexCountsAttr([3])
+        eye.CreateFaceVertexIndicesAttr([0, 1, 2])
+        blink = UsdSkel.BlendShape.Define(stage, "/Rig/Eye/blink")
+        blink.CreateOffsetsAttr([(0, 0, 0.1), (0, 0, 0), (0, 0, 0)])
+        UsdSkel.BindingAPI.Apply(eye.GetPrim()).CreateBlendShapeTargetsRel().SetTargets([blink.GetPath()])
+
+    path = _edited(tmp_path, unbound_face_and_bound_eye)
+    with pytest.warns(RigWarning, match=r"/Rig/Face \(skel:blendShapeTargets without the SkelBindingAPI\)"):
+        rigs.load(path)

@@ -139,5 +139,5 @@ def test_the_backend_calls_of_fixing_share_the_time_limit(monkeypatch):
     problem = random_problem(40, 60, seed=1, active=(4, 9), pairs=0.2)
     solution = loaded.solve(problem, time_limit=0.5, seed=0)
     assert len(limits) == 2 and limits[0] == 0.5
-    assert limits[1] == pytest.approx(0.2, abs=0.1) or limits[1] == exact.LEAST_SEARCH_SECONDS
+    assert exact.LEAST_SEARCH_SECONDS <= limits[1] <= 0.5 - 0.3  # (the first call took 0.3 s or more)
     assert solution.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT)
