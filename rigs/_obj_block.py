@@ -245,16 +245,18 @@ def _plain_texture_block(block: bytes) -> np.ndarray | None:
 
 
 # -- line by line --------------------------------------------------------------------------------------------
-def is_continued(data: bytes, end: int) -> bool:
-    """Whether the line whose line end is at ``end`` continues onto the next: it ends with ``\\`` before
-    any blanks (spaces, tabs, CRs; however many). A CR line end just before ``end`` is read as a blank, so
-    an empty line after a CR-ended continued one also counts as continued: a cut is then only made later."""
+def is_continued(data: bytes | str, end: int) -> bool:
+    """Whether the line whose line end is at ``end`` (of bytes or text) continues onto the next: it ends
+    with ``\\`` before any blanks (spaces, tabs, CRs; however many). A CR line end just before ``end`` is
+    read as a blank, so an empty line after a CR-ended continued one also counts as continued: a cut is
+    then only made later."""
+    blanks, mark = (b" \t\r", b"\\") if isinstance(data, bytes) else (" \t\r", "\\")
     look = 64
     while True:
         first = max(0, end - look)
-        tail = data[first:end].rstrip(b" \t\r")
+        tail = data[first:end].rstrip(blanks)
         if tail or first == 0:
-            return tail.endswith(b"\\")
+            return tail.endswith(mark)
         look *= 8
 
 
@@ -343,9 +345,13 @@ def line_block(
 
 
 def _first_face(text: str) -> int:
-    """The byte offset of the first line of ``text`` (UTF-8) that starts with an ``f`` keyword."""
-    found = _FACE_LINE.search(text)
-    return len(text[: found.start()].encode("utf-8", errors="surrogatepass")) if found else 0
+    """The byte offset of the first line of ``text`` (UTF-8) that starts with an ``f`` keyword, and does
+    not continue the line before it (``\\`` at its end: it is then part of that line, not a face)."""
+    for found in _FACE_LINE.finditer(text):
+        start = found.start()
+        if start == 0 or not is_continued(text, start - 1):
+            return len(text[:start].encode("utf-8", errors="surrogatepass"))
+    return 0
 
 
 def _vertex_values(parts: list[str], line: str, where: str) -> list[float]:

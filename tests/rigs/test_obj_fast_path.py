@@ -331,6 +331,7 @@ def test_plain_files_never_reach_the_line_by_line_reader() -> None:
 @settings(max_examples=300, deadline=None)
 @given(_LINE_EDITS, st.sampled_from(["\n", "\r\n", "\r"]), st.integers(1, 300))
 @example(edits=[(0, ["v", "v", "v", "v", "# c", "\\"])], line_end="\n", block_bytes=15)
+@example(edits=[(16, ["v", "v", "\\"])], line_end="\n", block_bytes=1)  # (a face line continuing another)
 def test_a_file_read_in_small_blocks_reads_as_in_one(edits, line_end, block_bytes) -> None:
     """Blocks are cut after line ends: groups, relative indices and continued lines run on across them (a
     file with several faults may be refused for another of them: the first block's)."""
