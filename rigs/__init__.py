@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     )
     from rigs._regions import read_regions, regions_from_mapping
     from rigs._rig import Rig, RigError, RigWarning, bounding_box, vector_lengths
-    from rigs._safe import read_bytes, read_json
+    from rigs._safe import folder_relative, read_bytes, read_json
     from rigs._vertex_order import VertexOrder
     from rigs._warp import WARPS, Compose, LocalScale, Scale, Warp, warp
 
@@ -73,7 +73,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "Weld",
         ],
         "_regions": ["read_regions", "regions_from_mapping"],
-        "_safe": ["read_bytes", "read_json"],
+        "_safe": ["folder_relative", "read_bytes", "read_json"],
         "_rig": ["Rig", "RigError", "RigWarning", "bounding_box", "vector_lengths"],
         "_vertex_order": ["VertexOrder"],
         "_warp": ["WARPS", "Compose", "LocalScale", "Scale", "Warp", "warp"],

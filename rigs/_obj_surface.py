@@ -7,7 +7,7 @@ import math
 import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 import numpy as np
 
@@ -15,7 +15,7 @@ from rigs._arrow_lines import vertex_lines
 from rigs._obj import numbered_lines, parse_obj
 from rigs._obj_folder import polygon_lines
 from rigs._rig import Rig, RigError, RigWarning
-from rigs._safe import UnreadableFile, read_text
+from rigs._safe import UnreadableFile, folder_relative, read_text
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,8 +217,7 @@ def _check_libraries(line: str, where: str) -> None:
     path or one that climbs out): the files written from the surface keep the reference as written, and an
     application opening them would read that file."""
     for name in line.split()[1:]:
-        path = PurePosixPath(name.replace("\\", "/"))
-        if path.is_absolute() or ".." in path.parts or ":" in name:
+        if folder_relative(name) is None:
             warnings.warn(
                 f"{where}: material library {name!r} lies outside the OBJ's folder; files written from it "
                 "keep the reference as written",

@@ -146,6 +146,16 @@ def named_path(root: Path, name: object, origin: str) -> Path:
     return root / posix
 
 
+def folder_relative(name: str) -> str | None:
+    """``name``, a file reference written in a rig's file (``\\`` read as ``/``), as a relative POSIX path
+    that stays inside the referring file's folder, or None when it is absolute, names a drive or climbs out
+    with ``..`` (the files a copy of the rig would not carry along)."""
+    path = PurePosixPath(name.replace("\\", "/"))
+    if path.is_absolute() or not path.parts or ".." in path.parts or ":" in name:
+        return None
+    return path.as_posix()
+
+
 def read_bytes(
     path: Path, *, root: Path | None = None, limit: int | None = None, why: str = "", head: bool = False
 ) -> bytes:

@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING
 
-from rigs import RigError, read_bytes
+from rigs import RigError, folder_relative, read_bytes
 
 if TYPE_CHECKING:
     from rigs import ObjSurface
@@ -46,7 +46,7 @@ def material_files(surface: ObjSurface, obj: Path, folder: Path) -> Iterator[tup
         yield library, data
         text = data.decode("utf-8-sig", errors="replace")
         for texture in _texture_names(text):
-            name = _relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
+            name = folder_relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
             if name is None or name in seen:  # (``../maps/skin.png`` beside ``mtl/face.mtl`` is inside)
                 continue
             image = _read(base / name, folder)
@@ -61,7 +61,7 @@ def _named(lines: tuple[str, ...], keyword: str) -> Iterator[str]:
         words = line.split()
         if words[:1] == [keyword]:
             for word in words[1:]:
-                name = _relative(word)
+                name = folder_relative(word)
                 if name is not None:
                     yield name
 
@@ -72,14 +72,6 @@ def _texture_names(text: str) -> Iterator[str]:
         words = line.split("#", 1)[0].split()
         if len(words) >= 2 and words[0].lower() in MAP_STATEMENTS:
             yield words[-1].replace("\\", "/")
-
-
-def _relative(name: str) -> str | None:
-    """``name`` as a relative path that stays inside its folder, or None."""
-    path = PurePosixPath(name.replace("\\", "/"))
-    if path.is_absolute() or not path.parts or any(part in ("..", "") for part in path.parts) or ":" in name:
-        return None
-    return path.as_posix()
 
 
 def _read(path: Path, folder: Path) -> bytes | None:

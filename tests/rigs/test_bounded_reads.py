@@ -72,3 +72,22 @@ def test_a_hostile_constraints_file_is_one_line_naming_it(case: str, tmp_path: P
     with pytest.raises(ValueError, match=message.replace("regions file", "constraints file")) as caught:
         packing.read_constraints(path)
     assert str(path) in str(caught.value) and "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "relative"),
+    [
+        ("face.mtl", "face.mtl"),
+        ("maps\\skin.png", "maps/skin.png"),
+        ("./maps/../skin.png", None),
+        ("../shared/face.mtl", None),
+        ("/etc/passwd", None),
+        ("C:\\rigs\\face.mtl", None),
+        ("\\\\server\\share\\face.mtl", None),
+        (".", None),
+    ],
+)
+def test_a_reference_outside_the_folder_is_told_apart(name, relative):
+    """The one test of a file reference written inside a rig's file (an OBJ's ``mtllib``, a library's maps):
+    what a copy of the rig's folder would carry along."""
+    assert rigs.folder_relative(name) == relative

@@ -107,20 +107,21 @@ def test_time_sampled_points_and_an_unapplied_binding_say_what_is_wrong(tmp_path
         rigs.load(_edited(tmp_path / "b", unapplied))
 
 
-def test_every_mesh_left_out_is_named(tmp_path):
+def _add_bound_eye(stage):
+    """A second mesh, /Rig/Eye, of one triangle bound to one blend shape ("blink")."""
     from pxr import UsdGeom, UsdSkel
 
-    def with_eye(stage):
-        eye = UsdGeom.Mesh.Define(stage, "/Rig/Eye")
-        eye.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-        eye.CreateFaceVertexCountsAttr([3])
-        eye.CreateFaceVertexIndicesAttr([0, 1, 2])
-        blink = UsdSkel.BlendShape.Define(stage, "/Rig/Eye/blink")
-        blink.CreateOffsetsAttr([(0, 0, 0.1), (0, 0, 0), (0, 0, 0)])
-        binding = UsdSkel.BindingAPI.Apply(eye.GetPrim())
-        binding.CreateBlendShapeTargetsRel().SetTargets([blink.GetPath()])
+    eye = UsdGeom.Mesh.Define(stage, "/Rig/Eye")
+    eye.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    eye.CreateFaceVertexCountsAttr([3])
+    eye.CreateFaceVertexIndicesAttr([0, 1, 2])
+    blink = UsdSkel.BlendShape.Define(stage, "/Rig/Eye/blink")
+    blink.CreateOffsetsAttr([(0, 0, 0.1), (0, 0, 0), (0, 0, 0)])
+    UsdSkel.BindingAPI.Apply(eye.GetPrim()).CreateBlendShapeTargetsRel().SetTargets([blink.GetPath()])
 
-    path = _edited(tmp_path, with_eye)
+
+def test_every_mesh_left_out_is_named(tmp_path):
+    path = _edited(tmp_path, _add_bound_eye)
     with pytest.warns(RigWarning, match=r"only one mesh is read; left out: /Rig/Eye \(1 blend shape\)"):
         assert rigs.load(path).names == rigs.generate("tiny").names
     assert rigs.load(path, mesh="/Rig/Eye").names == ("blink",)
@@ -137,17 +138,11 @@ def test_a_length_unit_round_trips_even_unknown(tmp_path, units, read):
 
 
 def test_an_unbound_mesh_beside_a_bound_one_is_named_as_left_out(tmp_path):
-    from pxr import UsdGeom, UsdSkel
+    from pxr import UsdSkel
 
     def unbound_face_and_bound_eye(stage):
         stage.GetPrimAtPath("/Rig/Face").RemoveAPI(UsdSkel.BindingAPI)
-        eye = UsdGeom.Mesh.Define(stage, "/Rig/Eye")
-        eye.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-        eye.CreateFaceVertexCountsAttr([3])
-        eye.CreateFaceVertexIndicesAttr([0, 1, 2])
-        blink = UsdSkel.BlendShape.Define(stage, "/Rig/Eye/blink")
-        blink.CreateOffsetsAttr([(0, 0, 0.1), (0, 0, 0), (0, 0, 0)])
-        UsdSkel.BindingAPI.Apply(eye.GetPrim()).CreateBlendShapeTargetsRel().SetTargets([blink.GetPath()])
+        _add_bound_eye(stage)
 
     path = _edited(tmp_path, unbound_face_and_bound_eye)
     with pytest.warns(RigWarning, match=r"/Rig/Face \(skel:blendShapeTargets without the SkelBindingAPI\)"):
