@@ -33,7 +33,8 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     Returns
     -------
     CliqueModel
-        The same weights, shape counts and cap; the grown rows, sorted, duplicates removed. Its feasible
+        The same weights, shape counts and cap; the grown rows, sorted (as bit rows, item 0 the highest
+        bit), duplicates removed. Its feasible
         set is the model's.
 
     Notes
@@ -56,7 +57,7 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     members[owner, rank[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
     member_bits = pack_bit_rows(members)
-    _, distinct = np.unique(member_bits, axis=0, return_index=True)
+    distinct = _distinct_rows(member_bits)
     member_bits, n_rows = member_bits[distinct], distinct.size
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     common = np.bitwise_and.reduceat(ranked[rank[model.row_items]], model.row_starts[:-1], axis=0)[distinct]
@@ -77,13 +78,24 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
         common &= ranked[word * 64 + 63 - bit]
     by_item = np.zeros((n_rows, n_items), dtype=bool)
     by_item[:, order] = unpack_bit_rows(member_bits, n_items)
-    grown = np.unique(pack_bit_rows(by_item), axis=0)
-    rows = unpack_bit_rows(grown, n_items)
-    row_of, items = np.nonzero(rows)
+    grown = pack_bit_rows(by_item)
+    rows = unpack_bit_rows(grown[_distinct_rows(grown)], n_items)
+    row_of, items = np.divmod(np.flatnonzero(rows), n_items)  # (as np.nonzero, a third of its time)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
     np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
     items = items.astype(model.row_items.dtype)
     return CliqueModel(model.weights, starts, items, model.shape_counts, model.cap)
+
+
+def _distinct_rows(words: np.ndarray) -> np.ndarray:
+    """Indices of the distinct rows of an (R, W) uint64 array, the first of each in order of the rows
+    sorted lexicographically by word (as ``np.unique(words, axis=0, return_index=True)[1]`` over the
+    numbers; a sort of W integer keys, where that one compares the rows as opaque bytes)."""
+    order = np.lexsort(words.T[::-1])  # (word 0 the primary key; stable, so the first of equal rows first)
+    ordered = words[order]
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    return order[first]
 
 
 def _highest_bit(words: np.ndarray) -> np.ndarray:

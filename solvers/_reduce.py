@@ -63,17 +63,35 @@ class Reduction:
 
         The sets are those of `packing.PackingProblem.conflict_view`: along an expression sequence, the
         sets of an earlier problem, so that the problem's own maximal sets are never derived (the largest
-        cost of the sequence's problems after the backend's search)."""
+        cost of the sequence's problems after the backend's search). Only the sets holding a kernel item
+        are visited (`packing.ConflictSets.holders`, a quarter of the sets' members on the largest problems
+        of a film-sized sequence): the kernel's entries are gathered item by item and sorted by set, in the
+        sets' order, with one counting sort (a sparse transpose)."""
+        import scipy.sparse as sp
+
         view = self.problem.conflict_view
+        holder_starts, holder_sets = view.sets.holders
+        outer = view.items[self.kept]
+        lengths = holder_starts[outer + 1] - holder_starts[outer]
+        ends = np.cumsum(lengths)
+        entries = np.repeat(holder_starts[outer] - ends + lengths, lengths) + np.arange(
+            ends[-1] if ends.size else 0
+        )
+        by_item = sp.csr_matrix(
+            (np.ones(entries.size, dtype=np.int8), holder_sets[entries], np.concatenate([[0], ends])),
+            shape=(self.kept.size, len(view.sets)),
+        )
+        by_set = by_item.tocsc()  # each set's kernel items, ascending
+        sizes = np.diff(by_set.indptr)
+        wide = sizes >= 2  # (a set cut to one item constrains nothing)
+        starts = np.zeros(np.count_nonzero(wide) + 1, dtype=np.int64)
+        np.cumsum(sizes[wide], out=starts[1:])
+        members = by_set.indices[np.repeat(wide, sizes)].astype(np.int64)
         weights = np.asarray(self.problem.weights, dtype=np.float64)[self.kept]
         counts = self.problem.item_shape_counts[self.kept]
-        whole = CliqueModel(
-            np.zeros(view.sets.n_items), view.sets.starts, view.sets.members, np.ones(view.sets.n_items), None
-        )
-        cut = whole.restricted(view.items[self.kept])
         cap = self.problem.cap
         cap = cap if cap is not None and cap < counts.sum() else None
-        return CliqueModel(weights, cut.row_starts, cut.row_items, counts, cap)
+        return CliqueModel(weights, starts, members, counts, cap)
 
     def items(self, kernel_items: tuple[int, ...]) -> tuple[int, ...]:
         """Items of the original problem for a packing of the kernel: those items plus the taken ones."""
@@ -115,7 +133,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     may_dominate &= weights[None, :] > weights[:, None]
     if cap_binds:
         may_dominate &= counts[None, :] <= counts[:, None]
-    pairs = np.nonzero(may_dominate)
+    pairs = np.divmod(np.flatnonzero(may_dominate), n_items)  # (as np.nonzero, a third of its time)
     del may_dominate
     alive = np.ones(n_items, dtype=bool)
     taken = np.zeros(n_items, dtype=bool)
