@@ -15,7 +15,7 @@ from packing._motion_symmetry import motion_symmetry, sketch_regions
 from packing._params import PackingParams, params_from
 from packing._shape_symmetry import axis_distances, reflection_normal, shape_symmetry
 from registry import HarnessError
-from rigs import Rig, compare_name_pairs, mirror_map
+from rigs import Rig, compare_name_pairs, mirror_map, mirror_plane
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,7 @@ def detect_pairs(
     self_symmetric = np.zeros(rig.n_shapes, dtype=bool)
     unmirrored = 0
     if params.use_shape_symmetry:
-        mirror = mirror_map(rig.neutral, tol=params.mirror_tol, triangles=rig.triangles)
+        mirror = face_mirror(rig, masks, params.mirror_tol, notes)
         unmirrored = int(np.count_nonzero(mirror < 0))
         normal = reflection_normal(rig.neutral, mirror)
         if normal is None:
@@ -151,6 +151,45 @@ def detect_pairs(
         unmirrored=unmirrored,
         notes=tuple(notes),
     )
+
+
+#: Share of the vertices the blendshapes move that may lack a mirror vertex before `face_mirror` fits the
+#: symmetry plane on those vertices alone.
+MIRROR_RETRY_SHARE = 0.05
+
+
+def face_mirror(rig: Rig, masks: np.ndarray | sp.spmatrix, tol: float | None, notes: list[str]) -> np.ndarray:
+    """The mirror map of eq. 9 (sec. 4.4.1): `rigs.mirror_map` of the neutral, or across the plane fitted on
+    the vertices some blendshape moves when the whole mesh's plane leaves more than `MIRROR_RETRY_SHARE` of
+    them without a mirror and that plane mirrors more of them (noted in ``notes``).
+
+    A part that no shape moves and that has no mirror image (hair, a prop, a neck cut on one side) pulls
+    the plane fitted on the whole mesh off the face; eq. 9 reads only the moved vertices, so their plane is
+    the one that matters. A symmetric rig keeps the whole mesh's plane.
+    """
+    mirror = mirror_map(rig.neutral, tol=tol, triangles=rig.triangles)
+    if sp.issparse(masks):
+        moving = np.bincount(sp.csr_matrix(masks).indices, minlength=rig.n_vertices) > 0
+    else:
+        moving = np.asarray(masks, dtype=bool).any(axis=0)
+    n_moving = int(np.count_nonzero(moving))
+    missed = int(np.count_nonzero(mirror[moving] < 0))
+    if n_moving < 3 or n_moving == rig.n_vertices or missed <= MIRROR_RETRY_SHARE * n_moving:
+        return mirror
+    triangles = rig.triangles
+    inside = moving[triangles].all(axis=1) if len(triangles) else np.zeros(0, dtype=bool)
+    renumbered = (np.cumsum(moving) - 1)[triangles[inside]] if inside.any() else None
+    plane = mirror_plane(rig.neutral[moving], tol=tol, triangles=renumbered)
+    retried = mirror_map(rig.neutral, plane=plane, tol=tol, triangles=rig.triangles)
+    retried_missed = int(np.count_nonzero(retried[moving] < 0))
+    if retried_missed >= missed:
+        return mirror
+    notes.append(
+        f"symmetry plane fitted on the {n_moving} vertices the blendshapes move: the whole mesh's plane "
+        f"left {missed} of them without a mirror vertex ({missed / n_moving:.0%}; a part no shape moves, "
+        f"such as hair or a prop, pulled it), this one {retried_missed}"
+    )
+    return retried
 
 
 def resolve_constraints(

@@ -53,7 +53,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_generate": ["PRESETS", "PresetSpec", "generate"],
         "_io": ["load", "load_with_inputs", "save"],
         "_inputs": ["RigInputs"],
-        "_mirror": ["mirror_map"],
+        "_mirror": ["mirror_map", "mirror_plane"],
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],
         "_gltf_surface": ["GltfSurface"],
         "_gltf_write": ["glb_bytes"],

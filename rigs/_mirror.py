@@ -137,50 +137,15 @@ def mirror_map(
     >>> mirror_map(grid, triangles=faces)[:5].tolist()
     [4, 3, 2, 1, 0]
     """
-    points = np.asarray(neutral, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
-        raise ValueError(f"mirror_map: neutral must have shape (N, 3) with N > 0, got {points.shape}")
-    if not np.isfinite(points).all():
-        raise ValueError("mirror_map: neutral has non-finite coordinates")
+    points, faces = _checked(neutral, axis, tol, triangles)
     if axis is not None and plane is not None:
         raise ValueError("mirror_map: give either axis or plane, not both")
-    if tol is not None and not tol >= 0:
-        raise ValueError(f"mirror_map: tol must be a distance >= 0, got {tol}")
-    if axis is not None and axis not in _AXES:
-        raise ValueError(f"mirror_map: axis must be one of 0, 1, 2, 'x', 'y', 'z', got {axis!r}")
-    faces = _as_triangles(triangles, points.shape[0])
-
-    # The plane is fitted to the distinct positions: vertices split along UV or normal seams would
-    # otherwise weigh twice on one side.
-    distinct = _distinct_rows(points)
-    distinct_tree = cKDTree(distinct)
-    sample = distinct[:: max(1, distinct.shape[0] // _SAMPLE)]
-    spacing = _median_spacing(distinct_tree, sample)
-    vertex_tol = 0.5 * spacing if tol is None else tol
-    nearest_vertex = _vertex_matcher(distinct_tree, max(vertex_tol, spacing))
-    surface = None  # built when needed: an exactly symmetric mesh mostly does without
-
-    exact = None
+    sampled = _Sampled.of(points)
+    vertex_tol = 0.5 * sampled.spacing if tol is None else tol
     if plane is not None:
-        origin, normal = _as_plane(plane)
+        (origin, normal), exact, surface = _as_plane(plane), False, None
     else:
-        candidates = [np.eye(3)[_AXES[axis]]] if axis is not None else _candidate_normals(sample)
-        exact = _exact_median_plane(distinct_tree, sample, distinct, candidates, spacing)
-        if exact is not None:
-            origin, normal = exact
-        else:  # fit every candidate to the pairs it matches, then fit the best once more
-            fixed, settle = axis is not None, _SETTLE * spacing
-            origin, normal = _best_fitted_plane(
-                nearest_vertex, sample, distinct, candidates, fixed_normal=fixed, settle=settle
-            )
-            if faces is None:
-                fit, steps = nearest_vertex, _FINAL_STEPS
-            else:
-                surface = _Surface(points, faces)
-                fit, steps = surface.matcher(tol, at_least_local=True, reach=_GATE), _SURFACE_STEPS
-            origin, normal = _refine(
-                fit, sample, origin, normal, fixed_normal=fixed, settle=settle, steps=steps
-            )
+        origin, normal, exact, surface = _found_plane(points, faces, sampled, axis, tol)
 
     reflected = _reflect(points, origin, normal)
     if faces is None:
@@ -188,10 +153,10 @@ def mirror_map(
         return np.where(distance <= vertex_tol, nearest, -1).astype(np.int64)
     mirror = np.full(points.shape[0], -1, dtype=np.int64)
     todo = np.arange(points.shape[0])
-    if exact is not None or plane is not None:  # a reflection landing on a vertex has its closest point
+    if exact or plane is not None:  # a reflection landing on a vertex has its closest point
         used = np.unique(faces)
         distance, nearest = cKDTree(points[used]).query(
-            reflected, distance_upper_bound=_within(_EXACT * spacing)
+            reflected, distance_upper_bound=_within(_EXACT * sampled.spacing)
         )
         hit = np.isfinite(distance)
         mirror[hit] = used[nearest[hit]]
@@ -201,6 +166,84 @@ def mirror_map(
         found = surface.matcher(tol)(reflected[todo])
         mirror[todo] = np.where(found.distance <= found.limit, found.vertex, -1)
     return mirror
+
+
+def mirror_plane(
+    neutral: np.ndarray,
+    *,
+    axis: int | str | None = None,
+    tol: float | None = None,
+    triangles: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The symmetry plane that `mirror_map` finds for ``neutral``, as ``(point, unit normal)``: the plane to
+    give `mirror_map` (``plane=``) for a larger mesh whose other parts should not pull it (a face's plane,
+    fitted on the vertices its blendshapes move, for the whole head with a one-sided prop or hair).
+
+    Parameters and errors are `mirror_map`'s.
+    """
+    points, faces = _checked(neutral, axis, tol, triangles)
+    origin, normal, _, _ = _found_plane(points, faces, _Sampled.of(points), axis, tol)
+    return origin, normal
+
+
+def _checked(
+    neutral: np.ndarray, axis: int | str | None, tol: float | None, triangles: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The neutral as a float (N, 3) array and the triangles (`_as_triangles`), checked (see `mirror_map`)."""
+    points = np.asarray(neutral, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
+        raise ValueError(f"mirror_map: neutral must have shape (N, 3) with N > 0, got {points.shape}")
+    if not np.isfinite(points).all():
+        raise ValueError("mirror_map: neutral has non-finite coordinates")
+    if tol is not None and not tol >= 0:
+        raise ValueError(f"mirror_map: tol must be a distance >= 0, got {tol}")
+    if axis is not None and axis not in _AXES:
+        raise ValueError(f"mirror_map: axis must be one of 0, 1, 2, 'x', 'y', 'z', got {axis!r}")
+    return points, _as_triangles(triangles, points.shape[0])
+
+
+class _Sampled(NamedTuple):
+    """The distinct positions of a mesh (vertices split along UV or normal seams would otherwise weigh twice
+    on one side), their KD-tree, the sample the plane is fitted on and its median vertex spacing."""
+
+    distinct: np.ndarray
+    tree: cKDTree
+    sample: np.ndarray
+    spacing: float
+
+    @classmethod
+    def of(cls, points: np.ndarray) -> _Sampled:
+        distinct = _distinct_rows(points)
+        tree = cKDTree(distinct)
+        sample = distinct[:: max(1, distinct.shape[0] // _SAMPLE)]
+        return cls(distinct, tree, sample, _median_spacing(tree, sample))
+
+
+def _found_plane(
+    points: np.ndarray, faces: np.ndarray | None, sampled: _Sampled, axis: int | str | None, tol: float | None
+) -> tuple[np.ndarray, np.ndarray, bool, _Surface | None]:
+    """The symmetry plane of the mesh (steps 1-3 of `mirror_map`'s notes): its point and unit normal, whether
+    it mirrors the sample exactly, and the surface built on the way (None when none was needed)."""
+    distinct, sample, spacing = sampled.distinct, sampled.sample, sampled.spacing
+    vertex_tol = 0.5 * spacing if tol is None else tol
+    candidates = [np.eye(3)[_AXES[axis]]] if axis is not None else _candidate_normals(sample)
+    exact = _exact_median_plane(sampled.tree, sample, distinct, candidates, spacing)
+    if exact is not None:
+        return exact[0], exact[1], True, None
+    # Fit every candidate to the pairs it matches, then fit the best once more.
+    nearest_vertex = _vertex_matcher(sampled.tree, max(vertex_tol, spacing))
+    fixed, settle = axis is not None, _SETTLE * spacing
+    origin, normal = _best_fitted_plane(
+        nearest_vertex, sample, distinct, candidates, fixed_normal=fixed, settle=settle
+    )
+    surface = None
+    if faces is None:
+        fit, steps = nearest_vertex, _FINAL_STEPS
+    else:
+        surface = _Surface(points, faces)
+        fit, steps = surface.matcher(tol, at_least_local=True, reach=_GATE), _SURFACE_STEPS
+    origin, normal = _refine(fit, sample, origin, normal, fixed_normal=fixed, settle=settle, steps=steps)
+    return origin, normal, False, surface
 
 
 def _as_triangles(triangles: np.ndarray | None, n_vertices: int) -> np.ndarray | None:

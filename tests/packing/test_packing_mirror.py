@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigs import mirror_map
+from rigs import mirror_map, mirror_plane
 
 
 def _half_cloud(seed: int = 0, n: int = 800) -> np.ndarray:
@@ -40,6 +40,16 @@ def test_plane_is_found_after_a_rigid_motion(seed):
     points, truth = _symmetric_cloud(seed)
     moved = points @ _random_rotation(seed).T + [0.7, -2.0, 5.0]
     assert mirror_map(moved).tolist() == truth.tolist()
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_plane_found_is_the_one_mirror_map_uses(seed):
+    points, truth = _symmetric_cloud(seed)
+    moved = points @ _random_rotation(seed).T + [0.7, -2.0, 5.0]
+    origin, normal = mirror_plane(moved)
+    assert np.isclose(np.linalg.norm(normal), 1.0)
+    assert np.allclose((moved - origin) @ normal + (moved[truth] - origin) @ normal, 0.0, atol=1e-9)
+    assert mirror_map(moved, plane=(origin, normal)).tolist() == truth.tolist()
 
 
 def test_given_axis_and_given_plane():

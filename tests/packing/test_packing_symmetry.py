@@ -200,3 +200,34 @@ def test_detector_recovers_the_generated_truth(preset):
     assert recovered >= 0.95, f"{preset}: missed {sorted(map(sorted, expected - found))}"
     analysis = packing.analyse(rig, rig.neutral)
     assert set(truth.self_symmetric) <= set(analysis.self_symmetric) | set(analysis.empty_names)
+
+
+def _with_static_part(rig, share: float):
+    """``rig`` with a one-sided part no blendshape moves (hair, a prop), of ``share`` of its vertices, off
+    the right of the face."""
+    from dataclasses import replace
+
+    neutral = rig.neutral
+    low, high = neutral.min(axis=0), neutral.max(axis=0)
+    n_extra = int(share * rig.n_vertices) // 3 * 3
+    centre = [high[0] + 0.3 * (high[0] - low[0]), neutral[:, 1].mean(), neutral[:, 2].mean()]
+    extra = centre + np.random.default_rng(3).normal(0, 0.05 * (high - low).max(), (n_extra, 3))
+    deltas = np.zeros((rig.n_shapes, rig.n_vertices + n_extra, 3), dtype=rig.deltas.dtype)
+    deltas[:, : rig.n_vertices] = rig.deltas
+    triangles = np.vstack([rig.triangles, rig.n_vertices + np.arange(n_extra).reshape(-1, 3)])
+    return replace(rig, neutral=np.vstack([neutral, extra]), deltas=deltas, triangles=triangles)
+
+
+@pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
+def test_a_one_sided_static_part_does_not_break_the_mirror_pairs(monkeypatch):
+    """A part no shape moves and without a mirror image pulls the plane fitted on the whole mesh off the
+    face; the plane fitted on the moved vertices gives the pairs of the rig without that part."""
+    import packing._symmetry as symmetry
+
+    rig = rigs.generate("tiny")
+    lumpy = _with_static_part(rig, 0.5)
+    analysis = packing.analyse(lumpy)
+    assert analysis.pairs == packing.analyse(rig).pairs
+    assert any("symmetry plane fitted on the" in note for note in analysis.notes)
+    monkeypatch.setattr(symmetry, "MIRROR_RETRY_SHARE", 1.0)  # the whole mesh's plane alone
+    assert len(packing.analyse(lumpy).pairs) < len(analysis.pairs)
