@@ -57,6 +57,8 @@ def generate(preset: str, seed: int, out: Path) -> None:
 
 def rig_summary(rig: Rig) -> dict[str, Any]:
     """What ``harness rigs info`` shows, as JSON-ready values."""
+    from rigs import moving_everywhere
+
     low, high = rig.bounding_box()
     return {
         "source": rig.provenance.source,
@@ -66,6 +68,8 @@ def rig_summary(rig: Rig) -> dict[str, Any]:
         "n_faces": len(rig.faces) if rig.faces is not None else rig.n_triangles,
         "regions": {name: int(len(indices)) for name, indices in sorted(rig.regions.items())},
         "empty_shapes": list(_empty_shapes(rig)),
+        "noise_floor": _noise_floor(rig),
+        "shapes_moving_every_vertex": int(np.count_nonzero(moving_everywhere(rig.deltas))),
         "degenerate_triangles": int(len(rig.degenerate_triangles())),
         "unreferenced_vertices": rig.n_vertices - int(np.unique(rig.triangles).size),
         "units": rig.provenance.units,
@@ -73,6 +77,15 @@ def rig_summary(rig: Rig) -> dict[str, Any]:
         "diagonal": rig.diagonal(),
         "cancelling_twins": [cancellation.message for cancellation in _cancelling_twins(rig)],
     }
+
+
+def _noise_floor(rig: Rig) -> str:
+    """The noise floor the load applied (`rigs.NoiseFloor`) and what it zeroed, in words."""
+    noise = rig.load_report.noise if rig.load_report is not None else None
+    if noise is None or noise.floor == 0:
+        return "none (displacements read as written)"
+    zeroed = sum(noise.zeroed.values())
+    return f"{noise.floor:.3g} ({noise.relative_floor:g} of the size): {zeroed} displacements zeroed"
 
 
 def _cancelling_twins(rig: Rig) -> list[Cancellation]:

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from rigs._gltf_surface import GltfSurface
     from rigs._gltf_write import glb_bytes
     from rigs._inputs import RigInputs
-    from rigs._io import load, load_with_inputs, save
+    from rigs._io import load, load_with_inputs, moving_everywhere, save
     from rigs._mirror import mirror_map
     from rigs._names import compare_name_pairs, mirror_name_pairs, side_of
     from rigs._obj import decimal_step, parse_obj
@@ -51,7 +51,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_formats": ["RigFormat", "detect_format", "formats", "register_format"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],
         "_generate": ["PRESETS", "PresetSpec", "generate"],
-        "_io": ["load", "load_with_inputs", "save"],
+        "_io": ["load", "load_with_inputs", "moving_everywhere", "save"],
         "_inputs": ["RigInputs"],
         "_mirror": ["mirror_map", "mirror_plane"],
         "_names": ["compare_name_pairs", "mirror_name_pairs", "side_of"],

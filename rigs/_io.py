@@ -153,11 +153,12 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
         For a neutral that is no surface (no triangles, or every triangle of zero area: collapsed or
         colinear), which packs by its vertices but cannot be pictured or transferred; for a neutral out of
         line with its shapes (`common_offset`); and naming shapes that are identical, or whose names are
-        equal up to case (one is likely a duplicate export; both are kept).
+        equal up to case (one is likely a duplicate export; both are kept); and for a rig where most shapes
+        move nearly every vertex (`moving_everywhere`: noise).
 
     Notes
     -----
-    O(K N); four passes over the deltas.
+    O(K N); five passes over the deltas.
     """
 
     step = rig.provenance.decimal_step
@@ -197,6 +198,22 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             RigWarning,
             stacklevel=3,
         )
+    everywhere = int(np.count_nonzero(moving_everywhere(deltas)))
+    if everywhere >= max(NOISY_MIN_SHAPES, 0.5 * rig.n_shapes) and rig.n_vertices >= NOISY_MIN_VERTICES:
+        floor_note = (
+            f"the noise floor of {floor:.3g} left them"
+            if floor > 0
+            else "the file is read verbatim, with no noise floor"
+        )
+        warnings.warn(
+            f"{label}: {everywhere} of its {rig.n_shapes} blendshapes move at least "
+            f"{MOVING_EVERYWHERE:.0%} of its {rig.n_vertices} vertices ({floor_note}): a blendshape moves "
+            "part of a face, so their displacements likely carry noise (a scan, a sculpt, export "
+            "rounding), and every such shape overlaps every other one (sec. 4.1; rigs.load(..., "
+            "noise_floor=1e-4) zeroes displacements below that share of the neutral's size)",
+            RigWarning,
+            stacklevel=3,
+        )
     for group in report.identical_shapes:
         warnings.warn(
             f"{label}: shapes {', '.join(group)} are identical (the same displacement at every vertex)",
@@ -210,6 +227,23 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             stacklevel=3,
         )
     return replace(rig, deltas=deltas, load_report=report)
+
+
+#: Share of the vertices a blendshape moving "everywhere" moves (`moving_everywhere`), and the fewest such
+#: shapes (and of the vertices) for `with_report` to warn of noise: a rig of a few whole-head shapes, or a
+#: mesh of a few vertices, may move everything by design.
+MOVING_EVERYWHERE = 0.99
+NOISY_MIN_SHAPES = 3
+NOISY_MIN_VERTICES = 100
+
+
+def moving_everywhere(deltas: np.ndarray) -> np.ndarray:
+    """(K,) bool: the blendshapes with a nonzero displacement at `MOVING_EVERYWHERE` of the vertices or more
+    (noise: a real blendshape moves part of a face, sec. 4.1)."""
+    if deltas.shape[0] == 0 or deltas.shape[1] == 0:
+        return np.zeros(deltas.shape[0], dtype=bool)
+    moving = np.count_nonzero(deltas.any(axis=2), axis=1)
+    return moving >= MOVING_EVERYWHERE * deltas.shape[1]
 
 
 #: Fewest blendshapes for `common_offset` to judge: with fewer, all of them moving a vertex alike can be

@@ -197,3 +197,15 @@ def test_shapes_left_out_are_named_with_the_reason(tiny, tmp_path) -> None:
     missing = sorted(set(tiny.names) - set(document["expressions"][0]["shapes"]))
     assert f"{len(missing)} blendshapes in no expression (--jmax 1 reached): " in output
     assert all(name in output for name in missing)
+
+
+def test_rigs_info_counts_the_shapes_that_move_every_vertex(tiny, tmp_path) -> None:
+    noise = np.random.default_rng(0).normal(scale=1e-5 * tiny.diagonal(), size=tiny.deltas.shape)
+    path = rigs.save(replace(tiny, deltas=tiny.deltas + noise), tmp_path / "noisy.npz")
+    result = invoke("rigs", "info", path, "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output[result.output.index("{") :])
+    assert summary["shapes_moving_every_vertex"] == tiny.n_shapes
+    assert summary["noise_floor"] == "none (displacements read as written)"
+    clean = json.loads(invoke("rigs", "info", rigs.save(tiny, tmp_path / "clean.npz"), "--json").output)
+    assert clean["shapes_moving_every_vertex"] == 0

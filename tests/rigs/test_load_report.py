@@ -102,3 +102,21 @@ def test_a_collapsed_neutral_whose_shapes_all_move_one_vertex_loads_with_its_not
     said = [str(w.message) for w in recwarn if issubclass(w.category, RigWarning)]
     assert loaded.n_shapes == 8 and any("moved the same way by every one of its 8" in line for line in said)
     assert any("zero area" in line for line in said)
+
+
+@pytest.mark.parametrize(("noise_floor", "warned"), [(None, True), (1e-3, False)])
+def test_shapes_that_move_every_vertex_are_noted_as_noise(noise_floor, warned, tmp_path, recwarn) -> None:
+    """Noise on every displacement makes every shape overlap every other one: the load says so, unless a
+    noise floor above the noise zeroes it."""
+    tiny = rigs.generate("tiny")
+    noise = np.random.default_rng(0).normal(scale=1e-5 * tiny.diagonal(), size=tiny.deltas.shape)
+    path = rigs.save(
+        rigs.Rig(tiny.neutral, tiny.deltas + noise, tiny.triangles, tiny.names), tmp_path / "n.npz"
+    )
+    assert rigs.moving_everywhere(rigs.load(path, noise_floor=0).deltas).all()
+    recwarn.clear()
+    loaded = rigs.load(path, noise_floor=noise_floor)
+    said = [str(warning.message) for warning in recwarn if warning.category is RigWarning]
+    expected = f"n.npz: 12 of its 12 blendshapes move at least 99% of its {tiny.n_vertices} vertices"
+    assert any(expected in line for line in said) is warned
+    assert bool(rigs.moving_everywhere(loaded.deltas).any()) is warned
