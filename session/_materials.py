@@ -9,11 +9,12 @@ each is written at the path the line names, relative to the session's OBJ as it 
 from __future__ import annotations
 
 import posixpath
+import warnings
 from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING
 
-from rigs import RigError, folder_relative, read_bytes
+from rigs import RigError, RigWarning, folder_relative, read_bytes
 
 if TYPE_CHECKING:
     from rigs import ObjSurface
@@ -34,25 +35,54 @@ def material_files(surface: ObjSurface, obj: Path, folder: Path) -> Iterator[tup
     (read from ``obj``) name and every texture map those libraries name, found inside ``folder``.
 
     A name that is absolute, leads out of the OBJ's folder, or is missing or unreadable there is skipped:
-    the OBJ keeps its line, as the source did.
+    the OBJ keeps its line, as the source did, and a `rigs.RigWarning` names the file not carried along
+    (the copy then points where the source pointed, which is no file beside the session). A map's file name
+    may hold spaces (as Blender and Maya write them): the longest run of the statement's last words that
+    names a file is taken, so that options before it are never read as part of it.
+
+    Warns
+    -----
+    RigWarning
+        For each library or texture map that is not copied.
     """
     base = obj.parent
     seen: set[str] = set()
     for library in _named(surface.lines, "mtllib"):
         data = _read(base / library, folder)
+        if data is None:
+            _not_copied(obj, f"material library {library!r}")
         if data is None or library in seen:
             continue
         seen.add(library)
         yield library, data
         text = data.decode("utf-8-sig", errors="replace")
-        for texture in _texture_names(text):
-            name = folder_relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
-            if name is None or name in seen:  # (``../maps/skin.png`` beside ``mtl/face.mtl`` is inside)
-                continue
-            image = _read(base / name, folder)
-            if image is not None:
-                seen.add(name)
-                yield name, image
+        for number, candidates in _texture_names(text):
+            found = _first_found(library, candidates, base, folder)
+            if found is None:
+                _not_copied(obj, f"texture map {candidates[0]!r} ({library}:{number})")
+            elif found[0] not in seen:  # (``../maps/skin.png`` beside ``mtl/face.mtl`` is inside)
+                seen.add(found[0])
+                yield found
+
+
+def _first_found(library: str, candidates: list[str], base: Path, folder: Path) -> tuple[str, bytes] | None:
+    """The first of the ``candidates`` (names relative to the ``library``) that is a readable file inside
+    ``folder``, as its name relative to ``base`` (the OBJ's folder) and its bytes."""
+    for texture in candidates:
+        name = folder_relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
+        image = None if name is None else _read(base / name, folder)
+        if image is not None:
+            return name, image
+    return None
+
+
+def _not_copied(obj: Path, what: str) -> None:
+    warnings.warn(
+        f"{obj}: {what} is not a readable file inside the rig's folder and is not copied into the "
+        "session; the session's files name it as the rig's did",
+        RigWarning,
+        stacklevel=4,
+    )
 
 
 def _named(lines: tuple[str, ...], keyword: str) -> Iterator[str]:
@@ -66,12 +96,14 @@ def _named(lines: tuple[str, ...], keyword: str) -> Iterator[str]:
                     yield name
 
 
-def _texture_names(text: str) -> Iterator[str]:
-    """The texture maps of a material library: the last word of each map statement."""
-    for line in text.splitlines():
+def _texture_names(text: str) -> Iterator[tuple[int, list[str]]]:
+    """Per map statement of a material library, its line number and the names its file may have: the runs
+    of its last words (without quotes), longest first, down to the last word alone."""
+    for number, line in enumerate(text.splitlines(), start=1):
         words = line.split("#", 1)[0].split()
         if len(words) >= 2 and words[0].lower() in MAP_STATEMENTS:
-            yield words[-1].replace("\\", "/")
+            runs = [" ".join(words[start:]) for start in range(1, len(words))]
+            yield number, [run.strip("\"'").replace("\\", "/") for run in runs]
 
 
 def _read(path: Path, folder: Path) -> bytes | None:
