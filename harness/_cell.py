@@ -210,9 +210,16 @@ def packing_params(spec: CellSpec) -> dict[str, object]:
     return params
 
 
-def warm_up(solver_name: str) -> None:
+#: Time limit of the warm-up solve when the run gives none or a longer one (the tiny problem is solved in
+#: milliseconds; an anytime heuristic searches until its limit).
+WARM_UP_LIMIT = 5.0
+
+
+def warm_up(solver_name: str, time_limit: float | None = None) -> None:
     """Solve one tiny problem with a solver once per process, so import and start-up costs stay out of
-    every recorded timing. Failures are ignored here: the timed cell reports them."""
+    every recorded timing, under the run's ``time_limit`` when it is below `WARM_UP_LIMIT` (a solver that
+    searches until its limit then warms up within the limit its cells have). Failures are ignored here: the
+    timed cell reports them."""
     if solver_name in _warmed_up:
         return
     _warmed_up.add(solver_name)
@@ -220,7 +227,8 @@ def warm_up(solver_name: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", packing.MissingTargetWarning)
             problem = packing.build_problem(rigs.generate("tiny"))
-        plugins.load_solver(solver_name).solve(problem, time_limit=5.0, seed=0)
+        limit = WARM_UP_LIMIT if time_limit is None else min(WARM_UP_LIMIT, time_limit)
+        plugins.load_solver(solver_name).solve(problem, time_limit=limit, seed=0)
     except Exception:  # noqa: BLE001 - the timed cell reports the real failure
         pass
 

@@ -6,6 +6,9 @@ import re
 
 from registry import HarnessError
 
+#: Longest duration accepted (a week): waits on worker processes overflow near 596 hours (a 32-bit count of
+#: milliseconds), and so do the time limits of some solver libraries.
+LONGEST_DURATION = 7 * 24 * 3600.0
 _UNITS = {"ms": 0.001, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0}
 _PATTERN = re.compile(r"^\s*(?P<value>\d+(?:\.\d*)?|\.\d+)\s*(?P<unit>ms|s|min|m|h)?\s*$")
 
@@ -25,8 +28,9 @@ def parse_duration(text: str) -> float:
 
     Raises
     ------
-    ValueError
-        When ``text`` is not a duration; the message shows the accepted forms.
+    HarnessError
+        When ``text`` is not a duration (the message shows the accepted forms), or is longer than
+        `LONGEST_DURATION`.
 
     Examples
     --------
@@ -36,7 +40,13 @@ def parse_duration(text: str) -> float:
     match = _PATTERN.match(str(text))
     if match is None:
         raise HarnessError(f"not a duration: {text!r} (use e.g. 30s, 2m, 500ms, 1h or plain seconds)")
-    return float(match["value"]) * _UNITS[match["unit"] or "s"]
+    seconds = float(match["value"]) * _UNITS[match["unit"] or "s"]
+    if seconds > LONGEST_DURATION:
+        raise HarnessError(
+            f"duration {text!r} is longer than {LONGEST_DURATION / 3600:.0f}h, the longest a limit may be (the "
+            "operating system's waits and some solvers' limits overflow beyond it)"
+        )
+    return seconds
 
 
 def format_duration(seconds: float) -> str:

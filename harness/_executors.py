@@ -18,7 +18,7 @@ the infrastructure loses:
 Local workers are `solvers.Worker` processes (fresh interpreters that end with the process that started
 them, even when it is killed with ``kill -9``), reused from cell to cell. A cell is three calls sent
 together: `harness._cell.started` (the reply says the process has started and imported the harness),
-`harness._cell.warm_up` (one untimed solve per solver and process), then `harness._cell.run_cell`.
+`harness._cell.warm_up` (one unrecorded solve per solver and process), then `harness._cell.run_cell`.
 Start-up may take `STARTUP_ALLOWANCE` seconds; the warm-up then gets ``timeout``, and the cell the full
 ``timeout`` again.
 
@@ -117,7 +117,7 @@ def _timeout_message(timeout: float, finished: int, whole: bool) -> str:
 def _warm_up_message(timeout: float) -> str:
     """The message of a cell whose solver's warm-up was stopped."""
     return (
-        f"the solver's warm-up (one untimed solve of a tiny problem, before the cell) exceeded --timeout "
+        f"the solver's warm-up (one unrecorded solve of a tiny problem, before the cell) exceeded --timeout "
         f"{timeout:g}s and was stopped; the cell did not start"
     )
 
@@ -192,7 +192,7 @@ class LocalExecutor:
             journal = new_journal()
             try:
                 slot.worker.send("harness._cell:started")
-                slot.worker.send("harness._cell:warm_up", spec.solver)
+                slot.worker.send("harness._cell:warm_up", spec.solver, spec.time_limit)
                 template = self.templates.get(template_key(spec))
                 slot.worker.send("harness._cell:run_cell", spec, str(journal), template)
             except WorkerDied:  # it ended since it was started: the cell goes back, a fresh process takes it
@@ -280,7 +280,7 @@ def run_isolated(spec_data: dict[str, Any], timeout: float | None, template: Rig
     spec = CellSpec.from_dict(spec_data)
     set_up(spec, template)
     if timeout is None:
-        warm_up(spec.solver)
+        warm_up(spec.solver, spec.time_limit)
         return run_cell(spec, None, template)
     executor = getattr(_task_workers, "executor", None)
     if executor is None:

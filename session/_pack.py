@@ -316,12 +316,20 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
             notes.append(result.message())
         if missing:
             notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
+        answers = [expression.solution for expression in expressions]
         expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
         if timed_out and not expressions:
             raise HarnessError(
                 f"--timeout {format_duration(config.timeout)} ran out before the first expression was found "
                 f"(loading and analysing {config.rig} took {format_duration(deadline.started - started)}); "
                 "give a longer --timeout"
+            )
+        if not expressions and answers and analysis.packable.any():
+            first = answers[0]
+            said = f": {first.message}" if first.message else ""
+            raise HarnessError(
+                f"solver {config.solver} found no expression for {config.rig} (its first answer: "
+                f"{first.termination.value}, no blendshape{said}); nothing to scan is written"
             )
         groups = [[*expression.shapes, *expression.extra_examples] for expression in expressions]
         found += [cancellation.message for cancellation in packing.find_cancellations(rig, groups)]

@@ -42,6 +42,14 @@ def test_parse_duration_rejects_with_the_accepted_forms(text: str) -> None:
         parse_duration(text)
 
 
+@pytest.mark.parametrize("text", ["1000h", "600h", "700000"])
+def test_a_duration_longer_than_a_week_is_refused(text: str) -> None:
+    """Waits on worker processes overflow near 596 hours: a longer --timeout or --time-limit is one line."""
+    assert parse_duration("168h") == 7 * 24 * 3600.0
+    with pytest.raises(ValueError, match=rf"duration '{text}' is longer than 168h, the longest a limit may be"):
+        parse_duration(text)
+
+
 @given(st.floats(min_value=0, max_value=1e5, allow_nan=False))
 def test_format_duration_is_short(seconds: float) -> None:
     text = format_duration(seconds)
@@ -304,3 +312,22 @@ def test_a_transfer_is_computed_once_per_rig_method_and_training_set() -> None:
     )
     assert len(estimates) == 1
     assert again["rms"] == first["rms"] > 0
+
+
+@pytest.mark.parametrize(("time_limit", "used"), [(None, 5.0), (0.1, 0.1), (60.0, 5.0)])
+def test_the_warm_up_solve_keeps_to_the_runs_time_limit(monkeypatch, time_limit, used) -> None:
+    """An anytime solver searches until its limit: its warm-up gets the cells' limit when that is shorter,
+    so a --timeout that fits its cells fits its warm-up."""
+    from harness import _cell
+
+    limits: list[float | None] = []
+
+    class Recorder:
+        def solve(self, problem, *, time_limit=None, seed=0):
+            limits.append(time_limit)
+
+    monkeypatch.setattr(_cell, "_warmed_up", set())
+    monkeypatch.setattr(_cell.plugins, "load_solver", lambda name: Recorder())
+    _cell.warm_up("anytime", time_limit)
+    _cell.warm_up("anytime", time_limit)  # (once per process)
+    assert limits == [used]

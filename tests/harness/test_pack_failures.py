@@ -137,6 +137,20 @@ def test_time_limit_stops_a_solver_that_ignores_it_and_says_so(failing_plugins, 
     assert "no answer within its time limit of 1s; stopped after" in reasons, reasons
 
 
+def test_a_solver_that_finds_no_first_expression_fails_the_pack(failing_plugins, tmp_path):
+    """Stopped at its time limit before any answer, the solver leaves nothing to scan: one line, exit 2, no
+    session written (not an empty session and a zero exit)."""
+    out = tmp_path / "out"
+    result = _pack_in_a_process(
+        "tiny", "--solver", "stall", "--time-limit", "1", "--no-pictures", "--out", out
+    )
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "solver stall found no expression for tiny (its first answer: " in lines[0]
+    assert "no answer within its time limit of 1s" in lines[0]
+    assert not (out / "expressions.json").exists()
+
+
 @pytest.mark.parametrize(
     ("function", "reason"),
     [
