@@ -117,6 +117,18 @@ def test_a_fast_time_limited_solve_is_charged_at_the_limit_and_ranks_below_a_slo
     assert (_row(common, "slow")["solved"], _row(common, "slow")["wins"]) == (3, 3)
 
 
+def test_a_time_limited_solve_that_overran_its_limit_is_charged_what_it_took(group):
+    """A 1 ms limit that the backend overshot by 60 ms must not make it the fastest solver in the table."""
+    rows = [
+        _solve(group, "overran", 0.06, termination="time_limit", time_limit=0.001),
+        _solve(group, "solved", 0.01, time_limit=0.001, termination="optimal"),
+    ]
+    solves = solve_outcomes(pd.DataFrame(rows))
+    assert solves.loc[solves["solver"] == "overran", "charged_solve"].tolist() == [0.06]
+    table = outcome_table(solves)
+    assert _row(table, "overran")[SGM] > _row(table, "solved")[SGM]
+
+
 def test_without_a_recorded_limit_the_given_one_is_charged_and_an_errored_cell_fails_expression_1(group):
     records = pd.DataFrame(
         [
