@@ -43,8 +43,8 @@ def parse_duration(text: str) -> float:
     seconds = float(match["value"]) * _UNITS[match["unit"] or "s"]
     if seconds > LONGEST_DURATION:
         raise HarnessError(
-            f"duration {text!r} is longer than {LONGEST_DURATION / 3600:.0f}h, the longest a limit may be (the "
-            "operating system's waits and some solvers' limits overflow beyond it)"
+            f"duration {text!r} is longer than {LONGEST_DURATION / 3600:.0f}h, the longest a limit may be "
+            "(the operating system's waits and some solvers' limits overflow beyond it)"
         )
     return seconds
 

@@ -273,8 +273,9 @@ def _read_run(path: Path) -> pd.DataFrame:
 def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]:
     """Metrics of two run directories or two pytest-benchmark files, and how their times are measured.
 
-    Runs are timed as ratios to their `REFERENCE` when both have one, else in seconds; their cases are
-    labelled ``rig/warp/solver`` plus the settings that vary over both runs.
+    Runs are timed in seconds when they ran on one machine (`one_machine`), else as ratios to their
+    `REFERENCE` when both have one, else in seconds; their cases are labelled ``rig/warp/solver`` plus the
+    settings that vary over both runs.
 
     Raises
     ------
@@ -288,7 +289,8 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
     if old.is_file():
         return _benchmark_metrics(old), _benchmark_metrics(new), "median seconds per benchmark"
     old_records, new_records = _read_run(old), _read_run(new)
-    ratios = _has_ratios(old_records) and _has_ratios(new_records)
+    machine = one_machine(old, new)
+    ratios = machine is None and _has_ratios(old_records) and _has_ratios(new_records)
     old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
     labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
     old_metrics, new_metrics = (
@@ -298,12 +300,34 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         ]
         for metrics in (old_metrics, new_metrics)
     )
-    basis = (
-        f"ratio to the {REFERENCE} in the same run"
-        if ratios
-        else f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
-    )
+    if ratios:
+        basis = f"ratio to the {REFERENCE} in the same run"
+    elif machine is not None:
+        basis = f"seconds (both runs on one machine: {machine})"
+    else:
+        basis = f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
     return old_metrics, new_metrics, basis
+
+
+def one_machine(old: Path, new: Path) -> str | None:
+    """The machine both runs ran on, when their ``run.json`` say the same host name, platform, core count and
+    processor model (a model must be recorded), else None.
+
+    Runs of one machine are compared in seconds: a ratio to the `REFERENCE` is there to cancel a machine's
+    speed, and it couples the solvers of a group (with two exact solvers, one slowing down makes the other's
+    ratio faster though its seconds did not move). Runs of two machines are compared in ratios.
+    """
+    found = []
+    for path in (old, new):
+        try:
+            found.append(harness.read_run(path).get("machine") or {})
+        except (OSError, ValueError):
+            return None
+    keys = ("hostname", "platform", "cpu_count", "cpu_model")
+    first, second = found
+    if not first.get("cpu_model") or any(first.get(key) != second.get(key) for key in keys):
+        return None
+    return f"{first['hostname']}, {first['cpu_count']} CPUs, {first['cpu_model']}"
 
 
 def _has_ratios(records: pd.DataFrame) -> bool:

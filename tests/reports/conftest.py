@@ -113,6 +113,7 @@ class RunSpec:
     skipped: dict[str, str] = field(default_factory=dict)
     objective_scale: float = 1.0  # multiplies every objective (to fake floating-point noise)
     noise: float = 0.0  # relative change of the learned transfers' RMS from one repetition to the next
+    cpu_model: str | None = None  # the processor model run.json records (None: not recorded)
 
 
 #: Relative size of each transfer's fabricated error (the references ignore the expressions).
@@ -270,7 +271,13 @@ def fabricate_run(out: Path, spec: RunSpec) -> Path:
         "config": {},
         "versions": {},
         "git": {"commit": None, "dirty": None},
-        "machine": {"hostname": "test", "platform": "linux", "cpu_count": 2, "python": "3.11"},
+        "machine": {
+            "hostname": "test",
+            "platform": "linux",
+            "cpu_count": 2,
+            "python": "3.11",
+            "cpu_model": spec.cpu_model,
+        },
         "started": "2026-11-22T00:00:00+00:00",
         "finished": "2026-11-22T00:01:00+00:00",
         "resumed": [],
