@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import TYPE_CHECKING
 
 from rich.console import Console
@@ -47,7 +48,7 @@ def cell_summary(spec: CellSpec, rows: list[Row]) -> str:
     text = (
         f"{head}: {cell['n_expressions']} expressions, {cell['n_covered']}/{cell['n_shapes']} shapes, "
         f"analysis {format_duration(cell['analysis_time'])}, "
-        f"sequence {format_duration(cell['sequence_time'])}"
+        f"sequence {format_duration(cell['sequence_time'])}{_stops(rows)}"
     )
     transfers = [row for row in rows if row["kind"] == "transfer" and row["status"] == "ok"]
     for name in dict.fromkeys(row["transfer"] for row in transfers):
@@ -57,6 +58,22 @@ def cell_summary(spec: CellSpec, rows: list[Row]) -> str:
     if failed:
         text += f", [red]{failed} transfer errors[/]"
     return text
+
+
+def _stops(rows: list[Row]) -> str:
+    """`` (5 of 5 solves time limit, 2 greedy fallbacks)`` (in yellow) for a cell whose solves did not all end
+    optimal or completed, so that no time is shown without how its solves ended; empty otherwise."""
+    solves = [row for row in rows if row["kind"] == "expression"]
+    counts = Counter(str(row.get("termination")) for row in solves)
+    stopped = {name: count for name, count in counts.items() if name not in ("optimal", "completed")}
+    fallbacks = sum(bool(row.get("fallback")) for row in solves)
+    if not stopped and not fallbacks:
+        return ""
+    parts = [
+        f"{count} of {len(solves)} solves {name.replace('_', ' ')}" for name, count in sorted(stopped.items())
+    ]
+    parts += [f"{fallbacks} greedy fallbacks"] if fallbacks else []
+    return f" [yellow]({escape(', '.join(parts))})[/]"
 
 
 class RichReporter:

@@ -35,7 +35,7 @@ from reports._history import (
     run_identity,
     spreads,
 )
-from reports._tables import CASE_COLUMNS, SETTING_COLUMNS, rig_labels, setting_label
+from reports._tables import CASE_COLUMNS, SETTING_COLUMNS, rig_labels, setting_label, termination_counts
 from reports._timing import (
     MIN_REFERENCE_SOLVERS,
     REFERENCE,
@@ -43,7 +43,6 @@ from reports._timing import (
     case_samples,
     has_reference,
     judge_times,
-    termination_counts,
     timing_samples,
     timing_test,
 )
@@ -273,9 +272,8 @@ def _read_run(path: Path) -> pd.DataFrame:
 def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]:
     """Metrics of two run directories or two pytest-benchmark files, and how their times are measured.
 
-    Runs are timed in seconds when they ran on one machine (`one_machine`), else as ratios to their
-    `REFERENCE` when both have one, else in seconds; their cases are labelled ``rig/warp/solver`` plus the
-    settings that vary over both runs.
+    Runs are timed as ratios to their `REFERENCE` when both have one, else in seconds; their cases are
+    labelled ``rig/warp/solver`` plus the settings that vary over both runs.
 
     Raises
     ------
@@ -289,8 +287,7 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
     if old.is_file():
         return _benchmark_metrics(old), _benchmark_metrics(new), "median seconds per benchmark"
     old_records, new_records = _read_run(old), _read_run(new)
-    machine = one_machine(old, new)
-    ratios = machine is None and _has_ratios(old_records) and _has_ratios(new_records)
+    ratios = _has_ratios(old_records) and _has_ratios(new_records)
     old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
     labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
     old_metrics, new_metrics = (
@@ -300,12 +297,11 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         ]
         for metrics in (old_metrics, new_metrics)
     )
-    if ratios:
-        basis = f"ratio to the {REFERENCE} in the same run"
-    elif machine is not None:
-        basis = f"seconds (both runs on one machine: {machine})"
-    else:
-        basis = f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
+    basis = (
+        f"ratio to the {REFERENCE} in the same run"
+        if ratios
+        else f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
+    )
     return old_metrics, new_metrics, basis
 
 
@@ -313,9 +309,9 @@ def one_machine(old: Path, new: Path) -> str | None:
     """The machine both runs ran on, when their ``run.json`` say the same host name, platform, core count and
     processor model (a model must be recorded), else None.
 
-    Runs of one machine are compared in seconds: a ratio to the `REFERENCE` is there to cancel a machine's
-    speed, and it couples the solvers of a group (with two exact solvers, one slowing down makes the other's
-    ratio faster though its seconds did not move). Runs of two machines are compared in ratios.
+    The ratio to the `REFERENCE` cancels a machine's speed and its moments of load, but it couples the
+    solvers of a group: with two exact solvers, one slowing down makes the other's ratio faster though its
+    seconds did not move. On one machine the seconds tell the two apart (`_time_change`).
     """
     found = []
     for path in (old, new):
@@ -454,6 +450,34 @@ def _time_tests(
     return dict(zip(tested, judge_times(tests, alpha=alpha, threshold=threshold), strict=True))
 
 
+def _held_in_seconds(change: Change, old: Metric, new: Metric, threshold: float) -> Change:
+    """``change`` whose ratio to the `REFERENCE` was judged slower or faster, kept only when the median
+    sequence also moved that way in seconds by more than ``threshold`` (both runs of one machine): else the
+    reference moved, not the case, and the verdict is ``same``, saying so."""
+    if change.verdict not in ("slower", "faster") or new.column != "ratio" or not old.seconds:
+        return change
+    seconds = (new.seconds or 0.0) / old.seconds
+    held = seconds > 1.0 + threshold if change.verdict == "slower" else seconds < 1.0 / (1.0 + threshold)
+    if held:
+        return change
+    note = f"; x{seconds:.2f} in seconds on one machine: the {REFERENCE} moved, not this case)"
+    return dataclasses.replace(change, verdict="same", where=change.where[:-1] + note)
+
+
+def _terminations(old: Metric, new: Metric) -> str:
+    """How the new run's solves of a case ended, and the old run's before an arrow when they ended otherwise
+    (a time that fell because the old run stopped at its limit is then seen as such)."""
+    if new.samples is None:
+        return ""
+    now = termination_counts(new.samples)
+    before = "" if old.samples is None else termination_counts(old.samples)
+    return now if before in ("", now) or _ended(old) == _ended(new) else f"{before} → {now}"
+
+
+def _ended(metric: Metric) -> set[str]:
+    return set(metric.samples["termination"].astype(str)) if metric.samples is not None else set()
+
+
 def _time_change(
     old: Metric,
     new: Metric,
@@ -462,16 +486,19 @@ def _time_change(
     min_time: float,
     test: TimingTest | None = None,
     spread: Spread | None = None,
+    one_machine: bool = False,
 ) -> Change:
     """Judge a time.
 
     Under ``min_time`` seconds in both runs it is timer noise. With samples on both sides (a run's cases)
     its ``test`` (`_time_tests`) judges it; a case with too few samples to test is judged by the history's
     ``spread`` when there is one (slower above ``spread.high``, faster below ``spread.low``) and otherwise
-    left untested. A benchmark's single median is judged by new / old against ``threshold``.
+    left untested. A benchmark's single median is judged by new / old against ``threshold``. On
+    ``one_machine`` (`one_machine`) a ratio judged slower or faster must have moved the same way in seconds
+    (`_held_in_seconds`).
     """
     ratio = _time_ratio(old, new)
-    termination = "" if new.samples is None else termination_counts(new.samples)
+    termination = _terminations(old, new)
     change = Change(old.case, old.name, "time", old.value, new.value, "same", ratio, termination=termination)
     if _below_floor(old, new, min_time):
         return dataclasses.replace(change, where=f"(< {min_time:g} s)")
@@ -480,7 +507,8 @@ def _time_change(
             change, verdict="changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
         )
     if test is not None and (test.p is not None or spread is None):
-        return dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
+        judged = dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
+        return _held_in_seconds(judged, old, new, threshold) if one_machine else judged
     if spread is not None:
         verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
         return dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
@@ -560,6 +588,7 @@ def compare(
         )
     )
     old_metrics, new_metrics, basis = read_metrics(Path(old), Path(new))
+    machine = None if Path(old).is_file() else one_machine(Path(old), Path(new))
     by_key = {(m.case, m.name): m for m in new_metrics}
     pairs = [(metric, by_key.pop((metric.case, metric.name), None)) for metric in old_metrics]
     found = [(metric, other) for metric, other in pairs if other is not None]
@@ -576,6 +605,7 @@ def compare(
                     min_time=min_time,
                     test=tests.get(index),
                     spread=history_spread,
+                    one_machine=machine is not None,
                 )
             )
         else:

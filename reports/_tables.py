@@ -127,6 +127,17 @@ def expression_rows(records: pd.DataFrame) -> pd.DataFrame:
     return rows
 
 
+def termination_counts(solves: pd.DataFrame) -> str:
+    """``12 optimal, 3 time_limit (2 greedy fallbacks)``: how some solves ended, most common first, and how
+    many of them were answered by Algorithm 2's packing at a time limit (their ``fallback``)."""
+    counts = solves["termination"].astype(str).value_counts()
+    text = ", ".join(f"{count} {termination}" for termination, count in counts.items())
+    if "fallback" in solves:
+        fallbacks = int((solves["fallback"].fillna("").astype(str) != "").sum())
+        text += f" ({fallbacks} greedy fallbacks)" if fallbacks else ""
+    return text
+
+
 def cell_times(records: pd.DataFrame) -> pd.DataFrame:
     """Per finished cell: first-expression and whole-sequence seconds, and both as ratios to the baseline.
 
@@ -170,6 +181,7 @@ _TIMING_COLUMNS = [
     "sequence (s)",
     "sequence spread (s)",
     f"first / {BASELINE_SOLVER}",
+    "solves",
 ]
 
 
@@ -178,13 +190,15 @@ def timing_table(records: pd.DataFrame) -> pd.DataFrame:
 
     One row per rig (and setting, when several) and solver: N, K, the median over repetitions of the
     rig-analysis, first-expression (presolve + build + solve) and whole-sequence seconds, their spread
-    (max - min over repetitions) and the median ratio of the first-expression time to `BASELINE_SOLVER`'s.
+    (max - min over repetitions), the median ratio of the first-expression time to `BASELINE_SOLVER`'s and
+    how its solves ended (``solves``, `termination_counts`: no time without its time-limit stops).
     For the paper's four rigs (``male``, ``toon``, ``female``, ``digidouble``) two rows follow with the
     published optimal (PuLP with CPLEX) and greedy first-expression times and the paper's N and K.
     """
     times = cell_times(records)
     settings = varying_settings(records)
     labels = rig_labels(times["rig"])
+    solves = expression_rows(records)
     rows = []
     for keys, case in times.groupby(["rig", "warp", *settings, "solver"], sort=True, dropna=False):
         rig, warp = keys[0], keys[1]
@@ -205,6 +219,7 @@ def timing_table(records: pd.DataFrame) -> pd.DataFrame:
                 "sequence (s)": sequence,
                 "sequence spread (s)": sequence_spread,
                 f"first / {BASELINE_SOLVER}": float(case["first_ratio"].median()),
+                "solves": termination_counts(solves[solves["cell"].isin(case["cell"])]),
             }
         )
     for rig in sorted(set(times["rig"]) & set(PAPER_TIMINGS.index)):

@@ -71,7 +71,8 @@ def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
 
     Returns
     -------
-    DataFrame with the `GROUP_COLUMNS`, ``solver``, ``cell``, ``expression``, ``termination``, ``seconds``
+    DataFrame with the `GROUP_COLUMNS`, ``solver``, ``cell``, ``expression``, ``termination`` (and
+    ``fallback`` when the records have it), ``seconds``
     (charged at the time limit where the solve stopped there or failed), ``reference`` (the `REFERENCE`
     of the cell's group and repetition, in seconds; NaN without one) and ``ratio`` (seconds / reference).
     """
@@ -94,7 +95,8 @@ def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
         .rename("reference")
         .reset_index()
     )
-    samples = rows[[*keys, "cell", "expression", "termination", "seconds"]].merge(
+    ended = ["termination", *(["fallback"] if "fallback" in rows else [])]
+    samples = rows[[*keys, "cell", "expression", *ended, "seconds"]].merge(
         references, on=list(GROUP_COLUMNS), how="left"
     )
     samples["ratio"] = samples["seconds"] / samples["reference"]
@@ -208,12 +210,6 @@ def judge_times(tests: list[TimingTest], *, alpha: float, threshold: float) -> l
 def _sequences(samples: pd.DataFrame, value: str) -> np.ndarray:
     """Each cell's (repetition's) summed ``value``, floored at the smallest positive float."""
     return np.fmax(samples.groupby("cell")[value].sum().to_numpy(float), np.finfo(float).tiny)
-
-
-def termination_counts(samples: pd.DataFrame) -> str:
-    """``12 optimal, 1 time_limit``: how the solves of some samples ended, most common first."""
-    counts = samples["termination"].astype(str).value_counts()
-    return ", ".join(f"{count} {termination}" for termination, count in counts.items())
 
 
 def case_samples(samples: pd.DataFrame) -> dict[tuple, pd.DataFrame]:

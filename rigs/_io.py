@@ -234,16 +234,27 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
 #: mesh of a few vertices, may move everything by design.
 MOVING_EVERYWHERE = 0.99
 NOISY_MIN_SHAPES = 3
+#: Share of a shape's largest displacement that a vertex's must exceed to count as moved there.
+MOVED_SHARE = 1e-4
+#: Shapes whose displacement lengths `moving_everywhere` holds at once (bounds its memory on film rigs).
+SHAPES_AT_ONCE = 64
 NOISY_MIN_VERTICES = 100
 
 
 def moving_everywhere(deltas: np.ndarray) -> np.ndarray:
-    """(K,) bool: the blendshapes with a nonzero displacement at `MOVING_EVERYWHERE` of the vertices or more
-    (noise: a real blendshape moves part of a face, sec. 4.1)."""
-    if deltas.shape[0] == 0 or deltas.shape[1] == 0:
-        return np.zeros(deltas.shape[0], dtype=bool)
-    moving = np.count_nonzero(deltas.any(axis=2), axis=1)
-    return moving >= MOVING_EVERYWHERE * deltas.shape[1]
+    """(K,) bool: the blendshapes that move `MOVING_EVERYWHERE` of the vertices or more, a vertex counting as
+    moved when its displacement exceeds `MOVED_SHARE` of the shape's largest (noise: a real blendshape moves
+    part of a face, sec. 4.1; a sculpted falloff that never quite reaches zero does not count)."""
+    n_shapes, n_vertices = deltas.shape[:2]
+    everywhere = np.zeros(n_shapes, dtype=bool)
+    if n_vertices == 0:
+        return everywhere
+    for start in range(0, n_shapes, SHAPES_AT_ONCE):
+        lengths = vector_lengths(deltas[start : start + SHAPES_AT_ONCE])
+        largest = lengths.max(axis=1, keepdims=True)
+        moved = np.count_nonzero((lengths > MOVED_SHARE * largest) & (largest > 0), axis=1)
+        everywhere[start : start + SHAPES_AT_ONCE] = moved >= MOVING_EVERYWHERE * n_vertices
+    return everywhere
 
 
 #: Fewest blendshapes for `common_offset` to judge: with fewer, all of them moving a vertex alike can be

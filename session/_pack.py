@@ -324,7 +324,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                 f"(loading and analysing {config.rig} took {format_duration(deadline.started - started)}); "
                 "give a longer --timeout"
             )
-        if not expressions and answers and analysis.packable.any():
+        if not expressions and answers and analysis.packable.any() and not refined:
             first = answers[0]
             said = f": {first.message}" if first.message else ""
             raise HarnessError(

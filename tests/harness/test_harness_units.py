@@ -331,3 +331,24 @@ def test_the_warm_up_solve_keeps_to_the_runs_time_limit(monkeypatch, time_limit,
     _cell.warm_up("anytime", time_limit)
     _cell.warm_up("anytime", time_limit)  # (once per process)
     assert limits == [used]
+
+
+def test_a_cell_line_says_how_its_solves_ended_beside_its_time() -> None:
+    """No time without its terminations: a cell whose solves hit the time limit, some answered by greedy
+    fallback, says so on its progress line; a cell of optimal solves shows its time alone."""
+    from harness._progress import cell_summary
+
+    spec = CellSpec(
+        rig="tiny", rig_seed=0, warp="none", solver="cbc-pulp", mu=0.0, alpha=0.0, beta=0.0, symmetry=True,
+        importance=True, cap=None, jmax=None, time_limit=0.001, repetition=0, seed=0,
+    )  # fmt: skip
+    cell = {
+        "kind": "cell", "status": "ok", "n_expressions": 3, "n_covered": 12, "n_shapes": 12,
+        "analysis_time": 0.01, "sequence_time": 0.294,
+    }  # fmt: skip
+    ended = [("time_limit", "greedy"), ("time_limit", None), ("optimal", None)]
+    solves = [{"kind": "expression", "termination": t, "fallback": f} for t, f in ended]
+    line = cell_summary(spec, [cell, *solves])
+    assert "sequence 294ms [yellow](2 of 3 solves time limit, 1 greedy fallbacks)[/]" in line
+    optimal = [{"kind": "expression", "termination": "optimal", "fallback": None}] * 3
+    assert cell_summary(spec, [cell, *optimal]).endswith("sequence 294ms")
