@@ -229,7 +229,7 @@ def warm_up(solver_name: str, time_limit: float | None = None) -> None:
             problem = packing.build_problem(rigs.generate("tiny"))
         limit = WARM_UP_LIMIT if time_limit is None else min(WARM_UP_LIMIT, time_limit)
         plugins.load_solver(solver_name).solve(problem, time_limit=limit, seed=0)
-    except Exception:  # noqa: BLE001 - the timed cell reports the real failure
+    except (Exception, SystemExit):  # noqa: BLE001 - the timed cell reports the real failure
         pass
 
 
@@ -284,6 +284,10 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
             verify = functools.partial(_check, spec, solver, template, analysis, expressions)
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
+    except (
+        SystemExit
+    ) as exit_:  # a plugin's sys.exit: its error, not the worker's (stops raise KeyboardInterrupt)
+        return stop("error", f"the solver called sys.exit({exit_.code!r})")
     failed = _failed_expression(expressions)
     if failed is not None:
         return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")

@@ -202,3 +202,17 @@ def test_ctrl_c_during_a_minimum_solve_stops_its_worker_and_leaves_the_folder_as
         threading.Event().wait(0.05)
     assert not _alive(worker), "the worker of --minimum outlived the pack"
     assert {path: path.read_bytes() for path in out.rglob("*") if path.is_file()} == before
+
+
+def test_a_plugin_that_calls_sys_exit_in_a_run_is_recorded_as_its_error(failing_plugins, tmp_path):
+    """Not a lost worker to be resumed: the plugin's own failure, recorded on the first run."""
+    import harness
+
+    out = tmp_path / "run"
+    arguments = ["run", "--rigs", "tiny", "--solvers", "fail-exit", "--transfers", "dt", "--j-values", "2"]
+    result = invoke(*arguments, "--timeout", "60s", "--quiet", "--out", out)
+    records = harness.read_records(out)
+    cells = records[records["kind"] == "cell"]
+    assert cells["status"].tolist() == ["error"], result.output
+    assert cells["message"].tolist() == ["the solver called sys.exit(3)"]
+    assert harness.read_run(out)["state"] == "complete"
