@@ -305,6 +305,23 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
     return old_metrics, new_metrics, basis
 
 
+def changed_inputs(old: Path, new: Path) -> list[str]:
+    """One line per rig of both runs whose content differs between them (``rig_digests`` of ``run.json``):
+    changes of its cases may be the rig's doing, not the code's. Empty for benchmark files."""
+    if old.is_file() or new.is_file():
+        return []
+    try:
+        before, after = (harness.read_run(path).get("rig_digests") or {} for path in (old, new))
+    except (OSError, ValueError):
+        return []
+    return [
+        f"rig {rig}: its content differs between the runs ({before[rig][:15]}... -> {after[rig][:15]}...); "
+        "changes of its cases may be the rig's, not the code's"
+        for rig in sorted(set(before) & set(after))
+        if before[rig] != after[rig]
+    ]
+
+
 def one_machine(old: Path, new: Path) -> str | None:
     """The machine both runs ran on, when their ``run.json`` say the same host name, platform, core count and
     processor model (a model must be recorded), else None.

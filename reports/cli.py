@@ -179,9 +179,10 @@ def compare(
     fresh_baseline: bool,
 ) -> None:
     from rich.console import Console
+    from rich.markup import escape
 
+    from reports._compare import changed_inputs, comparison_table, run_figures
     from reports._compare import compare as compare_runs
-    from reports._compare import comparison_table, run_figures
 
     if append and history is None:
         raise click.UsageError("--append needs --history FILE.")
@@ -205,6 +206,8 @@ def compare(
         raise InputError(str(error)) from None
     console = Console(width=160)
     console.print(comparison_table(comparison, fail_on_time=fail_on_time, only_changes=only_changes))
+    for line in changed_inputs(old, new):
+        console.print(f"[yellow]inputs differ:[/] {escape(line)}")
     stale = _baseline_stale(old, console)
     regressions = comparison.regressions(fail_on_time=fail_on_time)
     if figures is not None and not regressions:  # a run that fails its comparison is not history

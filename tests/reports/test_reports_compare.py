@@ -290,3 +290,19 @@ def test_untested_cases_are_not_in_the_family():
     assert judged_few.p is None and judged_few.q is None and judged_few.verdict == "same"
     assert judged_slow.family == 1 and judged_slow.q == pytest.approx(judged_slow.p)
     assert judged_slow.verdict == "slower"
+
+
+def test_compare_says_when_a_rigs_content_differs_between_the_runs(make_run):
+    old, new = make_run("old"), make_run("new")
+    for run, digest in ((old, "sha256:" + "a" * 64), (new, "sha256:" + "b" * 64)):
+        document = json.loads((run / "run.json").read_text())
+        document["rig_digests"] = {"face@0": digest, "tiny@0": "sha256:" + "c" * 64}
+        (run / "run.json").write_text(json.dumps(document))
+    result = _invoke(old, new)
+    assert result.exit_code == 0, result.output
+    flat = " ".join(result.output.split())
+    assert flat.count("inputs differ:") == 1
+    assert (
+        "inputs differ: rig face@0: its content differs between the runs (sha256:aaaaaaaa... -> "
+        "sha256:bbbbbbbb...); changes of its cases may be the rig's, not the code's" in flat
+    )
