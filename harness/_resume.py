@@ -70,7 +70,7 @@ def rigs_changed(
             changes = before.changes(inputs[rig])
         detail = ", ".join(changes) or f"content {digest[:19]}..., the run has {stored[key][:19]}..."
         found.append(f"rig {named} changed since the run started ({detail})")
-    return found
+    return list(dict.fromkeys(found))  # (a rig file is one entry per seed, all alike)
 
 
 def versions_changed(previous: dict[str, Any], current: dict[str, Any]) -> list[str]:

@@ -78,12 +78,13 @@ def test_a_rig_replaced_before_resume_is_refused_and_never_mixed(rig_file, tmp_p
     rig = tmp_path / "rig.npz"
     shutil.copy(rig_file, rig)
     out = tmp_path / "out"
-    harness.run_grid(_config(rig), out, make_executor=inline)
+    harness.run_grid(_config(rig, seed=(0, 1)), out, make_executor=inline)
     before = harness.read_records(out)
     replacement = rigs.generate("tiny")
     rigs.save(replacement, rig)
     line = _one_line_error(invoke("run", "--resume", out))
     assert f"rig {rig} changed since the run started (rig.npz changed)" in line and "restore them" in line
+    assert line.count("changed since the run started") == 1  # (one rig file, however many seeds)
 
     forced = harness.run_grid(_config(rig), out, make_executor=inline, force=True)
     after = harness.read_records(out)
