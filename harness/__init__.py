@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
-    from harness._run import RunDirectoryError, RunSummary, read_run, run_grid
+    from harness._run import RunDirectoryError, RunSummary, in_progress, read_run, run_grid
     from harness._settings import settings_text, split_label
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -55,7 +55,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],
-        "_run": ["RunDirectoryError", "RunSummary", "read_run", "run_grid"],
+        "_run": ["RunDirectoryError", "RunSummary", "in_progress", "read_run", "run_grid"],
         "_settings": ["settings_text", "split_label"],
     },
 )

@@ -317,6 +317,24 @@ def locked(out: Path) -> Iterator[None]:
         os.close(descriptor)
 
 
+def in_progress(out: str | Path) -> bool:
+    """Whether a harness run holds the run folder ``out`` now (the lock of `locked`, taken for a moment as a
+    shared one to see: a run starting in that moment is told the folder is in use)."""
+    try:
+        descriptor = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return False
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(descriptor)  # (releases the shared lock)
+    return False
+
+
 def _holder(out: Path) -> str:
     try:
         execution = read_run(out).get("execution") or {}

@@ -49,13 +49,16 @@ def _slug(*parts: object) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "-", "-".join(str(part) for part in parts)).strip("-").lower()
 
 
-def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
+def _run_summary(run: dict, records: pd.DataFrame, live: bool) -> list[str]:
+    """The run's command, state, cells, commit and machine; ``live`` when a harness run holds its folder."""
     cells = records[records["kind"] == "cell"]
     counts = ", ".join(
         f"{count} {status}" for status, count in cells["status"].value_counts().sort_index().items()
     )
     missing = int(run.get("n_cells") or 0) - len(cells)
-    if missing > 0:  # (an interrupted or incomplete run: its grid's other cells were never recorded)
+    if missing > 0 and live:
+        counts = f"{counts or 'none'}; {missing} of the grid's {run['n_cells']} still to come (running)"
+    elif missing > 0:  # (an interrupted or incomplete run: its grid's other cells were never recorded)
         counts = f"{counts or 'none'}; {missing} of the grid's {run['n_cells']} not run (resume the run)"
     git = run.get("git") or {}
     machine = run.get("machine") or {}
@@ -70,7 +73,7 @@ def _run_summary(run: dict, records: pd.DataFrame) -> list[str]:
         f"Command: {' '.join(run.get('command', [])) or 'not recorded'}",
         f"Training expressions: {trained}",
         f"State: {run.get('state', 'unknown')}; started {run.get('started', '?')}, "
-        f"finished {run.get('finished', '?')}.",
+        + ("not finished yet." if live else f"finished {run.get('finished', '?')}."),
         f"Cells: {counts or 'none'}. Git commit: {git.get('commit') or 'none'}"
         f"{' (dirty)' if git.get('dirty') else ''}. Machine: {machine.get('hostname', '?')}, "
         f"{machine.get('cpu_count', '?')} CPUs, {machine.get('platform', '?')}.",
@@ -253,7 +256,7 @@ def report_sections(run_dir: Path, *, expressions: int = 5, history: Path | None
     sections = [
         Section(
             "Run",
-            _run_summary(run, records)
+            _run_summary(run, records, harness.in_progress(run_dir))
             + (
                 [f"Settings shared by every cell: {setting_label(shared, constant)}."]
                 if shared is not None and constant

@@ -231,3 +231,25 @@ def test_an_interrupted_run_says_how_many_of_its_cells_never_ran(make_run):
     (run / "run.json").write_text(json.dumps(info))
     _, text = build_report(run)
     assert f"; 3 of the grid's {recorded + 3} not run (resume the run)" in text.read_text()
+
+
+def test_a_report_of_a_run_going_on_says_its_cells_are_still_to_come(make_run):
+    """While a run holds its folder (its lock), its missing cells are on their way, not to be resumed."""
+    import fcntl
+    import os
+
+    run = make_run("live")
+    info = json.loads((run / "run.json").read_text())
+    recorded = len(harness.read_records(run).query("kind == 'cell'"))
+    info.update(state="running", n_cells=recorded + 3, finished=None)
+    (run / "run.json").write_text(json.dumps(info))
+    descriptor = os.open(run, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as the running harness holds it
+        assert harness.in_progress(run)
+        _, text = build_report(run)
+    finally:
+        os.close(descriptor)
+    assert not harness.in_progress(run)
+    assert f"; 3 of the grid's {recorded + 3} still to come (running)" in text.read_text()
+    assert "not finished yet." in text.read_text()
