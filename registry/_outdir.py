@@ -323,7 +323,11 @@ def claim(
     """
     folder = Path(folder)
     check_apart(folder, protect)
-    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+    if folder.is_symlink():
+        raise OutputFolderError(
+            f"{folder}: is a symbolic link; give the folder it points to, or choose another output folder"
+        )
+    if folder.exists() and not folder.is_dir():
         raise OutputFolderError(f"{folder}: exists and is not a folder; choose another output folder")
     _make(folder)
     held = _lock(folder) if lock else None

@@ -255,11 +255,13 @@ def _subfolder_shape_paths(
         When no subfolder, or more than one, holds OBJ files.
     """
     if len(holding) != 1:
+        linked = sorted(path.name for path in folder.iterdir() if path.is_symlink() and path.is_dir())
         where = (
             f"its subfolders {', '.join(sub.name for sub in holding)} all hold OBJ files; give the shapes "
             "in one folder"
             if holding
             else "its folder has no other OBJ files and no subfolder of them"
+            + (f" (symbolic links are not followed: {', '.join(linked)})" if linked else "")
         )
         raise RigError(f"{neutral_path}: one OBJ holds no blendshapes, and {where} (one OBJ per blendshape)")
     ((subfolder, entries),) = holding.items()

@@ -418,3 +418,11 @@ def test_a_name_cannot_be_both_a_file_and_a_folder_in_one_write(tmp_path) -> Non
         with pytest.raises(OutputFolderError, match="both a file and a folder"):
             folder.replace([(name, "x\n") for name in names])
         assert list((tmp_path / "out").iterdir()) == [] and _siblings(tmp_path / "out") == []
+
+
+def test_an_output_folder_that_is_a_symbolic_link_is_named_as_one(tmp_path):
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    with pytest.raises(OutputFolderError, match=r"link: is a symbolic link; give the folder it points to"):
+        claim(tmp_path / "link", kind="pack", force=False)
+    assert not any((tmp_path / "real").iterdir())

@@ -383,3 +383,6 @@ def test_two_subfolders_of_shapes_are_refused_by_name(tmp_path):
     (lone / "neutral.obj").write_text(obj_text(GRID, QUADS))
     with pytest.raises(RigError, match="no other OBJ files and no subfolder of them"):
         rigs.load(lone)
+    (lone / "shapes").symlink_to(tmp_path / "shapes")  # (a link is never followed: it may lead anywhere)
+    with pytest.raises(RigError, match=r"no subfolder of them \(symbolic links are not followed: shapes\)"):
+        rigs.load(lone)
