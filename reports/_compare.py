@@ -314,12 +314,14 @@ def changed_inputs(old: Path, new: Path) -> list[str]:
         before, after = (harness.read_run(path).get("rig_digests") or {} for path in (old, new))
     except (OSError, ValueError):
         return []
-    return [
-        f"rig {rig}: its content differs between the runs ({before[rig][:15]}... -> {after[rig][:15]}...); "
-        "changes of its cases may be the rig's, not the code's"
-        for rig in sorted(set(before) & set(after))
-        if before[rig] != after[rig]
+    lines = [
+        f"rig {key.rpartition('@')[0] or key}: its content differs between the runs "
+        f"({before[key][:15]}... -> {after[key][:15]}...); changes of its cases may be the rig's, "
+        "not the code's"
+        for key in sorted(set(before) & set(after))
+        if before[key] != after[key]
     ]
+    return list(dict.fromkeys(lines))  # (a rig file is one key per seed)
 
 
 def one_machine(old: Path, new: Path) -> str | None:
@@ -488,11 +490,7 @@ def _terminations(old: Metric, new: Metric) -> str:
         return ""
     now = termination_counts(new.samples)
     before = "" if old.samples is None else termination_counts(old.samples)
-    return now if before in ("", now) or _ended(old) == _ended(new) else f"{before} → {now}"
-
-
-def _ended(metric: Metric) -> set[str]:
-    return set(metric.samples["termination"].astype(str)) if metric.samples is not None else set()
+    return now if before in ("", now) else f"{before} → {now}"
 
 
 def _time_change(
@@ -528,7 +526,8 @@ def _time_change(
         return _held_in_seconds(judged, old, new, threshold) if one_machine else judged
     if spread is not None:
         verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
-        return dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
+        judged = dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
+        return _held_in_seconds(judged, old, new, threshold) if one_machine else judged
     verdict = "slower" if ratio > 1.0 + threshold else "faster" if ratio < 1.0 / (1.0 + threshold) else "same"
     return dataclasses.replace(change, verdict=verdict)
 

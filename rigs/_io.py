@@ -210,7 +210,7 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
             f"{MOVING_EVERYWHERE:.0%} of its {rig.n_vertices} vertices ({floor_note}): a blendshape moves "
             "part of a face, so their displacements likely carry noise (a scan, a sculpt, export "
             "rounding), and every such shape overlaps every other one (sec. 4.1; rigs.load(..., "
-            "noise_floor=1e-4) zeroes displacements below that share of the neutral's size)",
+            "noise_floor=F) zeroes displacements below F times the neutral's size: choose F above the noise)",
             RigWarning,
             stacklevel=3,
         )

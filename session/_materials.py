@@ -19,6 +19,11 @@ from rigs import RigError, RigWarning, folder_relative, read_bytes
 if TYPE_CHECKING:
     from rigs import ObjSurface
 
+#: Options of a map statement and the most arguments each takes (MTL specification).
+MAP_OPTIONS = {
+    "-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1, "-imfchan": 1, "-mm": 2,
+    "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1,
+}  # fmt: skip
 #: Largest material library or texture map copied (an 8K 16-bit map is 400 MB).
 LARGEST_FILE = 1 << 29
 #: The ``.mtl`` statements whose last word is a texture map's file name (their options come before it).
@@ -37,8 +42,8 @@ def material_files(surface: ObjSurface, obj: Path, folder: Path) -> Iterator[tup
     A name that is absolute, leads out of the OBJ's folder, or is missing or unreadable there is skipped:
     the OBJ keeps its line, as the source did, and a `rigs.RigWarning` names the file not carried along
     (the copy then points where the source pointed, which is no file beside the session). A map's file name
-    may hold spaces (as Blender and Maya write them): the longest run of the statement's last words that
-    names a file is taken, so that options before it are never read as part of it.
+    may hold spaces (as Blender and Maya write them): the words after the statement's options are its name
+    (`_texture_names`).
 
     Warns
     -----
@@ -66,11 +71,14 @@ def material_files(surface: ObjSurface, obj: Path, folder: Path) -> Iterator[tup
 
 
 def _first_found(library: str, candidates: list[str], base: Path, folder: Path) -> tuple[str, bytes] | None:
-    """The first of the ``candidates`` (names relative to the ``library``) that is a readable file inside
-    ``folder``, as its name relative to ``base`` (the OBJ's folder) and its bytes."""
+    """The first of the ``candidates`` (names relative to the ``library``, the whole name first) that is a
+    readable file inside ``folder``, as its name relative to ``base`` (the OBJ's folder) and its bytes; None
+    as soon as a name leads outside the folder (a shorter name would be another file)."""
     for texture in candidates:
         name = folder_relative(posixpath.normpath((PurePosixPath(library).parent / texture).as_posix()))
-        image = None if name is None else _read(base / name, folder)
+        if name is None:
+            return None
+        image = _read(base / name, folder)
         if image is not None:
             return name, image
     return None
@@ -97,13 +105,31 @@ def _named(lines: tuple[str, ...], keyword: str) -> Iterator[str]:
 
 
 def _texture_names(text: str) -> Iterator[tuple[int, list[str]]]:
-    """Per map statement of a material library, its line number and the names its file may have: the runs
-    of its last words (without quotes), longest first, down to the last word alone."""
+    """Per map statement of a material library, its line number and its file's name: the words after its
+    options (`MAP_OPTIONS`, each with its numeric arguments), joined by spaces (a name may hold them),
+    without quotes; the last word too when that differs, for a name written after an unknown option."""
     for number, line in enumerate(text.splitlines(), start=1):
         words = line.split("#", 1)[0].split()
-        if len(words) >= 2 and words[0].lower() in MAP_STATEMENTS:
-            runs = [" ".join(words[start:]) for start in range(1, len(words))]
-            yield number, [run.strip("\"'").replace("\\", "/") for run in runs]
+        if len(words) < 2 or words[0].lower() not in MAP_STATEMENTS:
+            continue
+        rest = words[1:]
+        while rest and rest[0].lower() in MAP_OPTIONS:
+            most = MAP_OPTIONS[rest[0].lower()]
+            rest = rest[1:]
+            for _ in range(most):
+                if len(rest) > 1 and (_is_number(rest[0]) or rest[0].lower() in ("on", "off")):
+                    rest = rest[1:]
+        names = [" ".join(rest), rest[-1]] if len(rest) > 1 else rest
+        if names:
+            yield number, [name.strip("\"'").replace("\\", "/") for name in names]
+
+
+def _is_number(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
 
 
 def _read(path: Path, folder: Path) -> bytes | None:

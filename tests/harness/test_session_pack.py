@@ -534,15 +534,21 @@ def test_the_material_libraries_and_texture_maps_of_an_obj_rig_travel_with_the_s
 
 
 def test_a_texture_map_named_with_spaces_travels_and_one_left_behind_is_named(tmp_path) -> None:
-    """Blender and Maya write map names with spaces: the longest run of the statement's last words naming
-    a file is copied; a map outside the rig's folder or missing is named in a warning, not dropped unsaid."""
+    """Blender and Maya write map names with spaces: the words after the statement's options name the file
+    (never an option's argument, never a shorter name inside the folder when the whole one leads out); a
+    map outside the rig's folder or missing is named in a warning, not dropped unsaid."""
     tiny = rigs.generate("tiny")
     folder = obj_rig_folder(tiny, tmp_path / "face")
     (folder / "tex maps").mkdir()
     (folder / "tex maps" / "skin diff.png").write_bytes(b"\x89PNG spaced")
     (folder / "diff.png").write_bytes(b"\x89PNG decoy")  # (the last word alone names another file)
     (tmp_path / "outside.png").write_bytes(b"\x89PNG outside")
+    (folder / "1 skin.png").write_bytes(b"\x89PNG option decoy")
+    (folder / "skin.png").write_bytes(b"\x89PNG plain")
+    (folder / "Maps").mkdir()
+    (folder / "Maps" / "eye.png").write_bytes(b"\x89PNG windows decoy")
     library = "newmtl skin\nmap_Kd -bm 1.0 tex maps/skin diff.png\nmap_Ks ../outside.png\nbump gone.png\n"
+    library += "map_Ka -s 1 1 1 skin.png\nmap_d C:\\Users\\art\\My Maps\\eye.png\n"
     (folder / "face.mtl").write_text(library)
     out = tmp_path / "out"
     with pytest.warns(rigs.RigWarning) as caught:
@@ -550,6 +556,8 @@ def test_a_texture_map_named_with_spaces_travels_and_one_left_behind_is_named(tm
     said = " ".join(str(warning.message) for warning in caught)
     assert (out / "tex maps" / "skin diff.png").read_bytes() == b"\x89PNG spaced"
     assert not (out / "diff.png").exists()
+    assert (out / "skin.png").read_bytes() == b"\x89PNG plain" and not (out / "1 skin.png").exists()
+    assert not (out / "Maps").exists()
     assert not list(out.rglob("outside.png"))
     assert "texture map '../outside.png' (face.mtl:3) is not a readable file inside the rig's folder" in said
     assert "texture map 'gone.png' (face.mtl:4)" in said

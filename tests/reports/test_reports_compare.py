@@ -296,13 +296,13 @@ def test_compare_says_when_a_rigs_content_differs_between_the_runs(make_run):
     old, new = make_run("old"), make_run("new")
     for run, digest in ((old, "sha256:" + "a" * 64), (new, "sha256:" + "b" * 64)):
         document = json.loads((run / "run.json").read_text())
-        document["rig_digests"] = {"face@0": digest, "tiny@0": "sha256:" + "c" * 64}
+        document["rig_digests"] = {"face@0": digest, "face@1": digest, "tiny@0": "sha256:" + "c" * 64}
         (run / "run.json").write_text(json.dumps(document))
     result = _invoke(old, new)
     assert result.exit_code == 0, result.output
     flat = " ".join(result.output.split())
     assert flat.count("inputs differ:") == 1
     assert (
-        "inputs differ: rig face@0: its content differs between the runs (sha256:aaaaaaaa... -> "
+        "inputs differ: rig face: its content differs between the runs (sha256:aaaaaaaa... -> "
         "sha256:bbbbbbbb...); changes of its cases may be the rig's, not the code's" in flat
     )
