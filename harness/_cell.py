@@ -284,9 +284,8 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
             verify = functools.partial(_check, spec, solver, template, analysis, expressions)
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
-    except (
-        SystemExit
-    ) as exit_:  # a plugin's sys.exit: its error, not the worker's (stops raise KeyboardInterrupt)
+    # A plugin's sys.exit is its error, not the worker's (stop signals raise KeyboardInterrupt).
+    except SystemExit as exit_:
         return stop("error", f"the solver called sys.exit({exit_.code!r})")
     failed = _failed_expression(expressions)
     if failed is not None:

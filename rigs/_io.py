@@ -234,11 +234,11 @@ def with_report(rig: Rig, noise_floor: float = DEFAULT_NOISE_FLOOR, *, origin: s
 #: mesh of a few vertices, may move everything by design.
 MOVING_EVERYWHERE = 0.99
 NOISY_MIN_SHAPES = 3
+NOISY_MIN_VERTICES = 100
 #: Share of a shape's largest displacement that a vertex's must exceed to count as moved there.
 MOVED_SHARE = 1e-4
 #: Shapes whose displacement lengths `moving_everywhere` holds at once (bounds its memory on film rigs).
 SHAPES_AT_ONCE = 64
-NOISY_MIN_VERTICES = 100
 
 
 def moving_everywhere(deltas: np.ndarray) -> np.ndarray:

@@ -316,7 +316,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
             notes.append(result.message())
         if missing:
             notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
-        answers = [expression.solution for expression in expressions]
+        first = expressions[0].solution if expressions else None
         expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
         if timed_out and not expressions:
             raise HarnessError(
@@ -324,8 +324,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                 f"(loading and analysing {config.rig} took {format_duration(deadline.started - started)}); "
                 "give a longer --timeout"
             )
-        if not expressions and answers and analysis.packable.any() and not refined:
-            first = answers[0]
+        if not expressions and first is not None and analysis.packable.any() and not refined:
             said = f": {first.message}" if first.message else ""
             raise HarnessError(
                 f"solver {config.solver} found no expression for {config.rig} (its first answer: "

@@ -34,8 +34,7 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     -------
     CliqueModel
         The same weights, shape counts and cap; the grown rows, sorted (as bit rows, item 0 the highest
-        bit), duplicates removed. Its feasible
-        set is the model's.
+        bit), duplicates removed. Its feasible set is the model's.
 
     Notes
     -----
