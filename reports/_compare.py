@@ -314,14 +314,15 @@ def changed_inputs(old: Path, new: Path) -> list[str]:
         before, after = (harness.read_run(path).get("rig_digests") or {} for path in (old, new))
     except (OSError, ValueError):
         return []
-    lines = [
-        f"rig {key.rpartition('@')[0] or key}: its content differs between the runs "
-        f"({before[key][:15]}... -> {after[key][:15]}...); changes of its cases may be the rig's, "
-        "not the code's"
-        for key in sorted(set(before) & set(after))
-        if before[key] != after[key]
+    changed: dict[str, tuple[str, str]] = {}  # rig -> its first changed digests (a key per rig and seed)
+    for key in sorted(set(before) & set(after)):
+        if before[key] != after[key]:
+            changed.setdefault(key.rpartition("@")[0] or key, (before[key], after[key]))
+    return [
+        f"rig {rig}: its content differs between the runs ({was[:15]}... -> {now[:15]}...); changes of its "
+        "cases may be the rig's, not the code's"
+        for rig, (was, now) in changed.items()
     ]
-    return list(dict.fromkeys(lines))  # (a rig file is one key per seed)
 
 
 def one_machine(old: Path, new: Path) -> str | None:
