@@ -19,10 +19,19 @@ from rigs import RigError, RigWarning, folder_relative, read_bytes
 if TYPE_CHECKING:
     from rigs import ObjSurface
 
-#: Options of a map statement and the most arguments each takes (MTL specification).
-MAP_OPTIONS = {
-    "-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1, "-imfchan": 1, "-mm": 2,
-    "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1,
+#: Words an option takes besides numbers: ``on``/``off`` switches, ``-imfchan``'s channel and ``-type``'s
+#: reflection projection (MTL specification).
+SWITCH = frozenset({"on", "off"})
+CHANNELS = frozenset({"r", "g", "b", "m", "l", "z"})
+PROJECTIONS = frozenset(
+    {"sphere", "cube_top", "cube_bottom", "cube_front", "cube_back", "cube_left", "cube_right"}
+)
+#: Options of a map statement: the most arguments each takes and the words it takes (numbers when empty).
+MAP_OPTIONS: dict[str, tuple[int, frozenset[str]]] = {
+    "-blendu": (1, SWITCH), "-blendv": (1, SWITCH), "-bm": (1, frozenset()), "-boost": (1, frozenset()),
+    "-cc": (1, SWITCH), "-clamp": (1, SWITCH), "-imfchan": (1, CHANNELS), "-mm": (2, frozenset()),
+    "-o": (3, frozenset()), "-s": (3, frozenset()), "-t": (3, frozenset()), "-texres": (1, frozenset()),
+    "-type": (1, PROJECTIONS),
 }  # fmt: skip
 #: Largest material library or texture map copied (an 8K 16-bit map is 400 MB).
 LARGEST_FILE = 1 << 29
@@ -106,7 +115,7 @@ def _named(lines: tuple[str, ...], keyword: str) -> Iterator[str]:
 
 def _texture_names(text: str) -> Iterator[tuple[int, list[str]]]:
     """Per map statement of a material library, its line number and its file's name: the words after its
-    options (`MAP_OPTIONS`, each with its numeric arguments), joined by spaces (a name may hold them),
+    options (`MAP_OPTIONS`, each with the arguments of its kind), joined by spaces (a name may hold them),
     without quotes; the last word too when that differs, for a name written after an unknown option."""
     for number, line in enumerate(text.splitlines(), start=1):
         words = line.split("#", 1)[0].split()
@@ -114,10 +123,11 @@ def _texture_names(text: str) -> Iterator[tuple[int, list[str]]]:
             continue
         rest = words[1:]
         while rest and rest[0].lower() in MAP_OPTIONS:
-            most = MAP_OPTIONS[rest[0].lower()]
+            most, takes = MAP_OPTIONS[rest[0].lower()]
             rest = rest[1:]
             for _ in range(most):
-                if len(rest) > 1 and (_is_number(rest[0]) or rest[0].lower() in ("on", "off")):
+                argument = rest[0].lower() if len(rest) > 1 else None
+                if argument is not None and (argument in takes if takes else _is_number(argument)):
                     rest = rest[1:]
         names = [" ".join(rest), rest[-1]] if len(rest) > 1 else rest
         if names:

@@ -230,7 +230,9 @@ def test_the_cluster_started_for_a_run_keeps_the_environment_of_local_workers(mo
     try:
         with distributed.Client(cluster) as client:
             # (a function of the library, not of this module: worker processes need not import the tests)
-            seen = {name: client.run(os.getenv, name) for name in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS")}
+            seen = {
+                name: client.run(os.getenv, name) for name in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS")
+            }
     finally:
         cluster.close()
     assert [list(values.values()) for values in seen.values()] == [[None], [None]]

@@ -545,10 +545,15 @@ def test_a_texture_map_named_with_spaces_travels_and_one_left_behind_is_named(tm
     (tmp_path / "outside.png").write_bytes(b"\x89PNG outside")
     (folder / "1 skin.png").write_bytes(b"\x89PNG option decoy")
     (folder / "skin.png").write_bytes(b"\x89PNG plain")
+    for word_option_decoy in ("r gloss.png", "sphere chrome.png", "on clamp.png"):
+        (folder / word_option_decoy).write_bytes(b"\x89PNG word option decoy")
+    for name in ("gloss.png", "chrome.png", "clamp.png"):
+        (folder / name).write_bytes(b"\x89PNG " + name.encode())
     (folder / "Maps").mkdir()
     (folder / "Maps" / "eye.png").write_bytes(b"\x89PNG windows decoy")
     library = "newmtl skin\nmap_Kd -bm 1.0 tex maps/skin diff.png\nmap_Ks ../outside.png\nbump gone.png\n"
     library += "map_Ka -s 1 1 1 skin.png\nmap_d C:\\Users\\art\\My Maps\\eye.png\n"
+    library += "map_Ns -imfchan r gloss.png\nrefl -type sphere chrome.png\nmap_Ke -clamp on -bm 2 clamp.png\n"
     (folder / "face.mtl").write_text(library)
     out = tmp_path / "out"
     with pytest.warns(rigs.RigWarning) as caught:
@@ -557,6 +562,9 @@ def test_a_texture_map_named_with_spaces_travels_and_one_left_behind_is_named(tm
     assert (out / "tex maps" / "skin diff.png").read_bytes() == b"\x89PNG spaced"
     assert not (out / "diff.png").exists()
     assert (out / "skin.png").read_bytes() == b"\x89PNG plain" and not (out / "1 skin.png").exists()
+    for name in ("gloss.png", "chrome.png", "clamp.png"):  # (an option's word argument is no part of it)
+        assert (out / name).read_bytes() == b"\x89PNG " + name.encode()
+    assert not [path.name for path in out.glob("* *.png")]
     assert not (out / "Maps").exists()
     assert not list(out.rglob("outside.png"))
     assert "texture map '../outside.png' (face.mtl:3) is not a readable file inside the rig's folder" in said
