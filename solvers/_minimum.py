@@ -259,7 +259,7 @@ def colour_highs(problem, start, lower, time_limit, seed):
     """The colouring model as a HiGHS MILP: (colours, proved lower bound, proved optimal, version)."""
     import highspy
 
-    from solvers.highs import configured_highs, highs_lp, highs_solution
+    from solvers._highs_model import configured_highs, highs_lp, highs_solution
 
     n_items, n_colours = problem.n_items, int(start.max()) + 1
     n_x = n_items * n_colours  # x[i, c] is column i * n_colours + c, used[c] is column n_x + c

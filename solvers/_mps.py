@@ -98,7 +98,7 @@ def write_mps(model: CliqueModel, *, name: str, columns: Sequence[str] | None = 
     """
     import highspy
 
-    from solvers.highs import highs_lp
+    from solvers._highs_model import highs_lp
 
     n_items = model.n_items
     columns = tuple(f"x{i}" for i in range(n_items)) if columns is None else tuple(columns)

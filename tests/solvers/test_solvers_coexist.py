@@ -96,7 +96,7 @@ def test_bad_arguments_raise_one_clear_error():
 
 def test_highs_runs_under_the_options_it_records_and_fails_loudly_on_a_refused_one():
     highspy = pytest.importorskip("highspy")
-    from solvers.highs import configured_highs
+    from solvers._highs_model import configured_highs
 
     highs = configured_highs(highspy, 2.5, 7, mip_abs_gap=0.0, mip_allow_restart=False)
     recorded = {"mip_allow_restart": False, "time_limit": 2.5, "random_seed": 7, "threads": 1}

@@ -88,6 +88,26 @@ def test_the_bounds_hold_every_optimum_and_the_packing_is_valid(monkeypatch, see
     assert set(best.items) <= set(costs.kept(optimum).tolist())
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_bound_is_the_lp_optimum_and_the_duals_are_complementary(monkeypatch, seed):
+    """The duals HiGHS answers prove the LP relaxation's optimum itself (strong duality), checked against
+    SciPy's ``linprog``: duals of the wrong sign or of another LP would still give a valid bound, only a
+    weak one, and fix nothing."""
+    from scipy.optimize import linprog
+
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    problem = random_problem(60, 80, seed=seed, active=(4, 9), pairs=0.2, cap=12)
+    reduction = reduce_problem(problem, True)
+    closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
+    model = grown_cliques(reduction.cut_model(), closed)
+    costs = fixing.reduced_costs(model, start_packing(problem, reduction))
+    assert costs is not None
+    relaxed = linprog(-model.weights, A_ub=model.matrix(), b_ub=model.upper(), bounds=(0, 1), method="highs")
+    assert relaxed.status == 0
+    assert costs.bound == pytest.approx(-relaxed.fun, rel=1e-9, abs=1e-12)
+    assert costs.bound < float(model.weights.clip(min=0).sum()) - 1e-6  # (a proof, not the trivial bound)
+
+
 def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
     """Cut short, the answer's bound covers the packings holding a left-out item too."""
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
