@@ -40,9 +40,11 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     -----
     Each row visits the items in order of decreasing weight (ties by index) and takes every item that
     conflicts with all of its members so far. Since the items a row may still take only shrink, the next
-    item it takes is the first (by weight) of those: with the items renumbered by weight, the highest set
-    bit of the row's candidate words. Every row takes its next item at once, one round per item the most
-    grown row gains, O(G R W) word operations for R rows grown by at most G items.
+    item it takes is the first (by weight) of those: with the items renumbered by weight, item p bit
+    ``p % 64`` of word ``p // 64``, the lowest set bit of the row's first nonzero candidate word (isolated
+    as ``x & -x``, a power of two whose float exponent is exact). Every row takes its next item at once,
+    one round per item the most grown row gains, O(G R W) word operations for R distinct rows grown by at
+    most G items.
     """
     n_items, n_rows = model.n_items, model.n_rows
     if n_rows == 0:
@@ -50,34 +52,38 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     order = np.argsort(-model.weights, kind="stable")
     rank = np.empty(n_items, dtype=np.int64)
     rank[order] = np.arange(n_items)
-    ranked = pack_bit_rows(unpack_bit_rows(closed, n_items)[order][:, order])  # item order[p] is bit p
+    # Item order[p] is bit p % 64 of word p // 64: the heaviest candidate of a word is its lowest set bit.
+    column = _lowest_first(n_items)[rank]
+    width = -(-n_items // 64) * 64
+    ranked = np.zeros((n_items, width), dtype=bool)
+    ranked[:, column] = unpack_bit_rows(closed, n_items)[order]
+    ranked = pack_bit_rows(ranked)
     owner = np.repeat(np.arange(n_rows), np.diff(model.row_starts))
-    members = np.zeros((n_rows, n_items), dtype=bool)
-    members[owner, rank[model.row_items]] = True
+    members = np.zeros((n_rows, width), dtype=bool)
+    members[owner, column[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
-    member_bits = pack_bit_rows(members)
-    distinct = _distinct_rows(member_bits)
-    member_bits, n_rows = member_bits[distinct], distinct.size
+    distinct = _distinct_rows(pack_bit_rows(members))
+    grown_bits = pack_bit_rows(members[distinct])
     # Items conflicting with every member (the members included: neighbourhoods are closed).
-    common = np.bitwise_and.reduceat(ranked[rank[model.row_items]], model.row_starts[:-1], axis=0)[distinct]
-    growing, grown_bits = np.arange(n_rows), member_bits.copy()  # the rows still growing, their members
-    while growing.size:
+    sizes = np.diff(model.row_starts)[distinct]
+    starts = np.zeros(distinct.size, dtype=np.int64)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    entries = np.repeat(model.row_starts[distinct] - starts, sizes) + np.arange(sizes.sum())
+    common = np.bitwise_and.reduceat(ranked[rank[model.row_items[entries]]], starts, axis=0)
+    finished = []  # the rows grown to maximal cliques
+    while grown_bits.shape[0]:
         candidates = common & ~grown_bits
-        nonzero = candidates != 0
-        open_rows = nonzero.any(axis=1)
+        word = (candidates != 0).argmax(axis=1)
+        taken = candidates[np.arange(word.size), word]  # the next item's word, zero for a maximal row
+        open_rows = taken != 0
         if not open_rows.all():
-            member_bits[growing[~open_rows]] = grown_bits[~open_rows]
-            growing, grown_bits, common = growing[open_rows], grown_bits[open_rows], common[open_rows]
-            candidates, nonzero = candidates[open_rows], nonzero[open_rows]
-        if growing.size == 0:
-            break
-        row, word = np.arange(growing.size), nonzero.argmax(axis=1)
-        bit = _highest_bit(candidates[row, word])
-        grown_bits[row, word] |= np.left_shift(np.uint64(1), bit.astype(np.uint64))
-        common &= ranked[word * 64 + 63 - bit]
-    by_item = np.zeros((n_rows, n_items), dtype=bool)
-    by_item[:, order] = unpack_bit_rows(member_bits, n_items)
-    grown = pack_bit_rows(by_item)
+            finished.append(grown_bits[~open_rows])
+            grown_bits, common = grown_bits[open_rows], common[open_rows]
+            word, taken = word[open_rows], taken[open_rows]
+        lowest = taken & (~taken + np.uint64(1))  # (-taken, two's complement)
+        grown_bits[np.arange(word.size), word] |= lowest
+        common &= ranked[word * 64 + np.frexp(lowest.astype(np.float64))[1] - 1]  # (powers of 2: exact)
+    grown = pack_bit_rows(unpack_bit_rows(np.concatenate(finished), width)[:, column])
     rows = unpack_bit_rows(grown[_distinct_rows(grown)], n_items)
     row_of, items = np.divmod(np.flatnonzero(rows), n_items)  # (as np.nonzero, a third of its time)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
@@ -97,12 +103,10 @@ def _distinct_rows(words: np.ndarray) -> np.ndarray:
     return order[first]
 
 
-def _highest_bit(words: np.ndarray) -> np.ndarray:
-    """(n,) int64: index (0 = least significant) of the highest set bit of each nonzero uint64 word, from
-    the exact binary exponents of its two 32-bit halves."""
-    high = np.frexp((words >> np.uint64(32)).astype(np.float64))[1]
-    low = np.frexp((words & np.uint64(0xFFFFFFFF)).astype(np.float64))[1]
-    return np.where(high > 0, high + 31, low - 1).astype(np.int64)
+def _lowest_first(n_items: int) -> np.ndarray:
+    """(n,) the column of `pack_bit_rows` at which position p is bit ``p % 64`` of word ``p // 64``."""
+    position = np.arange(n_items)
+    return position - position % 64 + 63 - position % 64
 
 
 def kernel_neighbourhoods(closed: np.ndarray, kept: np.ndarray, n_items: int) -> np.ndarray:
