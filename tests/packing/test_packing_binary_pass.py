@@ -39,3 +39,22 @@ def test_active_entries_are_the_dense_lengths_masks_and_displacements(monkeypatc
     assert lengths.data.tobytes() == norms[masks].tobytes()  # bit for bit
     assert np.array_equal(moved, deltas[masks])
     assert binary.active_entries(deltas, 0.3, 1e-6, 10.0)[3] is None
+
+
+@pytest.mark.parametrize("mu", [0.3, 0.5, 1.0])
+def test_entries_at_the_threshold_are_decided_as_eq_2_decides_them(mu):
+    """Lengths a few units in the last place around ``mu`` times the largest: only the squares near the
+    threshold are rooted, and those decide exactly as the lengths of `displacement_norms` do."""
+    rng = np.random.default_rng(7)
+    directions = rng.standard_normal((4, 500, 3))
+    directions /= binary.displacement_norms(directions)[..., None]
+    largest = 10.0 ** rng.uniform(-3, 2, (4, 1, 1))
+    ulps = rng.integers(-4, 5, (4, 500, 1)).astype(np.float64)
+    deltas = directions * (mu * largest) * (1.0 + ulps * np.finfo(np.float64).eps)
+    deltas[:, 0] = directions[:, 0] * largest[:, 0]  # the largest displacement of each shape
+    norms = binary.displacement_norms(deltas)
+    masks = binary.masks_from_norms(norms, mu, binary.empty_mask(norms, 1e-6, 10.0))
+    lengths, _, active, _ = binary.active_entries(deltas, mu, 1e-6, 10.0)
+    assert 0 < masks.sum() < masks.size - 4  # (entries on both sides of the threshold)
+    assert np.array_equal(active.toarray(), masks)
+    assert lengths.data.tobytes() == norms[masks].tobytes()
