@@ -154,7 +154,7 @@ def mirror_map(
     mirror = np.full(points.shape[0], -1, dtype=np.int64)
     todo = np.arange(points.shape[0])
     if exact or plane is not None:  # a reflection landing on a vertex has its closest point
-        used = np.unique(faces)
+        used = np.flatnonzero(np.bincount(faces.ravel(), minlength=points.shape[0]))  # (as np.unique)
         distance, nearest = cKDTree(points[used]).query(
             reflected, distance_upper_bound=_within(_EXACT * sampled.spacing)
         )

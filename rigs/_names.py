@@ -65,14 +65,22 @@ def mirror_name_pairs(names: Iterable[str]) -> list[tuple[str, str]]:
     >>> mirror_name_pairs(["eyeBlinkRight", "jawOpen", "eyeBlinkLeft", "brow.L", "brow.R", "cheek_L"])
     [('brow.L', 'brow.R'), ('eyeBlinkLeft', 'eyeBlinkRight')]
     """
-    present = set(names)
+    return _twins(_sides(names))
+
+
+def _sides(names: Iterable[str]) -> dict[str, str | None]:
+    """`side_of` each distinct name."""
+    return {name: side_of(name) for name in set(names)}
+
+
+def _twins(sides: dict[str, str | None]) -> list[tuple[str, str]]:
+    """`mirror_name_pairs` of the names whose sides are ``sides``."""
     pairs = []
-    for name in present:
-        if side_of(name) != "L":
-            continue
-        twin = _swapped(name)
-        if twin in present and side_of(twin) == "R":
-            pairs.append((name, twin))
+    for name, side in sides.items():
+        if side == "L":
+            twin = _swapped(name)
+            if sides.get(twin) == "R":
+                pairs.append((name, twin))
     return sorted(pairs)
 
 
@@ -115,13 +123,14 @@ def compare_name_pairs(
         unknown = [name for name in pair if name not in known]
         if unknown:
             raise ValueError(f"compare_name_pairs: pair {pair!r} names unknown shape {unknown[0]!r}")
-    twins = mirror_name_pairs(names)
+    sides = _sides(names)
+    twins = _twins(sides)
     twin_sets = {frozenset(pair) for pair in twins}
     found = {frozenset(pair) for pair in pairs}
     contradicting = [
         pair
         for pair in pairs
-        if side_of(pair[0]) is not None and side_of(pair[1]) is not None and frozenset(pair) not in twin_sets
+        if sides[pair[0]] is not None and sides[pair[1]] is not None and frozenset(pair) not in twin_sets
     ]
     missed = [pair for pair in twins if frozenset(pair) not in found]
     return contradicting, missed
