@@ -31,9 +31,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from packing import Termination
+from packing import Termination, pack_bit_rows
 from solvers._base import Result
 from solvers._model import CliqueModel
+from solvers._reduce import reduce_graph
 from solvers.local_search import locally_optimal
 
 if TYPE_CHECKING:
@@ -69,6 +70,8 @@ class ReducedCosts:
         The best packing found, as items of ``model``, ascending.
     margin : float
         How far below a level a bound must be to leave the item out (`FIXING_MARGIN` of the total weight).
+    conflicts : (I, I) bool array
+        The model's conflict graph without self loops.
     """
 
     model: CliqueModel
@@ -76,6 +79,7 @@ class ReducedCosts:
     bound: float
     packing: tuple[int, ...]
     margin: float
+    conflicts: np.ndarray
 
     def objective(self, items: Sequence[int]) -> float:
         """Eq. 3a of ``items`` of the model."""
@@ -118,7 +122,7 @@ def reduced_costs(
     if conflicts is None:
         conflicts = model.conflict_graph().toarray()
     packing = _best_packing(model, values, start, conflicts)
-    return ReducedCosts(model, bound + np.minimum(reduced, 0.0), bound, packing, margin)
+    return ReducedCosts(model, bound + np.minimum(reduced, 0.0), bound, packing, margin, conflicts)
 
 
 def _relaxation(
@@ -195,13 +199,27 @@ def _solve_kept(
     packing: Sequence[int],
     solve: Callable[[CliqueModel, tuple[int, ...]], Result],
 ) -> Result:
-    """``solve`` on the model restricted to ``kept``, started from the kept items of ``packing``, answered
-    as items of the whole model, its bound raised to cover the packings holding an item left out."""
+    """``solve`` on the model restricted to ``kept``, without the items that other kept items dominate,
+    started from the rest of ``packing``; answered as items of the whole model, its bound raised to cover
+    the packings holding an item left out.
+
+    The items left out by their bounds no longer crowd the neighbourhoods of the kept ones, so that some
+    kept items are dominated now (`solvers._reduce.reduce_graph`: a fifth of the search on a 2,000-shape
+    film sequence). No optimal packing of the restricted model holds one, and every packing holding one is
+    matched by a better one without it, so the restricted optimum and the backend's bound stay those of
+    the restricted model."""
+    restricted = costs.conflicts[np.ix_(kept, kept)]
+    np.fill_diagonal(restricted, True)
+    counts = costs.model.shape_counts[kept]
+    cap_binds = costs.model.cap is not None and costs.model.cap < int(counts.sum())
+    weights = costs.model.weights[kept]
+    remaining, isolated = reduce_graph(weights, counts, pack_bit_rows(restricted), cap_binds)
+    solved = kept[np.union1d(remaining, isolated)]  # (isolated items are left to the backend)
     position = np.full(costs.model.n_items, -1, dtype=np.int64)
-    position[kept] = np.arange(kept.size)
+    position[solved] = np.arange(solved.size)
     start = position[np.asarray(packing, dtype=np.int64)]
-    result = solve(costs.model.restricted(kept), tuple(start[start >= 0].tolist()))
-    items = tuple(kept[np.asarray(result.items, dtype=np.int64)].tolist())
+    result = solve(costs.model.restricted(solved), tuple(start[start >= 0].tolist()))
+    items = tuple(solved[np.asarray(result.items, dtype=np.int64)].tolist())
     left_out = np.ones(costs.model.n_items, dtype=bool)
     left_out[kept] = False
     bound = result.bound

@@ -121,13 +121,34 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
     whose weights and degrees allow domination and whose would-be dominator lost a neighbour since the last
     round, O(P W) for P such pairs.
     """
-    n_items = problem.n_items
+    weights = np.asarray(problem.weights, dtype=np.float64)
+    kept, taken = reduce_graph(weights, problem.item_shape_counts, problem.conflict_bits, cap_binds)
+    return Reduction(problem, kept, taken)
+
+
+def reduce_graph(
+    weights: np.ndarray, counts: np.ndarray, closed: np.ndarray, cap_binds: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """`reduce_problem` on the arrays of a conflict graph: the items left and the items taken.
+
+    Parameters
+    ----------
+    weights, counts : (I,) arrays
+        Item weights (eq. 3a) and blendshapes per item.
+    closed : (I, W) uint64 array
+        Closed neighbourhoods as bit rows (`packing.PackingProblem.conflict_bits` order).
+    cap_binds : bool
+        As in `reduce_problem`.
+
+    Returns
+    -------
+    kept, taken : int arrays, ascending
+        The kernel's items and the isolated items every optimal packing holds.
+    """
+    n_items = weights.size
     everything = np.arange(n_items)
     if n_items == 0:
-        return Reduction(problem, everything, everything)
-    weights = np.asarray(problem.weights, dtype=np.float64)
-    counts = problem.item_shape_counts
-    closed = problem.conflict_bits
+        return everything, everything
     # (i, j) with j conflicting with i, weighing more and (under a cap) with no more shapes: j may dominate i.
     may_dominate = np.unpackbits(closed.astype(">u8").view(np.uint8), axis=1, count=n_items).astype(bool)
     may_dominate &= weights[None, :] > weights[:, None]
@@ -154,7 +175,7 @@ def reduce_problem(problem: PackingProblem, cap_binds: bool) -> Reduction:
         taken |= isolated
         alive &= ~(isolated | dominated)
         previous_degree = degree
-    return Reduction(problem, np.flatnonzero(alive), np.flatnonzero(taken))
+    return np.flatnonzero(alive), np.flatnonzero(taken)
 
 
 def _dominated(live: np.ndarray, degree: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

@@ -16,7 +16,7 @@ import solvers._fixing as fixing
 from packing import Termination
 from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._exact import start_packing
-from solvers._reduce import reduce_problem
+from solvers._reduce import reduce_graph, reduce_problem
 from solvers.testing import random_problem
 from tests.solvers.plugin_variants import available, variant
 
@@ -106,6 +106,28 @@ def test_the_bound_is_the_lp_optimum_and_the_duals_are_complementary(monkeypatch
     assert relaxed.status == 0
     assert costs.bound == pytest.approx(-relaxed.fun, rel=1e-9, abs=1e-12)
     assert costs.bound < float(model.weights.clip(min=0).sum()) - 1e-6  # (a proof, not the trivial bound)
+
+
+@pytest.mark.parametrize("cap", [None, 10])
+def test_items_dominated_once_others_are_fixed_out_are_not_solved_and_the_optimum_stays(monkeypatch, cap):
+    """With the items of low bounds left out, some kept items are dominated by others and the backend does
+    not see them; every answer is still the plain solver's optimum."""
+    monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
+    sizes = []
+
+    def recording(weights, counts, closed, cap_binds):
+        kept, taken = reduce_graph(weights, counts, closed, cap_binds)
+        sizes.append((weights.size, kept.size + taken.size))
+        return kept, taken
+
+    monkeypatch.setattr(fixing, "reduce_graph", recording)
+    for seed in range(6):
+        problem = random_problem(80, 60, seed=seed, active=(2, 6), pairs=0.2, cap=cap)
+        fixed = available("cpsat").solve(problem, time_limit=None, seed=0)
+        plain = _plain("cpsat").solve(problem, time_limit=None, seed=0)
+        assert fixed.termination is Termination.OPTIMAL
+        assert fixed.items == plain.items and fixed.objective == plain.objective
+    assert any(solved < kept for kept, solved in sizes), sizes
 
 
 def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
