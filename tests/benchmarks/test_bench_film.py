@@ -189,6 +189,9 @@ GREEDY_RATIO = 1.2
 #: targets were set on).
 ANALYSIS_CPU = {"film": 0.5, "film-2000": 1.0}
 GREEDY_CPU = {"film-2000": 0.6}
+#: Peak resident megabytes of analysis and both whole sequences on ``film`` with 2,000 shapes, the rig and
+#: target neutral included (its deltas alone are 916 MB).
+FILM_2000_PEAK_MB = 1.3 * 1024
 
 
 def best_cpu_time(function: Callable[[], Any], repeats: int) -> tuple[float, Any]:
@@ -284,3 +287,18 @@ def test_bench_film_greedy_against_numpy_greedy(benchmark, speed_target, preset)
     name = preset if isinstance(preset, str) else preset.name
     if name in GREEDY_CPU:
         speed_target(f"greedy sequence of {name} [CPU s]", sequence_time, GREEDY_CPU[name])
+
+
+@pytest.mark.slow
+def test_bench_film_2000_peak_memory(benchmark, speed_target, tmp_path):
+    """The resident-set peak of analysis and both whole sequences on 2,000 shapes (`_peak_mb`, a fresh
+    process; Linux only)."""
+    if benchmark.disabled:
+        pytest.skip("the film-scale timings run only with --benchmark-enable")
+    rig, target = _rig(FILM_2000)
+    peak = benchmark.pedantic(_peak_mb, args=(rig, target, tmp_path), rounds=1, iterations=1)
+    if peak is None:
+        pytest.skip("the resident-set peak is read from /proc (Linux)")
+    rig_mb = (rig.deltas.nbytes + rig.neutral.nbytes + target.nbytes) / 2**20
+    benchmark.extra_info.update(peak_mb=round(peak), rig_mb=round(rig_mb))
+    speed_target("peak memory of film-2000 [MB]", peak, FILM_2000_PEAK_MB)
