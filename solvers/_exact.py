@@ -139,7 +139,7 @@ class ExactSolver:
         grown clique rows, and what that relaxation proves before the backend starts: on kernels of
         `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose reduced-cost bound falls below a
         good packing are left out (`solvers._fixing.solve_with_fixing`), which halves the models of the
-        largest problems.
+        largest problems, and so are the kept items that other kept items then dominate.
         """
         clock = Stopwatch()
         if problem.n_items == 0:

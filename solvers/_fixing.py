@@ -133,8 +133,8 @@ def _relaxation(
     HiGHS's presolve stays off: the rows are maximal cliques of a kernel without dominated items, so it
     finds nothing to remove, and skipping it takes a third off the LPs of a film-sized sequence (the same
     optimum; any duals give a true bound, see the module notes). highspy rather than SciPy's ``linprog``
-    (the same HiGHS solver): ``linprog``'s checks and conversions cost as much as the simplex itself on
-    these LPs, a fifth of a 2,000-shape film sequence's time outside the backend."""
+    (the same dual simplex): ``linprog``'s checks and conversions took a fifth of these LPs' time (the 75
+    of a 2,000-shape film sequence: 0.63 -> 0.50 CPU s)."""
     try:
         import highspy
     except ImportError:
