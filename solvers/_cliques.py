@@ -62,8 +62,9 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     members = np.zeros((n_rows, width), dtype=bool)
     members[owner, column[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
-    distinct = _distinct_rows(pack_bit_rows(members))
-    grown_bits = pack_bit_rows(members[distinct])
+    member_bits = pack_bit_rows(members)
+    distinct = _distinct_rows(member_bits)
+    grown_bits = member_bits[distinct]  # (a copy: grown in place)
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     sizes = np.diff(model.row_starts)[distinct]
     starts = np.zeros(distinct.size, dtype=np.int64)

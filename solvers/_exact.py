@@ -28,7 +28,7 @@ from packing import Termination, unpack_bit_rows
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
 from solvers._cliques import grown_cliques, kernel_neighbourhoods
 from solvers._enumerate import ENUMERATION_MAX_ITEMS, enumerated_optimum
-from solvers._fixing import FIXING_MIN_ITEMS, reduced_costs, solve_with_fixing
+from solvers._fixing import reduced_costs, solve_with_fixing
 from solvers._model import CliqueModel
 from solvers._reduce import Reduction, reduce_problem
 
@@ -149,21 +149,18 @@ class ExactSolver:
         if reduction is not None and self.enumerates_small_kernels:
             if reduction.kept.size <= ENUMERATION_MAX_ITEMS:
                 return _enumerated(problem, reduction, cap_binds, clock)
-        conflicts = None  # the kernel's conflict graph as a dense array, when the clique growing has it
+        closed = None  # the kernel's closed neighbourhoods as bit rows, when the clique growing has them
         if reduction is None:
             model = CliqueModel.from_problem(problem)
         elif self.grows_cliques:
             closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
             model = grown_cliques(reduction.cut_model(), closed)
-            if self.fixes_by_reduced_costs and model.n_items >= FIXING_MIN_ITEMS:
-                conflicts = unpack_bit_rows(closed, model.n_items)
-                np.fill_diagonal(conflicts, False)
         else:
             model = reduction.model
         start = start_packing(problem, reduction) if self.capabilities.warm_start else None
         costs = None
         if reduction is not None and self.fixes_by_reduced_costs:
-            costs = reduced_costs(model, () if start is None else start, conflicts)
+            costs = reduced_costs(model, () if start is None else start, closed)
         prepare_time = clock.lap()
 
         searched = [0.0]  # seconds in the backend so far: the calls of reduced-cost fixing share the limit

@@ -32,6 +32,7 @@ import numpy as np
 
 from packing import Termination, pack_bit_rows
 from solvers._base import Result
+from solvers._cliques import kernel_neighbourhoods
 from solvers._model import CliqueModel
 from solvers._reduce import reduce_graph
 
@@ -68,8 +69,9 @@ class ReducedCosts:
         The best packing found, as items of ``model``, ascending.
     margin : float
         How far below a level a bound must be to leave the item out (`FIXING_MARGIN` of the total weight).
-    conflicts : (I, I) bool array
-        The model's conflict graph without self loops.
+    closed : (I, W) uint64 array
+        Closed neighbourhoods of the model's items as bit rows (`packing.PackingProblem.conflict_bits`
+        order), from which the kept items' dominations are read (`_solve_kept`).
     """
 
     model: CliqueModel
@@ -77,7 +79,7 @@ class ReducedCosts:
     bound: float
     packing: tuple[int, ...]
     margin: float
-    conflicts: np.ndarray
+    closed: np.ndarray
 
     def objective(self, items: Sequence[int]) -> float:
         """Eq. 3a of ``items`` of the model."""
@@ -89,7 +91,7 @@ class ReducedCosts:
 
 
 def reduced_costs(
-    model: CliqueModel, start: Sequence[int], conflicts: np.ndarray | None = None
+    model: CliqueModel, start: Sequence[int], closed: np.ndarray | None = None
 ) -> ReducedCosts | None:
     """The LP relaxation's bounds per item and the best packing from ``start`` and the LP's rounding.
 
@@ -98,9 +100,9 @@ def reduced_costs(
     model : CliqueModel
     start : sequence of int
         A feasible packing of ``model``.
-    conflicts : (I, I) bool array, optional
-        The model's conflict graph without self loops (items sharing a row; the kept items' dominations
-        are read from it, `_solve_kept`), when the caller has it; default `CliqueModel.conflict_graph`.
+    closed : (I, W) uint64 array, optional
+        Closed neighbourhoods of the model's items as bit rows (items sharing a row, each item with
+        itself), when the caller has them; default from `CliqueModel.conflict_graph`.
 
     Returns
     -------
@@ -117,10 +119,12 @@ def reduced_costs(
     reduced = weights - matrix.T @ duals
     bound = float(upper @ duals + np.maximum(reduced, 0.0).sum())
     margin = FIXING_MARGIN * max(1.0, float(np.abs(weights).sum()))
-    if conflicts is None:
-        conflicts = model.conflict_graph().toarray()
+    if closed is None:
+        neighbours = model.conflict_graph().toarray()
+        np.fill_diagonal(neighbours, True)
+        closed = pack_bit_rows(neighbours)
     packing = _best_packing(model, values, start)
-    return ReducedCosts(model, bound + np.minimum(reduced, 0.0), bound, packing, margin, conflicts)
+    return ReducedCosts(model, bound + np.minimum(reduced, 0.0), bound, packing, margin, closed)
 
 
 def _relaxation(
@@ -206,12 +210,10 @@ def _solve_kept(
     film sequence). No optimal packing of the restricted model holds one, and every packing holding one is
     matched by a better one without it, so the restricted optimum and the backend's bound stay those of
     the restricted model."""
-    restricted = costs.conflicts[np.ix_(kept, kept)]
-    np.fill_diagonal(restricted, True)
+    restricted = kernel_neighbourhoods(costs.closed, kept, costs.model.n_items)
     counts = costs.model.shape_counts[kept]
     cap_binds = costs.model.cap is not None and costs.model.cap < int(counts.sum())
-    weights = costs.model.weights[kept]
-    remaining, isolated = reduce_graph(weights, counts, pack_bit_rows(restricted), cap_binds)
+    remaining, isolated = reduce_graph(costs.model.weights[kept], counts, restricted, cap_binds)
     solved = kept[np.union1d(remaining, isolated)]  # (isolated items are left to the backend)
     position = np.full(costs.model.n_items, -1, dtype=np.int64)
     position[solved] = np.arange(solved.size)

@@ -143,8 +143,8 @@ def test_a_time_limited_fixed_solve_keeps_a_valid_bound(monkeypatch):
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_the_kernels_conflicts_given_to_fixing_are_the_models_own(monkeypatch, seed):
-    """The exact path hands `reduced_costs` the conflict graph unpacked from the kernel's neighbourhoods
-    (no rebuild from the clique rows): it is the grown model's graph, so the bounds and packing are too."""
+    """The exact path hands `reduced_costs` the kernel's neighbourhoods (no rebuild from the clique rows):
+    they are the grown model's graph, so the bounds, packing and neighbourhoods of the fixing are too."""
     monkeypatch.setattr(fixing, "FIXING_MIN_ITEMS", 2)
     problem = random_problem(40, 60, seed=seed, active=(4, 9), pairs=0.2)
     reduction = reduce_problem(problem, False)
@@ -154,9 +154,10 @@ def test_the_kernels_conflicts_given_to_fixing_are_the_models_own(monkeypatch, s
     np.fill_diagonal(conflicts, False)
     assert np.array_equal(conflicts, model.conflict_graph().toarray())
     start = start_packing(problem, reduction)
-    given, rebuilt = fixing.reduced_costs(model, start, conflicts), fixing.reduced_costs(model, start)
+    given, rebuilt = fixing.reduced_costs(model, start, closed), fixing.reduced_costs(model, start)
     assert given is not None and rebuilt is not None and given.packing == rebuilt.packing
     assert np.array_equal(given.with_item, rebuilt.with_item) and given.bound == rebuilt.bound
+    assert np.array_equal(given.closed, rebuilt.closed)
 
 
 def test_the_backend_calls_of_fixing_share_the_time_limit(monkeypatch):
