@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from packing import pack_bit_rows, unpack_bit_rows
-from solvers._model import CliqueModel
+from solvers._model import CliqueModel, distinct_bit_rows
 
 
 def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
@@ -63,7 +63,7 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     members[owner, column[model.row_items]] = True
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
     member_bits = pack_bit_rows(members)
-    distinct = _distinct_rows(member_bits)
+    distinct = distinct_bit_rows(member_bits)
     grown_bits = member_bits[distinct]  # (a copy: grown in place)
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     sizes = np.diff(model.row_starts)[distinct]
@@ -85,23 +85,12 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
         grown_bits[np.arange(word.size), word] |= lowest
         common &= ranked[word * 64 + np.frexp(lowest.astype(np.float64))[1] - 1]  # (powers of 2: exact)
     grown = pack_bit_rows(unpack_bit_rows(np.concatenate(finished), width)[:, column])
-    rows = unpack_bit_rows(grown[_distinct_rows(grown)], n_items)
+    rows = unpack_bit_rows(grown[distinct_bit_rows(grown)], n_items)
     row_of, items = np.divmod(np.flatnonzero(rows), n_items)  # (as np.nonzero, a third of its time)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
     np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
     items = items.astype(model.row_items.dtype)
     return CliqueModel(model.weights, starts, items, model.shape_counts, model.cap)
-
-
-def _distinct_rows(words: np.ndarray) -> np.ndarray:
-    """Indices of the distinct rows of an (R, W) uint64 array, the first of each in order of the rows
-    sorted lexicographically by word (as ``np.unique(words, axis=0, return_index=True)[1]`` over the
-    numbers; a sort of W integer keys, where that one compares the rows as opaque bytes)."""
-    order = np.lexsort(words.T[::-1])  # (word 0 the primary key; stable, so the first of equal rows first)
-    ordered = words[order]
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    return order[first]
 
 
 def _lowest_first(n_items: int) -> np.ndarray:

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from packing import pack_bit_rows
+
 if TYPE_CHECKING:
     import scipy.sparse as sp
 
@@ -70,21 +72,29 @@ class CliqueModel:
 
     def restricted(self, keep: np.ndarray) -> CliqueModel:
         """The model over the items ``keep`` (ascending; item r of the new model is ``keep[r]``): each row
-        cut to its kept items, rows left with fewer than two items dropped (they constrain nothing), the cap
-        dropped when the kept items together respect it."""
+        cut to its kept items, the rows inside another cut row dropped (`widest_rows`), the cap dropped when
+        the kept items together respect it.
+
+        Rows left inside others are implied by them, in the integer model and in its linear relaxation
+        alike: dropping them changes neither the packings nor the LP bound, and it takes a third off the
+        backends' search on the fixed models of `solvers._fixing` (cutting the maximal cliques of a kernel
+        to the half of its items that the fixing keeps leaves seven rows in ten equal to or inside another;
+        CP-SAT on the 2,000-shape film sequence's 167 fixed models of 40 items or more: 3.0 -> 1.9 s).
+        """
         position = np.full(self.n_items, -1, dtype=np.int64)
         position[keep] = np.arange(keep.size)
         renamed = position[self.row_items]
         inside = renamed >= 0
         row_of = np.repeat(np.arange(self.n_rows), np.diff(self.row_starts))[inside]
-        sizes = np.bincount(row_of, minlength=self.n_rows)
-        wide = sizes >= 2
-        items = renamed[inside][wide[row_of]].astype(self.row_items.dtype)
-        starts = np.zeros(np.count_nonzero(wide) + 1, dtype=np.int64)
-        np.cumsum(sizes[wide], out=starts[1:])
+        members = np.zeros((self.n_rows, keep.size), dtype=bool)
+        members[row_of, renamed[inside]] = True
+        rows = members[widest_rows(pack_bit_rows(members))]
+        row_of, items = np.divmod(np.flatnonzero(rows), keep.size)  # (as np.nonzero, a third of its time)
+        starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
+        np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
         counts = self.shape_counts[keep]
         cap = self.cap if self.cap is not None and self.cap < counts.sum() else None
-        return CliqueModel(self.weights[keep], starts, items, counts, cap)
+        return CliqueModel(self.weights[keep], starts, items.astype(self.row_items.dtype), counts, cap)
 
     def conflict_graph(self) -> sp.csr_matrix:
         """(I, I) symmetric bool CSR adjacency of the items that share a clique row, no self loops, indices
@@ -127,3 +137,34 @@ class CliqueModel:
         from scipy.optimize import LinearConstraint
 
         return LinearConstraint(self.matrix(), -np.inf, self.upper())
+
+
+def distinct_bit_rows(words: np.ndarray) -> np.ndarray:
+    """Indices of the distinct rows of an (R, W) uint64 array, the first of each in order of the rows
+    sorted lexicographically by word (as ``np.unique(words, axis=0, return_index=True)[1]`` over the
+    numbers; a sort of W integer keys, where that one compares the rows as opaque bytes)."""
+    order = np.lexsort(words.T[::-1])  # (word 0 the primary key; stable, so the first of equal rows first)
+    ordered = words[order]
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    return order[first]
+
+
+def widest_rows(words: np.ndarray) -> np.ndarray:
+    """Indices, ascending, of the rows of an (R, W) uint64 bit array (`packing.pack_bit_rows`) that hold
+    at least two items and are inside no other row; of equal rows, the first.
+
+    Notes
+    -----
+    O(D^2 W) word operations for the D distinct rows of two items or more.
+    """
+    wide = np.flatnonzero(np.bitwise_count(words).sum(axis=1) >= 2)
+    if wide.size == 0:
+        return wide
+    distinct = np.sort(wide[distinct_bit_rows(words[wide])])
+    bits = words[distinct]
+    within = np.ones((distinct.size, distinct.size), dtype=bool)  # within[a, b]: row a inside row b
+    for word in bits.T:
+        within &= (word[:, None] & ~word[None, :]) == 0
+    np.fill_diagonal(within, False)
+    return distinct[~within.any(axis=1)]
