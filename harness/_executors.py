@@ -52,7 +52,7 @@ from harness._cell import (
     warm_up,
 )
 from harness._grid import CellSpec
-from harness._journal import SEQUENCE_END, new_journal, read_journal, remove_journal
+from harness._journal import SEQUENCE_END, new_journal, read_journal, remove_journal, remove_orphaned_journals
 from registry import HarnessError
 from solvers import Worker, WorkerDied, WorkerError, wait_for_workers
 
@@ -162,6 +162,7 @@ class LocalExecutor:
         self.timeout = timeout
         self.templates: dict[TemplateKey, Rig] = {}
         self._slots = [_Slot() for _ in range(jobs)]
+        remove_orphaned_journals()  # (left by a harness killed outright on this machine)
 
     def map(self, cells: list[CellSpec]) -> Iterator[tuple[CellSpec, Outcome]]:
         """Run the cells; yield ``(spec, outcome)`` in completion order."""

@@ -8,13 +8,17 @@ appends each finished expression's row to it as one JSON line (`append_row`), th
 once the sequence is whole, and on a timeout the executor reads the rows back (`read_journal`) to record
 them beside the ``timeout`` cell row, saying whether the sequence was cut or the time ran out after it.
 The executor removes the journal once the cell's outcome is known, however the cell ended
-(`remove_journal`).
+(`remove_journal`). A harness process killed outright (``kill -9``, a lost machine) cannot: its journals are
+named after its host and process id, and the next executor started on that host removes those of processes
+that no longer exist (`remove_orphaned_journals`).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
+import socket
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -28,15 +32,49 @@ if TYPE_CHECKING:
 #: ``kind`` of the line a cell appends once its whole sequence is solved (checks and transfers follow).
 SEQUENCE_END = "sequence_end"
 
-#: Prefix and suffix of journal file names.
+#: Prefix and suffix of journal file names: ``harness-cell-<host>.<pid>.<random>.journal``.
 _PREFIX, _SUFFIX = "harness-cell-", ".journal"
+#: A journal's name, read back: the host and process that made it.
+_NAME = re.compile(re.escape(_PREFIX) + r"(?P<host>.+)\.(?P<pid>\d+)\.[^.]+" + re.escape(_SUFFIX))
 
 
 def new_journal() -> Path:
-    """An empty journal file of its own, in the temporary directory."""
-    descriptor, name = tempfile.mkstemp(prefix=_PREFIX, suffix=_SUFFIX)
+    """An empty journal file of its own, in the temporary directory, named after this host and process."""
+    prefix = f"{_PREFIX}{socket.gethostname()}.{os.getpid()}."
+    descriptor, name = tempfile.mkstemp(prefix=prefix, suffix=_SUFFIX)
     os.close(descriptor)
     return Path(name)
+
+
+def remove_orphaned_journals() -> list[Path]:
+    """Remove the journals in the temporary directory that a process of this host made and no longer runs
+    to remove (it was killed outright); returns them.
+
+    Only on POSIX systems, where a process's existence is asked with signal 0 (``os.kill(pid, 0)``, which
+    on Windows would end the process). A process id in use again by another process keeps its journals:
+    they are left, never another live harness's removed.
+    """
+    if os.name != "posix":
+        return []
+    host, removed = socket.gethostname(), []
+    for path in Path(tempfile.gettempdir()).glob(f"{_PREFIX}*{_SUFFIX}"):
+        named = _NAME.fullmatch(path.name)
+        if named is None or named["host"] != host or _running(int(named["pid"])):
+            continue
+        path.unlink(missing_ok=True)
+        removed.append(path)
+    return removed
+
+
+def _running(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this host (one of another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
 
 
 def append_row(journal: str | os.PathLike, row: Mapping[str, RecordValue]) -> None:
