@@ -9,8 +9,8 @@ once the sequence is whole, and on a timeout the executor reads the rows back (`
 them beside the ``timeout`` cell row, saying whether the sequence was cut or the time ran out after it.
 The executor removes the journal once the cell's outcome is known, however the cell ended
 (`remove_journal`). A harness process killed outright (``kill -9``, a lost machine) cannot: its journals are
-named after its host and process id, and the next executor started on that host removes those of processes
-that no longer exist (`remove_orphaned_journals`).
+named after its host, process id namespace and process id, and the next executor started there removes
+those of processes that no longer exist (`remove_orphaned_journals`).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import json
 import os
 import re
 import socket
+import stat
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -32,42 +33,67 @@ if TYPE_CHECKING:
 #: ``kind`` of the line a cell appends once its whole sequence is solved (checks and transfers follow).
 SEQUENCE_END = "sequence_end"
 
-#: Prefix and suffix of journal file names: ``harness-cell-<host>.<pid>.<random>.journal``.
+#: Prefix and suffix of journal file names: ``harness-cell-<origin>.<pid>.<random>.journal``.
 _PREFIX, _SUFFIX = "harness-cell-", ".journal"
-#: A journal's name, read back: the host and process that made it.
-_NAME = re.compile(re.escape(_PREFIX) + r"(?P<host>.+)\.(?P<pid>\d+)\.[^.]+" + re.escape(_SUFFIX))
+#: A journal's name, read back: where and by which process it was made.
+_NAME = re.compile(re.escape(_PREFIX) + r"(?P<origin>.+)\.(?P<pid>\d+)\.[^.]+" + re.escape(_SUFFIX))
 
 
 def new_journal() -> Path:
-    """An empty journal file of its own, in the temporary directory, named after this host and process."""
-    prefix = f"{_PREFIX}{socket.gethostname()}.{os.getpid()}."
-    descriptor, name = tempfile.mkstemp(prefix=prefix, suffix=_SUFFIX)
+    """An empty journal file of its own, in the temporary directory, named after where this process runs
+    (`_origin`) and its id."""
+    descriptor, name = tempfile.mkstemp(prefix=f"{_PREFIX}{_origin()}.{os.getpid()}.", suffix=_SUFFIX)
     os.close(descriptor)
     return Path(name)
 
 
 def remove_orphaned_journals() -> list[Path]:
-    """Remove the journals in the temporary directory that a process of this host made and no longer runs
-    to remove (it was killed outright); returns them.
+    """Remove this user's journals whose process, on this host and in this process id namespace, no longer
+    exists (a harness killed outright could not remove them).
 
-    Only on POSIX systems, where a process's existence is asked with signal 0 (``os.kill(pid, 0)``, which
-    on Windows would end the process). A process id in use again by another process keeps its journals:
-    they are left, never another live harness's removed.
+    Returns
+    -------
+    list of Path
+        The journals removed.
+
+    Notes
+    -----
+    Only on POSIX systems, where a process's existence is asked with signal 0 (``os.kill(pid, 0)``, which on
+    Windows would end the process). A journal made on another host or in another process id namespace (a
+    container sharing this temporary directory) is never removed, nor is one whose process id a live process
+    holds again, nor any file that is not a regular file of this user's; a file that cannot be removed is
+    left.
     """
     if os.name != "posix":
         return []
-    host, removed = socket.gethostname(), []
+    origin, user, removed = _origin(), os.getuid(), []
     for path in Path(tempfile.gettempdir()).glob(f"{_PREFIX}*{_SUFFIX}"):
         named = _NAME.fullmatch(path.name)
-        if named is None or named["host"] != host or _running(int(named["pid"])):
+        if named is None or named["origin"] != origin or _running(int(named["pid"])):
             continue
-        path.unlink(missing_ok=True)
+        try:
+            status = path.lstat()
+            if not stat.S_ISREG(status.st_mode) or status.st_uid != user:
+                continue
+            path.unlink()
+        except OSError:  # (gone meanwhile, or not ours to remove)
+            continue
         removed.append(path)
     return removed
 
 
+def _origin() -> str:
+    """This host's name and, where the system has them, the inode of this process's id namespace: a
+    process id means one process only within both."""
+    try:
+        namespace = os.stat("/proc/self/ns/pid").st_ino
+    except OSError:
+        namespace = 0
+    return f"{socket.gethostname()}.{namespace}"
+
+
 def _running(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this host (one of another user's counts)."""
+    """Whether a process ``pid`` exists (one of another user's counts)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:

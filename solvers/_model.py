@@ -139,6 +139,10 @@ class CliqueModel:
         return LinearConstraint(self.matrix(), -np.inf, self.upper())
 
 
+#: Rows `widest_rows` compares with all the others at once (bounds its temporaries).
+WIDEST_BLOCK = 1024
+
+
 def distinct_bit_rows(words: np.ndarray) -> np.ndarray:
     """Indices of the distinct rows of an (R, W) uint64 array, the first of each in order of the rows
     sorted lexicographically by word (as ``np.unique(words, axis=0, return_index=True)[1]`` over the
@@ -156,15 +160,20 @@ def widest_rows(words: np.ndarray) -> np.ndarray:
 
     Notes
     -----
-    O(D^2 W) word operations for the D distinct rows of two items or more.
+    O(D^2 W) word operations for the D distinct rows of two items or more, `WIDEST_BLOCK` rows against all
+    D at a time (O(D) memory per row of the block).
     """
     wide = np.flatnonzero(np.bitwise_count(words).sum(axis=1) >= 2)
     if wide.size == 0:
         return wide
     distinct = np.sort(wide[distinct_bit_rows(words[wide])])
-    bits = words[distinct]
-    within = np.ones((distinct.size, distinct.size), dtype=bool)  # within[a, b]: row a inside row b
-    for word in bits.T:
-        within &= (word[:, None] & ~word[None, :]) == 0
-    np.fill_diagonal(within, False)
-    return distinct[~within.any(axis=1)]
+    columns = np.ascontiguousarray(words[distinct].T)  # (W, D): one word of every row at a time
+    inside_another = np.zeros(distinct.size, dtype=bool)
+    for low in range(0, distinct.size, WIDEST_BLOCK):
+        block = slice(low, min(low + WIDEST_BLOCK, distinct.size))
+        within = np.ones((block.stop - low, distinct.size), dtype=bool)  # within[a, b]: row a inside row b
+        for word in columns:
+            within &= (word[block, None] & ~word[None, :]) == 0
+        within[np.arange(block.stop - low), np.arange(low, block.stop)] = False  # (a row is inside itself)
+        inside_another[block] = within.any(axis=1)
+    return distinct[~inside_another]

@@ -36,7 +36,8 @@ class HighsSolver(ExactSolver):
     """Eq. 3 (cliques as at-most-one rows, the cap as one row) solved by HiGHS's branch and cut.
 
     Options: ``mip_rel_gap = mip_abs_gap = 0``, one thread, ``random_seed = seed``, native time limit, no
-    restart after the root search (``mip_allow_restart``).
+    restart after the root search (``mip_allow_restart``), and without the primal heuristics of
+    `PRIMAL_HEURISTICS_OFF` (the start packing is given).
     """
 
     name: ClassVar[str] = "highs"

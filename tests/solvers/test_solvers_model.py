@@ -86,3 +86,39 @@ def test_widest_rows_across_words():
     rows[1, [0, 1, 101]] = True
     rows[2, [0, 1, 100, 129]] = True
     np.testing.assert_array_equal(widest_rows(pack_bit_rows(rows)), [1, 2])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    rows=st.lists(st.lists(st.booleans(), min_size=70, max_size=70), max_size=12),
+    block=st.sampled_from([1, 2, 5, 1024]),
+)
+def test_widest_rows_against_every_pair_compared_in_blocks(rows, block):
+    """Block by block (`WIDEST_BLOCK`), the rows kept are those that a comparison of every pair keeps."""
+    import solvers._model as model_module
+
+    members = [frozenset(np.flatnonzero(row).tolist()) for row in rows]
+    expected = [
+        r
+        for r, row in enumerate(members)
+        if len(row) >= 2
+        and not any(row < other for other in members)
+        and not any(row == other for other in members[:r])
+    ]
+    words = pack_bit_rows(np.asarray(rows, dtype=bool).reshape(len(rows), 70))
+    saved = model_module.WIDEST_BLOCK
+    model_module.WIDEST_BLOCK = block
+    try:
+        np.testing.assert_array_equal(widest_rows(words), expected)
+    finally:
+        model_module.WIDEST_BLOCK = saved
+
+
+def test_restricted_to_no_item_or_one_keeps_the_index_type():
+    model = CliqueModel.from_problem(random_problem(10, 30, seed=3, active=(2, 6), cap=None))
+    for keep in (np.zeros(0, dtype=np.int64), np.array([0])):
+        restricted = model.restricted(keep)
+        assert restricted.n_items == keep.size and restricted.n_rows == 0
+        assert restricted.row_items.dtype == model.row_items.dtype and restricted.row_starts.tolist() == [0]
+    narrowed = model.restricted(np.arange(model.n_items))
+    assert narrowed.row_items.dtype == model.row_items.dtype
