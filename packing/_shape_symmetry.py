@@ -13,12 +13,11 @@ from packing._symmetry_candidates import (
     BOUND_SLACK,
     Candidates,
     candidate_pairs,
-    image_cell_sums,
+    cell_sums,
     self_candidates,
-    shape_cell_sums,
     vertex_cells,
 )
-from packing._symmetry_field import SymmetryField, compact_entries, mirrored_entries, row_sums
+from packing._symmetry_field import Preimages, SymmetryField, compact_entries, mirrored_lengths, row_sums
 
 
 def reflection_normal(neutral: np.ndarray, mirror: np.ndarray) -> np.ndarray | None:
@@ -134,14 +133,12 @@ def shape_symmetry(
     largest = largest_lengths(norms)
     field = SymmetryField.of(deltas, norms, active, rows, cols, normal, moved)
     own = row_sums(rows, field.lengths, n_shapes)  # sum_n |b_k dv_k|
-    mirrored = mirrored_entries(active, rows, cols, mirror)  # p(b_m)
-    image_own = row_sums(mirrored[0], field.lengths[mirrored[2]], n_shapes)  # |p(b_m) P_m|
+    preimages = Preimages.of(mirror, cols)  # p(b_m)^n = b_m^{mirror(n)}
+    image_own = mirrored_lengths(rows, cols, field.lengths, preimages, n_shapes)  # |p(b_m) P_m|
 
     # Only the shapes and pairs that per-cell bounds cannot rule out are evaluated exactly.
     cells = vertex_cells(neutral, active, cols, eligible)
-    shapes = shape_cell_sums(field, rows, cols, eligible, cells)
-    image = image_cell_sums(field, mirrored, eligible, cells)
-    del mirrored  # (nnz,) arrays no longer needed once summed per cell
+    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells)
     probed = np.flatnonzero(eligible & self_candidates(field, rows, shapes, image, largest, tol))
     self_error = _self_errors(field, rows, cols, mirror, probed, own + image_own)
     self_symmetric = eligible & (self_error < tol * largest)

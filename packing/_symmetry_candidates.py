@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing._symmetry_field import SymmetryField, reflect
+from packing._symmetry_field import Preimages, SymmetryField, reflect
 from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
@@ -55,27 +55,9 @@ def vertex_cells(
         side *= 1.5
 
 
-def image_cell_sums(
-    field: SymmetryField,
-    mirrored: tuple[np.ndarray, np.ndarray, np.ndarray],
-    candidates: np.ndarray,
-    cell: np.ndarray,
-) -> CellSums:
-    """The summed reflected displacements ``P_mc`` and active counts ``p_mc`` of the mirrored shapes per
-    (cell, shape), and each shape's count of mirrored entries ``|p(b_m)|``: all that `candidate_pairs`
-    reads of the mirrored entries (`packing._symmetry_field.mirrored_entries`), so that these can be let
-    go before its (K, K) sums are made."""
-    mirrored_rows, mirrored_cols, source = mirrored
-    sums, counts, present = _cell_sums(
-        mirrored_rows, mirrored_cols, cell, field, candidates, int(cell.max()) + 1, source
-    )
-    n_image = np.bincount(mirrored_rows, minlength=candidates.size)
-    return CellSums(sums, counts, present, n_image)
-
-
 @dataclass(frozen=True)
 class CellSums:
-    """Summed vectors and counts of some shapes' entries per (cell, shape) present (`_cell_sums`), and
+    """Summed vectors and counts of some shapes' entries per (cell, shape) present (`cell_sums`), and
     each shape's total count of entries."""
 
     sums: np.ndarray
@@ -104,14 +86,74 @@ class Candidates:
     shared: np.ndarray
 
 
-def shape_cell_sums(
-    field: SymmetryField, rows: np.ndarray, cols: np.ndarray, selected: np.ndarray, cell: np.ndarray
-) -> CellSums:
-    """The summed displacements ``A_kc`` and active counts ``a_kc`` of the ``selected`` shapes per (cell,
-    shape), and each shape's count of active entries ``|b_k|``."""
-    reflected, counts, present = _cell_sums(rows, cols, cell, field, selected, int(cell.max()) + 1)
-    totals = np.bincount(rows, minlength=selected.size)
-    return CellSums(reflect(reflected, field.reflection), counts, present, totals)  # R R = I
+def cell_sums(
+    field: SymmetryField,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    preimages: Preimages,
+    selected: np.ndarray,
+    cell: np.ndarray,
+) -> tuple[CellSums, CellSums]:
+    """The per-cell sums `candidate_pairs` reads, of the ``selected`` shapes, in one pass over the active
+    entries per coordinate.
+
+    Returns
+    -------
+    shapes : CellSums
+        The summed displacements ``A_kc`` and active counts ``a_kc`` per (cell, shape), and ``|b_k|``.
+    image : CellSums
+        The summed reflected displacements ``P_mc`` and counts ``p_mc`` of the mirrored masks per (cell,
+        shape), and ``|p(b_m)|``. The mirrored entry ``(m, n)`` is the active entry ``(m, mirror(n))``,
+        so each active entry ``(m, v)`` is summed into the cell of each preimage n of v: with the key of
+        its first preimage, then once more for each further one (none for a one-to-one map). No mirrored
+        entry is listed.
+
+    Notes
+    -----
+    Each sum is a `numpy.bincount` over keys ``cell * K + shape`` (entries without a preimage fall in one
+    cell past the last, dropped), the displacements read from the compact `SymmetryField.reflected`
+    (one contiguous coordinate at a time, for both sums). The sums come in ascending key order.
+    """
+    n_shapes, n_cells = selected.size, int(cell.max()) + 1
+    size = (n_cells + 1) * n_shapes
+    kind = np.int32 if size < np.iinfo(np.int32).max else np.int64
+    shape_key = np.take(cell, cols).astype(kind)
+    shape_key *= n_shapes
+    shape_key += rows
+    image_cell = np.where(preimages.first >= 0, np.take(cell, preimages.first), n_cells).astype(kind)
+    image_key = np.take(image_cell, cols)
+    image_key *= n_shapes
+    image_key += rows
+    extra_key = np.take(cell, preimages.extra_preimage) * n_shapes + np.take(rows, preimages.extra_entry)
+    shape_counts = np.bincount(shape_key, minlength=size)
+    image_counts = np.bincount(image_key, minlength=size)
+    if extra_key.size:
+        image_counts += np.bincount(extra_key, minlength=size)
+    shape_present, image_present = (
+        _selected_present(counts[: n_cells * n_shapes], selected) for counts in (shape_counts, image_counts)
+    )
+    shape_sums, image_sums = np.empty((shape_present.size, 3)), np.empty((image_present.size, 3))
+    for axis in range(3):
+        column = np.ascontiguousarray(field.reflected[:, axis])
+        shape_sums[:, axis] = np.bincount(shape_key, weights=column, minlength=size)[shape_present]
+        summed = np.bincount(image_key, weights=column, minlength=size)
+        if extra_key.size:
+            summed += np.bincount(extra_key, weights=column[preimages.extra_entry], minlength=size)
+        image_sums[:, axis] = summed[image_present]
+    shapes = CellSums(
+        reflect(shape_sums, field.reflection),  # R R = I
+        shape_counts[shape_present],
+        shape_present,
+        np.diff(field.active.indptr),
+    )
+    n_image = image_counts[: n_cells * n_shapes].reshape(n_cells, n_shapes).sum(axis=0)
+    return shapes, CellSums(image_sums, image_counts[image_present], image_present, n_image)
+
+
+def _selected_present(counts: np.ndarray, selected: np.ndarray) -> np.ndarray:
+    """Keys ``cell * K + shape`` with a non-zero count whose shape is ``selected``."""
+    present = np.flatnonzero(counts)
+    return present[selected[present % selected.size]]
 
 
 def self_candidates(
@@ -212,8 +254,8 @@ def candidate_pairs(
     rows : (nnz,) int array
         The shape of each active entry.
     shapes, image : CellSums
-        The shapes' sums (`shape_cell_sums`) and the mirrored shapes' sums (`image_cell_sums`), over the
-        same cells, of at least the ``candidates``.
+        The shapes' sums and the mirrored shapes' sums (`cell_sums`), over the same cells, of at least
+        the ``candidates``.
     candidates : (K,) bool array
         Shapes that may be paired.
     largest : (K,) array
@@ -288,35 +330,3 @@ def candidate_pairs(
     both, bound = both[mutual], bound[mutual]
     first, second = both // n_shapes, both % n_shapes
     return Candidates(first, second, bound, shared[both].astype(np.float64))
-
-
-def _cell_sums(
-    rows: np.ndarray,
-    cols: np.ndarray,
-    cell: np.ndarray,
-    field: SymmetryField,
-    selected: np.ndarray,
-    n_cells: int,
-    source: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Summed reflected displacements and counts of the entries of the ``selected`` shapes per (cell, shape).
-
-    Entry i is at vertex ``cols[i]`` of shape ``rows[i]``, with the reflected displacement of the field's
-    active entry ``source[i]`` (of entry i without ``source``), read from the compact
-    `SymmetryField.reflected` rather than from the rig's deltas. Returns the sums ``(P, 3)``, counts
-    ``(P,)`` and keys ``cell * K + shape`` ``(P,)`` of the P present (cell, shape), in ascending key order.
-    Every entry is summed (one key array, one coordinate at a time) and the other shapes' sums dropped after.
-    """
-    n_shapes = selected.size
-    key = np.take(cell, cols).astype(np.int32 if n_cells * n_shapes < np.iinfo(np.int32).max else np.int64)
-    key *= n_shapes
-    key += rows
-    counts = np.bincount(key, minlength=n_cells * n_shapes)
-    present = np.flatnonzero(counts)
-    present = present[selected[present % n_shapes]]
-    sums = np.empty((present.size, 3))
-    for axis in range(3):
-        column = field.reflected[:, axis]
-        column = column if source is None else np.take(column, source)
-        sums[:, axis] = np.bincount(key, weights=column, minlength=counts.size)[present]
-    return sums, counts[present], present

@@ -13,8 +13,6 @@ from rigs import vector_lengths
 
 #: Cells of the (shapes, N) lookup table `SymmetryField.image_entries` fills at once (bounds its memory).
 TABLE_CELLS = 1 << 21
-#: Active entries `mirrored_entries` mirrors at once (bounds its temporary arrays).
-ENTRY_CHUNK = 1 << 18
 #: Vectors `reflect` multiplies by the reflection in one matrix product.
 REFLECT_ROWS = 1 << 13
 
@@ -179,65 +177,70 @@ def compact_entries(active: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
     return rows, active.indices.astype(kind, copy=False)
 
 
-def mirrored_entries(
-    active: sp.csr_matrix, rows: np.ndarray, cols: np.ndarray, mirror: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The entries ``(m, n)`` of the mirrored masks, ``p(b_m)^n = b_m^{mirror(n)}``.
+@dataclass(frozen=True)
+class Preimages:
+    """The vertices n that a mirror map sends to each vertex v (``mirror(n) = v``): the mirrored masks
+    ``p(b_m)^n = b_m^{mirror(n)}`` of eq. 9 hold the active entry ``(m, v)`` once per preimage of v.
 
-    Grouped by shape m; within a shape by descending image vertex ``mirror(n)``, then ascending n (a
-    fixed order, that of the sparse-product formulation this replaces, so the sums over them and with
-    them the errors of eq. 9 are bit for bit those of earlier releases). Made a run of whole shapes at a
-    time (about `ENTRY_CHUNK` entries), so the temporaries stay small beside the result.
-
-    Returns
-    -------
-    rows, cols : int arrays
-        ``m`` and ``n`` of every entry.
-    source : int array
-        Position of the active entry ``(m, mirror(n))`` among the active entries.
+    Attributes
+    ----------
+    counts : (N,) int array
+        Number of preimages of each vertex (1 for every mirrored vertex of a one-to-one map).
+    first : (N,) int array
+        The smallest preimage of each vertex, -1 for none.
+    extra_entry, extra_preimage : int arrays
+        Every further (active entry ``(m, v)``, preimage n of v) beyond the first preimage, entry-major:
+        empty for a one-to-one map, a few for maps that send neighbouring vertices of a noisy capture to
+        the same vertex.
     """
-    n_shapes, n_vertices = active.shape
-    indptr = active.indptr.astype(np.int64)
-    vertices = np.flatnonzero(mirror >= 0)
-    preimages = vertices[np.argsort(mirror[vertices], kind="stable")]  # by image, then ascending
-    n_preimages = np.bincount(mirror[vertices], minlength=n_vertices)
-    first_preimage = np.cumsum(n_preimages) - n_preimages
-    total = int(n_preimages[cols].sum())
-    kind = index_type(active)
-    mirrored_rows, mirrored_cols, source = (np.empty(total, dtype=kind) for _ in range(3))
-    written = 0
-    marks = np.searchsorted(indptr, np.arange(ENTRY_CHUNK, rows.size, ENTRY_CHUNK))
-    bounds = np.unique(np.concatenate([[0], marks, [n_shapes]])).tolist()
-    one_to_one = n_preimages.max(initial=0) <= 1
-    preimage = np.full(n_vertices, -1, dtype=kind)
-    preimage[mirror[vertices]] = vertices
-    for first_shape, stop_shape in zip(bounds[:-1], bounds[1:], strict=True):
-        start, stop = indptr[first_shape], indptr[stop_shape]
-        run = rows[start:stop]
-        backwards = indptr[run] + indptr[run + 1] - 1 - np.arange(start, stop)  # each shape reversed
-        images = cols[backwards]
-        if one_to_one:  # (no repeats: each entry has at most one mirrored entry)
-            found = np.take(preimage, images)
-            if found.min(initial=0) < 0:
-                kept = found >= 0
-                run, backwards, found = run[kept], backwards[kept], found[kept]
-            block = slice(written, written + run.size)
-            mirrored_rows[block], mirrored_cols[block], source[block] = run, found, backwards
-            written += run.size
-            continue
-        counts = n_preimages[images]
-        size = int(counts.sum())
-        offsets = np.arange(size) - np.repeat(np.cumsum(counts) - counts, counts)
-        block = slice(written, written + size)
-        source[block] = np.repeat(backwards, counts)
-        mirrored_rows[block] = rows[source[block]]
-        mirrored_cols[block] = preimages[np.repeat(first_preimage[images], counts) + offsets]
-        written += size
-    return mirrored_rows, mirrored_cols, source
+
+    counts: np.ndarray
+    first: np.ndarray
+    extra_entry: np.ndarray
+    extra_preimage: np.ndarray
+
+    @classmethod
+    def of(cls, mirror: np.ndarray, cols: np.ndarray) -> Preimages:
+        """The preimages of ``mirror`` (-1 for a vertex without a mirror), with the further ones of the
+        active entries at vertices ``cols``."""
+        n_vertices = mirror.size
+        vertices = np.flatnonzero(mirror >= 0)
+        by_image = vertices[np.argsort(mirror[vertices], kind="stable")]  # by image, then ascending
+        counts = np.bincount(mirror[vertices], minlength=n_vertices)
+        starts = np.cumsum(counts) - counts
+        first = np.full(n_vertices, -1, dtype=np.int64)
+        mirrored = counts > 0
+        first[mirrored] = by_image[starts[mirrored]]
+        if counts.max(initial=0) <= 1:
+            return cls(counts, first, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+        shared = np.flatnonzero(np.take(counts, cols) > 1)
+        repeats = counts[cols[shared]] - 1
+        extra_entry = np.repeat(shared, repeats)
+        offsets = np.arange(extra_entry.size) - np.repeat(np.cumsum(repeats) - repeats, repeats) + 1
+        extra_preimage = by_image[np.repeat(starts[cols[shared]], repeats) + offsets]
+        return cls(counts, first, extra_entry, extra_preimage)
+
+
+def mirrored_lengths(
+    rows: np.ndarray, cols: np.ndarray, lengths: np.ndarray, preimages: Preimages, n_shapes: int
+) -> np.ndarray:
+    """(K,) ``sum_n |p(b_m)^n P_m^n|`` of each shape m: the length of each active entry ``(m, v)`` once
+    per preimage of v.
+
+    Each shape's lengths are summed in a fixed order, by descending v (the order of the mirrored masks'
+    entries in earlier releases, so the errors of eq. 9 stay those of those releases bit for bit).
+    """
+    repeats = np.take(preimages.counts, cols)
+    owners, values = rows, lengths
+    if repeats.min(initial=1) == 0 or preimages.extra_entry.size:  # (not each entry once)
+        kept = np.flatnonzero(repeats)
+        owners, values = np.repeat(rows[kept], repeats[kept]), np.repeat(lengths[kept], repeats[kept])
+    return row_sums(owners[::-1], np.ascontiguousarray(values[::-1]), n_shapes)
 
 
 def row_sums(rows: np.ndarray, values: np.ndarray, n_rows: int) -> np.ndarray:
-    """(n_rows,) sums of ``values`` grouped by ascending ``rows`` (``np.add.reduceat``, as scipy sums)."""
+    """(n_rows,) sums of ``values`` grouped by ``rows`` (each row's values consecutive; ``np.add.reduceat``,
+    as scipy sums)."""
     sums = np.zeros(n_rows)
     if rows.size:
         starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))

@@ -15,12 +15,11 @@ import rigs
 from packing._binary import entries, sparse_masks
 from packing._symmetry_candidates import (
     candidate_pairs,
-    image_cell_sums,
+    cell_sums,
     self_candidates,
-    shape_cell_sums,
     vertex_cells,
 )
-from packing._symmetry_field import SymmetryField, mirrored_entries, row_sums
+from packing._symmetry_field import Preimages, SymmetryField, mirrored_lengths, row_sums
 from tests.packing.test_packing_speed_symmetry import inputs
 
 
@@ -62,8 +61,9 @@ def female() -> SimpleNamespace:
     active = sparse_masks(masks)
     rows, cols = entries(active)
     field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
-    mirrored = mirrored_entries(active, rows, cols, mirror)
+    preimages = Preimages.of(mirror, cols)
     cells = vertex_cells(rig.neutral, active, cols, eligible)
+    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells)
     return SimpleNamespace(
         norms=norms,
         mirror=mirror,
@@ -72,9 +72,9 @@ def female() -> SimpleNamespace:
         cols=cols,
         field=field,
         own=row_sums(rows, field.lengths, rig.n_shapes),
-        image_own=row_sums(mirrored[0], field.lengths[mirrored[2]], rig.n_shapes),
-        image=image_cell_sums(field, mirrored, eligible, cells),
-        shapes=shape_cell_sums(field, rows, cols, eligible, cells),
+        image_own=mirrored_lengths(rows, cols, field.lengths, preimages, rig.n_shapes),
+        image=image,
+        shapes=shapes,
     )
 
 
