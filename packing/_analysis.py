@@ -270,7 +270,7 @@ def analyse(rig: Rig, target_neutral: Rig | np.ndarray | None = None, **params: 
     lap("importance")
     together, apart = resolve_constraints(rig, settings, empty)
     symmetry = detect_pairs(rig, norms, active, empty, settings, together, apart, moved)
-    del moved  # (reflected in place by the symmetry step)
+    del moved  # (the symmetry step's only use)
     lap("symmetry")
     if settings.max_per_expression == 1 and symmetry.pairs:
         a, b = symmetry.pairs[0]

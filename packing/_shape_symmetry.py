@@ -102,8 +102,8 @@ def shape_symmetry(
         hashed by index (the result is the same, only the search is slower on meshes whose vertex order
         is not spatially coherent).
     moved : (nnz, 3) array, optional
-        The displacements of the active entries, row-major, if already gathered; reflected in place
-        (`packing._symmetry_field.SymmetryField.of`).
+        The displacements of the active entries, row-major, if already gathered (read, not changed;
+        `packing._symmetry_field.SymmetryField.of`).
 
     Returns
     -------

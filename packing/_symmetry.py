@@ -78,7 +78,7 @@ def detect_pairs(
     together pair joins no detected pair, and the together pairs are kept as `SymmetryResult.artist_pairs`.
     ``together`` and ``apart`` are shape index pairs (default: resolved from ``params``). ``moved``, the
     displacements of the active entries (`packing._binary.active_entries`), spares `shape_symmetry` reading
-    them from the deltas; it is reflected in place.
+    them from the deltas (it is read, not changed).
     """
     if together is None or apart is None:
         together, apart = resolve_constraints(rig, params, empty)

@@ -111,8 +111,9 @@ def cell_sums(
     Notes
     -----
     Each sum is a `numpy.bincount` over keys ``cell * K + shape`` (entries without a preimage fall in one
-    cell past the last, dropped), the displacements read from the compact `SymmetryField.reflected`
-    (one contiguous coordinate at a time, for both sums). The sums come in ascending key order.
+    cell past the last, dropped), the displacements read from the compact `SymmetryField.displacements`
+    (one contiguous coordinate at a time, for both sums); the image's sums are reflected once summed. The
+    sums come in ascending key order.
     """
     n_shapes, n_cells = selected.size, int(cell.max()) + 1
     size = (n_cells + 1) * n_shapes
@@ -134,20 +135,21 @@ def cell_sums(
     )
     shape_sums, image_sums = np.empty((shape_present.size, 3)), np.empty((image_present.size, 3))
     for axis in range(3):
-        column = np.ascontiguousarray(field.reflected[:, axis])
+        column = np.ascontiguousarray(field.displacements[:, axis])
         shape_sums[:, axis] = np.bincount(shape_key, weights=column, minlength=size)[shape_present]
         summed = np.bincount(image_key, weights=column, minlength=size)
         if extra_key.size:
             summed += np.bincount(extra_key, weights=column[preimages.extra_entry], minlength=size)
         image_sums[:, axis] = summed[image_present]
-    shapes = CellSums(
-        reflect(shape_sums, field.reflection),  # R R = I
-        shape_counts[shape_present],
-        shape_present,
-        np.diff(field.active.indptr),
-    )
+    shapes = CellSums(shape_sums, shape_counts[shape_present], shape_present, np.diff(field.active.indptr))
     n_image = image_counts[: n_cells * n_shapes].reshape(n_cells, n_shapes).sum(axis=0)
-    return shapes, CellSums(image_sums, image_counts[image_present], image_present, n_image)
+    image = CellSums(
+        reflect(image_sums, field.reflection, out=image_sums),  # (sum_n R dv = R sum_n dv)
+        image_counts[image_present],
+        image_present,
+        n_image,
+    )
+    return shapes, image
 
 
 def _selected_present(counts: np.ndarray, selected: np.ndarray) -> np.ndarray:

@@ -27,11 +27,8 @@ class SymmetryField:
         The binary blendshapes; the active entries are numbered in its (row-major) storage order.
     rows : (nnz,) int array
         The shape of each active entry (its vertex is ``active.indices``).
-    displacements : (K N, 3) array
-        The rig's deltas, read in place (`moved`): the displacements ``dv_k^n`` of the active entries are
-        not copied.
-    reflected : (nnz, 3) array
-        The reflections ``R dv_k^n`` of the active entries.
+    displacements : (nnz, 3) array
+        The displacements ``dv_k^n`` of the active entries, in their order.
     lengths : (nnz,) array
         Their lengths.
     reflection : (3, 3) array
@@ -44,7 +41,6 @@ class SymmetryField:
     active: sp.csr_matrix
     rows: np.ndarray
     displacements: np.ndarray
-    reflected: np.ndarray
     lengths: np.ndarray
     reflection: np.ndarray
     table: np.ndarray
@@ -60,45 +56,41 @@ class SymmetryField:
         normal: np.ndarray,
         moved: np.ndarray | None = None,
     ) -> SymmetryField:
-        """The field of the active entries ``(rows, cols)`` of ``active``, reflected through the plane of
-        unit normal ``normal``. The displacements are gathered once (unless given as ``moved``, the
-        (nnz, 3) float64 displacements of the active entries in their order, which this overwrites), and
-        reflected in place (one matrix product over all of them), so they become `reflected`.
+        """The field of the active entries ``(rows, cols)`` of ``active``, with the reflection through the
+        plane of unit normal ``normal``. The displacements are gathered once from ``deltas``, unless given as
+        ``moved``: the (nnz, 3) float64 displacements of the active entries in their order, kept as they are
+        (not copied).
 
         Raises
         ------
         ValueError
-            For a ``moved`` of another shape, type or layout.
+            For a ``moved`` of another shape or type.
         """
         n_vertices = active.shape[1]
-        displacements = deltas.reshape(-1, 3)
         if moved is None:
-            moved = np.take(displacements, rows.astype(np.int64) * n_vertices + cols, axis=0)
-        elif moved.shape != (rows.size, 3) or moved.dtype != np.float64 or not moved.flags.c_contiguous:
+            position = rows.astype(np.int64) * n_vertices + cols
+            moved = np.take(deltas.reshape(-1, 3), position, axis=0)  # (``take``: twice as fast)
+        elif moved.shape != (rows.size, 3) or moved.dtype != np.float64:
             raise ValueError(
-                f"moved must be the ({rows.size}, 3) float64 C-contiguous displacements of the active "
-                f"entries (it is reflected in place); got a {moved.dtype} array of shape {moved.shape}"
+                f"moved must be the ({rows.size}, 3) float64 displacements of the active entries; got a "
+                f"{moved.dtype} array of shape {moved.shape}"
             )
         reflection = np.eye(3) - 2.0 * np.outer(normal, normal)
-        reflected = reflect(moved, reflection, out=moved)
         lengths = active_lengths(norms, active)
         n_table = min(max(1, TABLE_CELLS // max(n_vertices, 1)), active.shape[0]) * n_vertices
         table = np.zeros(n_table, dtype=index_type(active))
-        return cls(active, rows, displacements, reflected, lengths, reflection, table)
+        return cls(active, rows, moved, lengths, reflection, table)
 
     def moved(self, entry: np.ndarray) -> np.ndarray:
-        """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions), read from the rig's
-        deltas."""
-        position = np.take(self.rows, entry).astype(np.int64)
-        position *= self.active.shape[1]
-        position += np.take(self.active.indices, entry)
-        return np.take(self.displacements, position, axis=0)  # (``take``: twice as fast)
+        """(n, 3) displacements ``dv_k^n`` of the active entries ``entry`` (positions)."""
+        return np.take(self.displacements, entry, axis=0)
 
     def correction(self, entry: np.ndarray, image_entry: np.ndarray) -> np.ndarray:
         """``|dv_k^n - R dv_m^{mirror(n)}| - |dv_k^n| - |dv_m^{mirror(n)}|`` for pairs of active entries
         (positions among the active entries), eq. 9's term for one vertex."""
+        image = self.moved(image_entry)
         difference = self.moved(entry)
-        difference -= np.take(self.reflected, image_entry, axis=0)
+        difference -= reflect(image, self.reflection, out=image)
         distance = vector_lengths(difference)  # (squares summed in one order on every machine)
         distance -= np.take(self.lengths, entry)
         distance -= np.take(self.lengths, image_entry)

@@ -196,7 +196,7 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     assert len(kept) < 0.2 * rig.n_shapes**2  # and it does rule out most pairs
 
 
-def test_the_field_reads_the_displacements_of_the_active_entries_in_place():
+def test_the_field_holds_the_displacements_of_the_active_entries():
     rig = rigs.generate("arkit52")
     norms, masks, mirror, normal, _, _ = inputs(rig)
     active = sparse_masks(masks)
@@ -204,7 +204,6 @@ def test_the_field_reads_the_displacements_of_the_active_entries_in_place():
     field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
     picked = np.random.default_rng(1).integers(0, rows.size, 300)
     assert np.array_equal(field.moved(picked), rig.deltas[rows[picked], cols[picked]])
-    assert np.shares_memory(field.displacements, rig.deltas)
 
 
 @pytest.mark.parametrize("n_rows", [0, 1, 2, 3, 8191, 8192, 8193, 8194, 20000])
@@ -229,15 +228,17 @@ def test_displacements_gathered_with_the_masks_give_the_same_pairs_bit_for_bit()
     norms, _, active, moved = active_entries(rig.deltas, 0.3, 1e-6, rig.diagonal(), gather=True)
     arguments = (rig.deltas, norms, active.toarray(), mirror, normal, eligible, 0.4, 0.15, axis, rig.neutral)
     gathered = symmetry.shape_symmetry(*arguments)
-    given_moved = symmetry.shape_symmetry(*arguments, moved=moved.copy())
+    given = moved.copy()
+    given_moved = symmetry.shape_symmetry(*arguments, moved=given)
     assert gathered[0] and given_moved[0] == gathered[0] and given_moved[2] == gathered[2]
+    assert np.array_equal(given, moved)  # read, not changed
     assert np.array_equal(given_moved[1], gathered[1])
 
 
 @pytest.mark.parametrize(
     "wrong",
-    [lambda m: m[:-1], lambda m: m.astype(np.float32), lambda m: np.asfortranarray(m), lambda m: m[:, :2]],
-    ids=["short", "float32", "fortran", "two-columns"],
+    [lambda m: m[:-1], lambda m: m.astype(np.float32), lambda m: m[:, :2]],
+    ids=["short", "float32", "two-columns"],
 )
 def test_given_displacements_of_another_shape_type_or_layout_are_refused(wrong):
     rig = rigs.generate("arkit52")
