@@ -367,6 +367,9 @@ def _not_inside(words: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 #: Set pairs `_dominated_by_larger` compares at once (bounds its temporaries to about 10 MB).
 _PAIRS_PER_BLOCK = 1 << 18
+#: How many of the larger sets holding its rarest item `_dominated_by_larger` compares a set with before
+#: the next stage (largest first; the last stage compares the rest).
+_STAGES = (8, 64)
 
 
 def _dominated_by_larger(
@@ -375,27 +378,49 @@ def _dominated_by_larger(
     """(S,) bool: distinct sets contained in a larger one.
 
     ``entry_set`` and ``entry_item`` list the members of the sets, grouped by item. Each set is compared
-    only with the larger sets that hold its rarest item, about `_PAIRS_PER_BLOCK` pairs at a time.
+    only with the larger sets that hold its rarest item, largest first and in stages (`_STAGES`): a set
+    found inside one is not compared again. A contained set lies in many of those (on film rigs in a
+    quarter of them), so the stages halve the comparisons. About `_PAIRS_PER_BLOCK` pairs are compared at a
+    time.
     """
+    n_sets = sizes.size
     holders = np.bincount(entry_item, minlength=n_items)  # sets holding each item
     first_holder = np.zeros(n_items + 1, dtype=np.int64)
     np.cumsum(holders, out=first_holder[1:])
-    rarest = np.full(sizes.size, np.iinfo(np.int64).max, dtype=np.int64)
+    by_size = np.argsort(-sizes, kind="stable")
+    rank = np.empty(n_sets, dtype=np.int64)
+    rank[by_size] = np.arange(n_sets)
+    held = sp.csr_matrix(
+        (np.ones(entry_set.size, dtype=bool), rank[entry_set], first_holder), shape=(n_items, n_sets)
+    )
+    largest_first = by_size[held.tocsc().tocsr().indices]  # the holders of each item, by decreasing size
+    rarest = np.full(n_sets, np.iinfo(np.int64).max, dtype=np.int64)
     np.minimum.at(rarest, entry_set, holders[entry_item] * n_items + entry_item)
     rarest %= n_items
-    counts = holders[rarest]
-    pairs_before = np.zeros(sizes.size + 1, dtype=np.int64)
-    np.cumsum(counts, out=pairs_before[1:])
-    bounds = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1], _PAIRS_PER_BLOCK), side="right") - 1
-    dominated = np.zeros(sizes.size, dtype=bool)
-    for start, stop in zip(bounds.tolist(), [*bounds[1:].tolist(), sizes.size], strict=True):
-        block = np.arange(start, stop)
-        subset = np.repeat(block, counts[block])
-        offset = np.arange(subset.size) - np.repeat(pairs_before[block] - pairs_before[start], counts[block])
-        superset = entry_set[first_holder[rarest[subset]] + offset]
-        larger = sizes[superset] > sizes[subset]  # distinct sets of equal size never contain each other
-        subset, superset = subset[larger], superset[larger]
-        dominated[subset[~_not_inside(words, subset, superset)]] = True
+    # The holders larger than a set lead its rarest item's list: key (item, largest size first).
+    top = int(sizes.max(initial=0))
+    key = np.repeat(np.arange(n_items, dtype=np.int64), holders) * (top + 1) + (top - sizes[largest_first])
+    n_larger = np.searchsorted(key, rarest * (top + 1) + (top - sizes)) - first_holder[rarest]
+    dominated = np.zeros(n_sets, dtype=bool)
+    low = 0
+    for high in (*_STAGES, None):
+        alive = np.flatnonzero(~dominated & (n_larger > low))
+        if alive.size == 0:
+            break
+        counts = n_larger[alive] - low if high is None else np.minimum(n_larger[alive], high) - low
+        pairs_before = np.zeros(alive.size + 1, dtype=np.int64)
+        np.cumsum(counts, out=pairs_before[1:])
+        marks = np.arange(0, pairs_before[-1], _PAIRS_PER_BLOCK)
+        bounds = np.searchsorted(pairs_before, marks, side="right") - 1
+        for start, stop in zip(bounds.tolist(), [*bounds[1:].tolist(), alive.size], strict=True):
+            block = slice(start, stop)
+            subset = np.repeat(alive[block], counts[block])
+            offset = np.arange(subset.size) - np.repeat(
+                pairs_before[block] - pairs_before[start] - low, counts[block]
+            )
+            superset = largest_first[np.repeat(first_holder[rarest[alive[block]]], counts[block]) + offset]
+            dominated[subset[~_not_inside(words, subset, superset)]] = True
+        low = high
     return dominated
 
 

@@ -224,3 +224,17 @@ def test_the_dominance_check_in_blocks_of_pairs_gives_the_same_sets(monkeypatch)
     blocked = maximal_conflict_sets(incidence)
     assert whole[1] == blocked[1] and len(whole[0]) > 10
     assert [c.tolist() for c in whole[0]] == [c.tolist() for c in blocked[0]]
+
+
+@settings(max_examples=60, deadline=None)
+@given(wide_instances(), st.sampled_from([(), (1,), (1, 2), (2, 5, 9)]), st.sampled_from([1, 3, 1 << 18]))
+def test_staged_and_blocked_dominance_checks_give_the_maximal_vertex_sets(incidence, stages, per_block):
+    """A set found inside a larger one at some stage is not compared again; the sets left are the same
+    whatever the stages and the block size."""
+    import packing._presolve as presolve
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(presolve, "_STAGES", stages)
+        patch.setattr(presolve, "_PAIRS_PER_BLOCK", per_block)
+        cliques, _ = maximal_conflict_sets(sp.csr_matrix(incidence))
+    assert [c.tolist() for c in cliques] == _naive_maximal_sets(incidence)
