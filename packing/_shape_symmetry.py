@@ -249,12 +249,35 @@ def _scores(
     first: np.ndarray,
     second: np.ndarray,
 ) -> np.ndarray:
-    """``max(eps_km, eps_mk)`` of eq. 9 for the pairs (k, m) (infinite where a mirrored mask misses)."""
-    k, m = np.concatenate([first, second]), np.concatenate([second, first])
-    overlap, summed = _pair_sums(field, cols, mirror, k, m)
+    """``max(eps_km, eps_mk)`` of eq. 9 for the pairs (k, m) (infinite where a mirrored mask misses).
+
+    When the mirror map is an involution (``mirror(mirror(n)) = n`` for every mirrored n, as on a
+    symmetric mesh) the two directions share their vertices and their corrections: ``n`` is in
+    ``b_k & p(b_m)`` exactly when ``mirror(n)`` is in ``b_m & p(b_k)``, and ``|dv_m - R dv_k| = |R (R dv_m -
+    dv_k)| = |dv_k - R dv_m|``. Only the smaller shape of each pair is then probed, and ``eps_km``,
+    ``eps_mk`` differ only in ``own_k + image_own_m`` against ``own_m + image_own_k``. Any other map
+    probes both directions.
+    """
+    if not _is_involution(mirror):
+        k, m = np.concatenate([first, second]), np.concatenate([second, first])
+        overlap, summed = _pair_sums(field, cols, mirror, k, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            error = np.where(overlap > 0, (own[k] + image_own[m] + summed) / overlap, np.inf)
+        return np.maximum(error[: first.size], error[first.size :])
+    n_active = np.diff(field.active.indptr)
+    swap = n_active[second] < n_active[first]
+    overlap, summed = _pair_sums(
+        field, cols, mirror, np.where(swap, second, first), np.where(swap, first, second)
+    )
+    outside = np.maximum(own[first] + image_own[second], own[second] + image_own[first])
     with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(overlap > 0, (own[k] + image_own[m] + summed) / overlap, np.inf)
-    return np.maximum(error[: first.size], error[first.size :])
+        return np.where(overlap > 0, (outside + summed) / overlap, np.inf)
+
+
+def _is_involution(mirror: np.ndarray) -> bool:
+    """Whether ``mirror(mirror(n)) = n`` for every vertex n with a mirror vertex."""
+    mirrored = np.flatnonzero(mirror >= 0)
+    return bool(np.array_equal(mirror[mirror[mirrored]], mirrored))
 
 
 #: Shared active vertices closer to the symmetry plane than this share of a pair's farthest active vertex

@@ -217,17 +217,8 @@ def mirrored_lengths(
     rows: np.ndarray, cols: np.ndarray, lengths: np.ndarray, preimages: Preimages, n_shapes: int
 ) -> np.ndarray:
     """(K,) ``sum_n |p(b_m)^n P_m^n|`` of each shape m: the length of each active entry ``(m, v)`` once
-    per preimage of v.
-
-    Each shape's lengths are summed in a fixed order, by descending v (the order of the mirrored masks'
-    entries in earlier releases, so the errors of eq. 9 stay those of those releases bit for bit).
-    """
-    repeats = np.take(preimages.counts, cols)
-    owners, values = rows, lengths
-    if repeats.min(initial=1) == 0 or preimages.extra_entry.size:  # (not each entry once)
-        kept = np.flatnonzero(repeats)
-        owners, values = np.repeat(rows[kept], repeats[kept]), np.repeat(lengths[kept], repeats[kept])
-    return row_sums(owners[::-1], np.ascontiguousarray(values[::-1]), n_shapes)
+    per preimage of v (``|R x| = |x|``)."""
+    return row_sums(rows, lengths * np.take(preimages.counts, cols), n_shapes)
 
 
 def row_sums(rows: np.ndarray, values: np.ndarray, n_rows: int) -> np.ndarray:

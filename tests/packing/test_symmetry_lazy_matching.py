@@ -110,3 +110,45 @@ def test_self_candidates_keep_every_self_symmetric_shape(female):
     self_symmetric = female.eligible & (every < 0.4 * largest)
     assert self_symmetric.any() and not (self_symmetric & ~kept).any()
     assert (kept & female.eligible).sum() < 0.5 * female.eligible.sum()
+
+
+def test_an_involution_probes_one_direction_and_scores_both(female, monkeypatch):
+    """On a symmetric mesh the mirror map is an involution: scoring each pair from its smaller shape gives
+    the scores of probing both directions, up to rounding, with half the probes."""
+    assert symmetry._is_involution(female.mirror)
+    found = candidate_pairs(
+        female.field, female.rows, female.shapes, female.image, female.eligible, female.norms.max(axis=1), 0.4
+    )
+    upper = found.first < found.second
+    first, second = found.first[upper], found.second[upper]
+    arguments = (female.field, female.cols, female.mirror, female.own, female.image_own, first, second)
+    probed: list[int] = []
+    pair_sums = symmetry._pair_sums
+
+    def counted(field, cols, mirror, k, m):
+        probed.append(k.size)
+        return pair_sums(field, cols, mirror, k, m)
+
+    monkeypatch.setattr(symmetry, "_pair_sums", counted)
+    shared = symmetry._scores(*arguments)
+    monkeypatch.setattr(symmetry, "_is_involution", lambda mirror: False)
+    both = symmetry._scores(*arguments)
+    assert probed == [first.size, 2 * first.size]
+    finite = np.isfinite(both)
+    assert finite.sum() > 100 and np.array_equal(np.isfinite(shared), finite)
+    scale = female.own.max()
+    np.testing.assert_allclose(shared[finite], both[finite], rtol=1e-9, atol=1e-12 * scale)
+
+
+@pytest.mark.parametrize(
+    ("mirror", "expected"),
+    [
+        ([1, 0, 2, -1], True),
+        ([-1, -1], True),
+        ([1, 2, 0], False),  # a cycle of three
+        ([1, 0, 1], False),  # a shared image
+        ([1, -1], False),  # the mirror of a vertex without one
+    ],
+)
+def test_involutions_are_told_from_other_mirror_maps(mirror, expected):
+    assert symmetry._is_involution(np.array(mirror)) is expected
