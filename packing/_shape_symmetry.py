@@ -318,10 +318,14 @@ def _self_errors(
     """(K,) ``eps_kk`` of eq. 9 of the ascending ``shapes`` (infinite where ``b_k & p(b_k)`` is empty, and
     for the other shapes), over the active (k, n) whose mirror vertex is active in k too; ``outside`` is
     ``own_k + mirrored_k``. The entries are probed a run of whole shapes at a time (about `PROBE_CHUNK`
-    entries), so each shape's sum is that of one run, over its entries in ascending order."""
+    entries), so each shape's sum is that of one run, over its entries in ascending order.
+
+    When the mirror map is an involution, n and ``mirror(n)`` contribute the same correction (see
+    `_scores`): only the vertices ``n <= mirror(n)`` are probed, the others counted twice."""
     n_shapes = outside.size
     indptr = field.active.indptr
-    diagonal = np.zeros(n_shapes, dtype=np.int64)  # |b_k & p(b_k)|
+    involutive = _is_involution(mirror)
+    diagonal = np.zeros(n_shapes)  # |b_k & p(b_k)|
     corrections = np.zeros(n_shapes)
     counts = indptr[shapes + 1] - indptr[shapes]
     ends = np.cumsum(counts)
@@ -330,11 +334,21 @@ def _self_errors(
     for low, high in zip(bounds[:-1], bounds[1:], strict=True):
         run = counts[low:high]
         entry = np.repeat(indptr[shapes[low:high]] - np.cumsum(run) + run, run) + np.arange(int(run.sum()))
+        vertex = cols[entry]
+        weight = None
+        if involutive:
+            image = np.take(mirror, vertex)
+            lower = np.flatnonzero(vertex <= image)
+            entry, vertex = entry[lower], vertex[lower]
+            weight = np.where(vertex == image[lower], 1.0, 2.0)
         run_rows = rows[entry]
-        image_entry = field.image_entries(run_rows, cols[entry], mirror)
+        image_entry = field.image_entries(run_rows, vertex, mirror)
         both = np.flatnonzero(image_entry >= 0)
-        diagonal += np.bincount(run_rows[both], minlength=n_shapes)
         correction = field.correction(entry[both], image_entry[both])
+        if weight is not None:
+            weight = weight[both]
+            correction *= weight
+        diagonal += np.bincount(run_rows[both], weights=weight, minlength=n_shapes)
         corrections += np.bincount(run_rows[both], weights=correction, minlength=n_shapes)
     total = outside + corrections
     return np.divide(total, diagonal, out=np.full(n_shapes, np.inf), where=diagonal > 0)

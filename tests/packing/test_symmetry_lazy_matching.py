@@ -152,3 +152,25 @@ def test_an_involution_probes_one_direction_and_scores_both(female, monkeypatch)
 )
 def test_involutions_are_told_from_other_mirror_maps(mirror, expected):
     assert symmetry._is_involution(np.array(mirror)) is expected
+
+
+def test_an_involution_probes_half_of_each_self_symmetric_shape(female, monkeypatch):
+    """``eps_kk`` from the vertices ``n <= mirror(n)`` (the others counted twice) equals probing them all."""
+    shapes = np.flatnonzero(female.eligible)
+    arguments = (female.field, female.rows, female.cols, female.mirror, shapes, female.own + female.image_own)
+    probed: list[int] = []
+    image_entries = SymmetryField.image_entries
+
+    def counted(field, queried, vertices, mirror):
+        probed.append(vertices.size)
+        return image_entries(field, queried, vertices, mirror)
+
+    monkeypatch.setattr(SymmetryField, "image_entries", counted)
+    halved = symmetry._self_errors(*arguments)
+    half = sum(probed)
+    monkeypatch.setattr(symmetry, "_is_involution", lambda mirror: False)
+    whole = symmetry._self_errors(*arguments)
+    assert 0.4 < half / (sum(probed) - half) < 0.6
+    finite = np.isfinite(whole)
+    assert finite.sum() > 10 and np.array_equal(np.isfinite(halved), finite)
+    np.testing.assert_allclose(halved[finite], whole[finite], rtol=1e-9, atol=1e-12 * female.own.max())
