@@ -13,6 +13,8 @@ from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
 CELLS_PER_SHAPE = 4
+#: Shapes whose extents set the cell side at most (`vertex_cells`: about this many, evenly spaced).
+EXTENT_SAMPLE = 256
 #: Largest number of (cell, shape) sums the spatial hash keeps (`vertex_cells` coarsens the grid to stay
 #: below).
 MAX_CELL_SUMS = 2_000_000
@@ -30,18 +32,26 @@ def vertex_cells(
     candidates: np.ndarray,
 ) -> np.ndarray:
     """(N,) cell of each vertex: a grid over the neutral whose side is the median extent of the candidate
-    shapes' active vertices over `CELLS_PER_SHAPE`; without a neutral, runs of consecutive vertices."""
+    shapes' active vertices over `CELLS_PER_SHAPE`; without a neutral, runs of consecutive vertices.
+
+    The median is taken over an evenly spaced sample of the candidate shapes (all of them below twice
+    `EXTENT_SAMPLE`, else every j-th, at least `EXTENT_SAMPLE`): the grid sets only how tight the bounds of
+    `candidate_pairs` are, never which pairs pass."""
     n_shapes, n_vertices = active.shape
     most = max(1, min(n_vertices, MAX_CELL_SUMS // max(n_shapes, 1)))
     counts = np.diff(active.indptr)
     shapes = np.flatnonzero(candidates & (counts > 0))
     if neutral is None or shapes.size == 0:
         return np.arange(n_vertices) * most // n_vertices
+    shapes = shapes[:: max(1, shapes.size // EXTENT_SAMPLE)]
+    cols = np.concatenate([cols[active.indptr[k] : active.indptr[k + 1]] for k in shapes.tolist()])
+    first = np.zeros(shapes.size, dtype=np.int64)
+    np.cumsum(counts[shapes][:-1], out=first[1:])
     low, high = np.empty((shapes.size, 3)), np.empty((shapes.size, 3))
     for axis in range(3):  # one coordinate of the active entries at a time
         coordinate = np.take(neutral[:, axis], cols)
-        low[:, axis] = np.minimum.reduceat(coordinate, active.indptr[shapes])
-        high[:, axis] = np.maximum.reduceat(coordinate, active.indptr[shapes])
+        low[:, axis] = np.minimum.reduceat(coordinate, first)
+        high[:, axis] = np.maximum.reduceat(coordinate, first)
     side = float(np.median(np.linalg.norm(high - low, axis=1))) / CELLS_PER_SHAPE
     origin, top = bounding_box(neutral)
     span = float(np.linalg.norm(top - origin))

@@ -153,6 +153,7 @@ def test_chunked_and_coarsened_search_finds_the_same_pairs(monkeypatch):
     monkeypatch.setattr(symmetry, "PROBE_CHUNK", 1000)
     monkeypatch.setattr(candidates, "COMBO_CHUNK", 500)
     monkeypatch.setattr(candidates, "MAX_CELL_SUMS", 5 * rig.n_shapes)
+    monkeypatch.setattr(candidates, "EXTENT_SAMPLE", 2)  # the cell side from a few shapes' extents
     monkeypatch.setattr(symmetry_field, "TABLE_CELLS", 3 * rig.n_vertices)
     chunked = symmetry.shape_symmetry(*arguments)
     assert [pair[:2] for pair in chunked[0]] == [pair[:2] for pair in default[0]]
