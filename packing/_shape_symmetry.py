@@ -17,7 +17,14 @@ from packing._symmetry_candidates import (
     self_candidates,
     vertex_cells,
 )
-from packing._symmetry_field import Preimages, SymmetryField, compact_entries, mirrored_lengths, row_sums
+from packing._symmetry_field import (
+    Preimages,
+    SymmetryField,
+    compact_entries,
+    is_involution,
+    mirrored_lengths,
+    row_sums,
+)
 
 
 def reflection_normal(neutral: np.ndarray, mirror: np.ndarray) -> np.ndarray | None:
@@ -137,13 +144,13 @@ def shape_symmetry(
     image_own = mirrored_lengths(rows, cols, field.lengths, preimages, n_shapes)  # |p(b_m) P_m|
 
     # Only the shapes and pairs that per-cell bounds cannot rule out are evaluated exactly.
-    cells = vertex_cells(neutral, active, cols, eligible)
-    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells)
+    cells, flip = vertex_cells(neutral, active, cols, eligible, mirror, normal)
+    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells, flip)
     probed = np.flatnonzero(eligible & self_candidates(field, rows, shapes, image, largest, tol))
     self_error = _self_errors(field, rows, cols, mirror, probed, own + image_own)
     self_symmetric = eligible & (self_error < tol * largest)
     candidates = eligible & ~self_symmetric
-    found = candidate_pairs(field, rows, shapes, image, candidates, largest, tol)
+    found = candidate_pairs(field, rows, shapes, image, candidates, largest, tol, flip)
     matched = _match_by_bounds(field, cols, mirror, own, image_own, found, tol * largest)
     if not matched:
         return [], self_symmetric, []
@@ -258,7 +265,7 @@ def _scores(
     ``eps_mk`` differ only in ``own_k + image_own_m`` against ``own_m + image_own_k``. Any other map
     probes both directions.
     """
-    if not _is_involution(mirror):
+    if not is_involution(mirror):
         k, m = np.concatenate([first, second]), np.concatenate([second, first])
         overlap, summed = _pair_sums(field, cols, mirror, k, m)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -272,12 +279,6 @@ def _scores(
     outside = np.maximum(own[first] + image_own[second], own[second] + image_own[first])
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(overlap > 0, (outside + summed) / overlap, np.inf)
-
-
-def _is_involution(mirror: np.ndarray) -> bool:
-    """Whether ``mirror(mirror(n)) = n`` for every vertex n with a mirror vertex."""
-    mirrored = np.flatnonzero(mirror >= 0)
-    return bool(np.array_equal(mirror[mirror[mirrored]], mirrored))
 
 
 #: Shared active vertices closer to the symmetry plane than this share of a pair's farthest active vertex
@@ -324,7 +325,7 @@ def _self_errors(
     `_scores`): only the vertices ``n <= mirror(n)`` are probed, the others counted twice."""
     n_shapes = outside.size
     indptr = field.active.indptr
-    involutive = _is_involution(mirror)
+    involutive = is_involution(mirror)
     diagonal = np.zeros(n_shapes)  # |b_k & p(b_k)|
     corrections = np.zeros(n_shapes)
     counts = indptr[shapes + 1] - indptr[shapes]

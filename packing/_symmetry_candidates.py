@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from packing._symmetry_field import Preimages, SymmetryField, reflect
+from packing._symmetry_field import Preimages, SymmetryField, is_involution, reflect
 from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
@@ -30,19 +30,43 @@ def vertex_cells(
     active: sp.csr_matrix,
     cols: np.ndarray,
     candidates: np.ndarray,
-) -> np.ndarray:
+    mirror: np.ndarray | None = None,
+    normal: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray | None]:
     """(N,) cell of each vertex: a grid over the neutral whose side is the median extent of the candidate
     shapes' active vertices over `CELLS_PER_SHAPE`; without a neutral, runs of consecutive vertices.
 
     The median is taken over an evenly spaced sample of the candidate shapes (all of them below twice
     `EXTENT_SAMPLE`, else every j-th, at least `EXTENT_SAMPLE`): the grid sets only how tight the bounds of
-    `candidate_pairs` are, never which pairs pass."""
+    `candidate_pairs` are, never which pairs pass.
+
+    Returns
+    -------
+    cell : (N,) int array
+    flip : (C,) int array or None
+        For an involutive ``mirror``, the cell holding the mirror vertices of each cell's vertices (-1 for
+        the cells of vertices without one): the cells are mirror images of each other, ``cell(mirror(n)) =
+        flip(cell(n))``. Of each pair of mirror vertices the one farther along ``normal`` (the lower index
+        without a neutral or normal, or on a tie) is placed in the grid and the other in the image of its
+        cell, so that each cell lies in one half of the face. None for any other map (or no ``mirror``).
+    """
     n_shapes, n_vertices = active.shape
     most = max(1, min(n_vertices, MAX_CELL_SUMS // max(n_shapes, 1)))
+    vertex = np.arange(n_vertices)
+    anchor, side = vertex, None
+    if mirror is not None and is_involution(mirror):
+        partner = np.where(mirror >= 0, mirror, vertex)
+        placed = vertex <= partner
+        if neutral is not None and normal is not None:
+            height = neutral @ normal
+            placed = (height > height[partner]) | ((height == height[partner]) & placed)
+        anchor = np.where(placed, vertex, partner)
+        side = np.select([mirror < 0, partner == vertex, placed], [_UNMIRRORED, _ON_PLANE, _PLACED], _IMAGE)
+        most = max(1, most // 2)  # (a cell of the grid and its image)
     counts = np.diff(active.indptr)
     shapes = np.flatnonzero(candidates & (counts > 0))
     if neutral is None or shapes.size == 0:
-        return np.arange(n_vertices) * most // n_vertices
+        return _with_images(anchor * most // n_vertices, side)
     shapes = shapes[:: max(1, shapes.size // EXTENT_SAMPLE)]
     cols = np.concatenate([cols[active.indptr[k] : active.indptr[k + 1]] for k in shapes.tolist()])
     first = np.zeros(shapes.size, dtype=np.int64)
@@ -52,17 +76,34 @@ def vertex_cells(
         coordinate = np.take(neutral[:, axis], cols)
         low[:, axis] = np.minimum.reduceat(coordinate, first)
         high[:, axis] = np.maximum.reduceat(coordinate, first)
-    side = float(np.median(np.linalg.norm(high - low, axis=1))) / CELLS_PER_SHAPE
+    length = float(np.median(np.linalg.norm(high - low, axis=1))) / CELLS_PER_SHAPE
     origin, top = bounding_box(neutral)
     span = float(np.linalg.norm(top - origin))
-    side = max(side, span * 1e-6, np.finfo(float).tiny)
+    length = max(length, span * 1e-6, np.finfo(float).tiny)
+    placed_at = neutral[anchor]
     while True:
-        grid = np.floor((neutral - origin) / side).astype(np.int64)
+        grid = np.floor((placed_at - origin) / length).astype(np.int64)
         width = bounding_box(grid)[1] + 1
         _, cell = np.unique((grid[:, 0] * width[1] + grid[:, 1]) * width[2] + grid[:, 2], return_inverse=True)
         if cell.max() < most:
-            return cell
-        side *= 1.5
+            return _with_images(cell, side)
+        length *= 1.5
+
+
+#: Sides of a vertex of an involutive mirror map (`vertex_cells`): placed in the grid, the image of a placed
+#: vertex, its own mirror vertex, without a mirror vertex.
+_PLACED, _IMAGE, _ON_PLANE, _UNMIRRORED = 0, 1, 2, 3
+
+
+def _with_images(cell: np.ndarray, side: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The cells of `vertex_cells` from the grid cell of each vertex's placed vertex and its side."""
+    if side is None:
+        return cell, None
+    keys, cell = np.unique(cell.astype(np.int64) * 4 + side, return_inverse=True)
+    kind = keys % 4
+    flip = np.searchsorted(keys, keys - kind + np.choose(kind, [_IMAGE, _PLACED, _ON_PLANE, _UNMIRRORED]))
+    flip[kind == _UNMIRRORED] = -1
+    return cell, flip
 
 
 @dataclass(frozen=True)
@@ -103,6 +144,7 @@ def cell_sums(
     preimages: Preimages,
     selected: np.ndarray,
     cell: np.ndarray,
+    flip: np.ndarray | None = None,
 ) -> tuple[CellSums, CellSums]:
     """The per-cell sums `candidate_pairs` reads, of the ``selected`` shapes, in one pass over the active
     entries per coordinate.
@@ -116,7 +158,8 @@ def cell_sums(
         shape), and ``|p(b_m)|``. The mirrored entry ``(m, n)`` is the active entry ``(m, mirror(n))``,
         so each active entry ``(m, v)`` is summed into the cell of each preimage n of v: with the key of
         its first preimage, then once more for each further one (none for a one-to-one map). No mirrored
-        entry is listed.
+        entry is listed. With the mirror cells ``flip`` of an involutive map (`vertex_cells`), ``P_mc = R
+        A_m,flip(c)`` and ``p_mc = a_m,flip(c)``: the shapes' sums, reflected, under their mirror cells.
 
     Notes
     -----
@@ -131,27 +174,31 @@ def cell_sums(
     shape_key = np.take(cell, cols).astype(kind)
     shape_key *= n_shapes
     shape_key += rows
-    image_cell = np.where(preimages.first >= 0, np.take(cell, preimages.first), n_cells).astype(kind)
-    image_key = np.take(image_cell, cols)
-    image_key *= n_shapes
-    image_key += rows
-    extra_key = np.take(cell, preimages.extra_preimage) * n_shapes + np.take(rows, preimages.extra_entry)
-    shape_counts = np.bincount(shape_key, minlength=size)
-    image_counts = np.bincount(image_key, minlength=size)
-    if extra_key.size:
-        image_counts += np.bincount(extra_key, minlength=size)
-    shape_present, image_present = (
-        _selected_present(counts[: n_cells * n_shapes], selected) for counts in (shape_counts, image_counts)
-    )
-    shape_sums, image_sums = np.empty((shape_present.size, 3)), np.empty((image_present.size, 3))
+    shape_counts = np.bincount(shape_key, minlength=n_cells * n_shapes)
+    shape_present = _selected_present(shape_counts, selected)
+    if flip is None:
+        image_cell = np.where(preimages.first >= 0, np.take(cell, preimages.first), n_cells).astype(kind)
+        image_key = np.take(image_cell, cols)
+        image_key *= n_shapes
+        image_key += rows
+        extra_key = np.take(cell, preimages.extra_preimage) * n_shapes + np.take(rows, preimages.extra_entry)
+        image_counts = np.bincount(image_key, minlength=size)
+        if extra_key.size:
+            image_counts += np.bincount(extra_key, minlength=size)
+        image_present = _selected_present(image_counts[: n_cells * n_shapes], selected)
+        image_sums = np.empty((image_present.size, 3))
+    shape_sums = np.empty((shape_present.size, 3))
     for axis in range(3):
         column = np.ascontiguousarray(field.displacements[:, axis])
         shape_sums[:, axis] = np.bincount(shape_key, weights=column, minlength=size)[shape_present]
-        summed = np.bincount(image_key, weights=column, minlength=size)
-        if extra_key.size:
-            summed += np.bincount(extra_key, weights=column[preimages.extra_entry], minlength=size)
-        image_sums[:, axis] = summed[image_present]
+        if flip is None:
+            summed = np.bincount(image_key, weights=column, minlength=size)
+            if extra_key.size:
+                summed += np.bincount(extra_key, weights=column[preimages.extra_entry], minlength=size)
+            image_sums[:, axis] = summed[image_present]
     shapes = CellSums(shape_sums, shape_counts[shape_present], shape_present, np.diff(field.active.indptr))
+    if flip is not None:
+        return shapes, _mirror_cell_sums(shapes, shape_counts, flip, field.reflection)
     n_image = image_counts[: n_cells * n_shapes].reshape(n_cells, n_shapes).sum(axis=0)
     image = CellSums(
         reflect(image_sums, field.reflection, out=image_sums),  # (sum_n R dv = R sum_n dv)
@@ -160,6 +207,23 @@ def cell_sums(
         n_image,
     )
     return shapes, image
+
+
+def _mirror_cell_sums(
+    shapes: CellSums, counts: np.ndarray, flip: np.ndarray, reflection: np.ndarray
+) -> CellSums:
+    """The mirrored masks' sums of an involutive map from the shapes' sums: ``(flip(c), m)`` of each ``(c,
+    m)`` whose vertices have mirror vertices, reflected, in ascending key order; ``|p(b_m)|`` from the
+    (cell, shape) ``counts`` of every shape."""
+    n_shapes = shapes.totals.size
+    cells, owners = np.divmod(shapes.present, n_shapes)
+    mirrored = np.flatnonzero(flip[cells] >= 0)
+    keys = flip[cells[mirrored]] * n_shapes + owners[mirrored]
+    order = np.argsort(keys)
+    taken = mirrored[order]
+    sums = reflect(shapes.sums[taken], reflection)
+    n_image = counts.reshape(-1, n_shapes)[flip >= 0].sum(axis=0)
+    return CellSums(sums, shapes.counts[taken], keys[order], n_image)
 
 
 def _selected_present(counts: np.ndarray, selected: np.ndarray) -> np.ndarray:
@@ -247,6 +311,7 @@ def candidate_pairs(
     candidates: np.ndarray,
     largest: np.ndarray,
     tol: float,
+    flip: np.ndarray | None = None,
 ) -> Candidates:
     """Ordered pairs (k, m) that may pass eq. 10 in both directions; a superset of those that do.
 
@@ -274,6 +339,9 @@ def candidate_pairs(
         ``max_n |dv_k^n|`` of each shape.
     tol : float
         Factor of eq. 10.
+    flip : (C,) int array, optional
+        The mirror cell of each cell of an involutive map (`vertex_cells`), under which the image's sums
+        are the shapes' sums (`cell_sums`).
 
     Returns
     -------
@@ -303,13 +371,19 @@ def candidate_pairs(
     n_cells = int(max(shape_present.max(initial=0), image_present.max(initial=0))) // n_shapes + 1
 
     # Per cell, the block of every k present with every m whose mirror image is present, added into the
-    # (K, K) gap and shared-count bounds, cell after cell (``add.at`` adds term by term, in order).
+    # (K, K) gap and shared-count bounds, cell after cell (``add.at`` adds term by term, in order). With
+    # mirror cells the term of (k, m) in cell c is that of (m, k) in c' = flip(c), as ``|A_kc - R A_mc'| =
+    # |A_mc' - R A_kc|``: only the cells c <= flip(c) are visited (of a cell that is its own image, the
+    # pairs k < m), and each bound is the sum of its two directions.
     shape_first = np.searchsorted(shape_present, np.arange(n_cells + 1) * n_shapes)
     image_first = np.searchsorted(image_present, np.arange(n_cells + 1) * n_shapes)
     gaps = np.zeros(n_shapes * n_shapes)
     shared = np.zeros(n_shapes * n_shapes, dtype=np.int32)
     shape_columns, image_columns = shape_sums.T.copy(), image_sums.T.copy()
-    for index in np.flatnonzero((np.diff(shape_first) > 0) & (np.diff(image_first) > 0)).tolist():
+    visited = (np.diff(shape_first) > 0) & (np.diff(image_first) > 0)
+    if flip is not None:
+        visited &= np.arange(n_cells) <= flip[:n_cells]
+    for index in np.flatnonzero(visited).tolist():
         images = slice(image_first[index], image_first[index + 1])
         per_block = max(1, COMBO_CHUNK // (images.stop - images.start))
         for low in range(shape_first[index], shape_first[index + 1], per_block):
@@ -324,21 +398,32 @@ def candidate_pairs(
             gap -= shape_norms[shapes, None]
             gap -= image_norms[None, images]
             pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
-            np.add.at(gaps, pair, gap.ravel())
-            np.add.at(shared, pair, np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel())
+            count = np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
+            gap = gap.ravel()
+            if flip is not None and flip[index] == index:
+                upper = np.flatnonzero(pair // n_shapes < pair % n_shapes)
+                pair, gap, count = pair[upper], gap[upper], count[upper]
+            np.add.at(gaps, pair, gap)
+            np.add.at(shared, pair, count)
 
     # The bounds of the pairs present in some cell together, a block of shapes k at a time.
-    kept, bounds = [], []
+    kept, bounds, counts = [], [], []
+    gaps, shared = gaps.reshape(n_shapes, n_shapes), shared.reshape(n_shapes, n_shapes)
     per_block = max(1, COMBO_CHUNK // n_shapes)
     for low in range(0, n_shapes, per_block):
-        present = low * n_shapes + np.flatnonzero(shared[low * n_shapes : (low + per_block) * n_shapes])
-        k, m = present // n_shapes, present % n_shapes
-        keep, bound = _bounds(k, m, shared[present].astype(np.float64), gaps[present], totals, largest, tol)
+        block = slice(low, min(low + per_block, n_shapes))
+        block_gaps, block_shared = gaps[block], shared[block]
+        if flip is not None:
+            block_gaps, block_shared = block_gaps + gaps[:, block].T, block_shared + shared[:, block].T
+        present = np.flatnonzero(block_shared)
+        k, m = low + present // n_shapes, present % n_shapes
+        count = block_shared.ravel()[present].astype(np.float64)
+        keep, bound = _bounds(k, m, count, block_gaps.ravel()[present], totals, largest, tol)
         keep &= k != m
-        kept.append(present[keep])
+        kept.append(k[keep] * n_shapes + m[keep])
         bounds.append(bound[keep])
-    both, bound = np.concatenate(kept), np.concatenate(bounds)
+        counts.append(count[keep])
+    both, bound, count = np.concatenate(kept), np.concatenate(bounds), np.concatenate(counts)
     mutual = np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
-    both, bound = both[mutual], bound[mutual]
-    first, second = both // n_shapes, both % n_shapes
-    return Candidates(first, second, bound, shared[both].astype(np.float64))
+    both, bound, count = both[mutual], bound[mutual], count[mutual]
+    return Candidates(both // n_shapes, both % n_shapes, bound, count)

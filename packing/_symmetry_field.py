@@ -221,6 +221,12 @@ def mirrored_lengths(
     return row_sums(rows, lengths * np.take(preimages.counts, cols), n_shapes)
 
 
+def is_involution(mirror: np.ndarray) -> bool:
+    """Whether ``mirror(mirror(n)) = n`` for every vertex n with a mirror vertex (-1 for none)."""
+    mirrored = np.flatnonzero(mirror >= 0)
+    return bool(np.array_equal(mirror[mirror[mirrored]], mirrored))
+
+
 def row_sums(rows: np.ndarray, values: np.ndarray, n_rows: int) -> np.ndarray:
     """(n_rows,) sums of ``values`` grouped by ``rows`` (each row's values consecutive; ``np.add.reduceat``,
     as scipy sums)."""

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from packing._symmetry_candidates import cell_sums
+from packing._symmetry_candidates import cell_sums, vertex_cells
 from packing._symmetry_field import Preimages, SymmetryField, compact_entries, mirrored_lengths
 
 N_SHAPES, N_VERTICES, N_CELLS = 6, 40, 5
@@ -112,3 +112,69 @@ def test_mirrored_lengths_count_each_mirrored_entry(kind):
     image = np.where(valid, mirror, 0)
     by_definition = (np.linalg.norm(deltas[:, image], axis=2) * (masks[:, image] & valid)).sum(axis=1)
     np.testing.assert_allclose(found, by_definition, rtol=1e-12)
+
+
+def _involution(rng: np.random.Generator) -> np.ndarray:
+    """Pairs of vertices swapped, a few vertices their own mirror, a few pairs without one."""
+    order = rng.permutation(N_VERTICES)
+    mirror = np.arange(N_VERTICES)
+    pairs = order[:30].reshape(-1, 2)
+    mirror[pairs[:, 0]], mirror[pairs[:, 1]] = pairs[:, 1], pairs[:, 0]
+    mirror[order[30:34]] = -1
+    return mirror
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+@pytest.mark.parametrize("with_neutral", [True, False])
+def test_mirror_cells_are_images_of_each_other(seed, with_neutral):
+    """For an involutive map, ``cell(mirror(n)) = flip(cell(n))``, flip is an involution on the cells, and
+    the farther and the nearer vertices of the pairs (along the normal) never share a cell; any other map
+    gets no mirror cells."""
+    rng = np.random.default_rng(seed)
+    mirror = _involution(rng)
+    neutral = rng.normal(size=(N_VERTICES, 3)) if with_neutral else None
+    active = sp.csr_matrix(rng.random((N_SHAPES, N_VERTICES)) < 0.4)
+    active.sort_indices()
+    _, cols = compact_entries(active)
+    normal = np.array([1.0, 0.0, 0.0])
+    cell, flip = vertex_cells(neutral, active, cols, np.ones(N_SHAPES, dtype=bool), mirror, normal)
+    mirrored = np.flatnonzero(mirror >= 0)
+    assert np.array_equal(cell[mirror[mirrored]], flip[cell[mirrored]])
+    assert np.all(flip[cell[mirror < 0]] == -1)
+    kept = flip >= 0
+    assert np.array_equal(flip[flip[kept]], np.flatnonzero(kept))
+    if with_neutral:  # each cell holds only the farther or only the nearer vertices of their pairs
+        pairs = mirrored[mirror[mirrored] != mirrored]
+        farther = neutral[pairs, 0] > neutral[mirror[pairs], 0]
+        assert not set(cell[pairs[farther]].tolist()) & set(cell[pairs[~farther]].tolist())
+    assert (
+        vertex_cells(neutral, active, cols, np.ones(N_SHAPES, dtype=bool), _mirror("bijection", rng))[1]
+        is None
+    )
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_mirror_cell_sums_equal_the_sums_over_the_preimages(seed):
+    """With mirror cells, the image's sums taken from the shapes' sums under the mirror cells are those summed
+    from each active entry's preimages over the same cells."""
+    rng = np.random.default_rng(seed)
+    mirror = _involution(rng)
+    masks = rng.random((N_SHAPES, N_VERTICES)) < 0.4
+    deltas = rng.normal(size=(N_SHAPES, N_VERTICES, 3))
+    active = sp.csr_matrix(masks)
+    active.sort_indices()
+    rows, cols = compact_entries(active)
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    field = SymmetryField.of(deltas, np.linalg.norm(deltas, axis=2), active, rows, cols, normal)
+    selected = rng.random(N_SHAPES) < 0.8
+    neutral = rng.normal(size=(N_VERTICES, 3))
+    cell, flip = vertex_cells(neutral, active, cols, selected, mirror, normal)
+    preimages = Preimages.of(mirror, cols)
+    shapes, image = cell_sums(field, rows, cols, preimages, selected, cell, flip)
+    direct_shapes, direct_image = cell_sums(field, rows, cols, preimages, selected, cell)
+    for found, direct in ((shapes, direct_shapes), (image, direct_image)):
+        assert found.present.tolist() == direct.present.tolist()
+        assert found.counts.tolist() == direct.counts.tolist()
+        assert found.totals.tolist() == direct.totals.tolist()
+        np.testing.assert_allclose(found.sums, direct.sums, rtol=1e-12, atol=1e-12)

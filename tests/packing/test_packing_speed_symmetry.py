@@ -187,9 +187,9 @@ def test_candidate_bounds_keep_every_pair_below_the_threshold():
     field = symmetry_field.SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
     largest = norms.max(axis=1)
     preimages = symmetry_field.Preimages.of(mirror, cols)
-    cells = candidates.vertex_cells(rig.neutral, active, cols, eligible)
-    shapes, image = candidates.cell_sums(field, rows, cols, preimages, eligible, cells)
-    found = candidates.candidate_pairs(field, rows, shapes, image, eligible, largest, 0.4)
+    cells, flip = candidates.vertex_cells(rig.neutral, active, cols, eligible, mirror, normal)
+    shapes, image = candidates.cell_sums(field, rows, cols, preimages, eligible, cells, flip)
+    found = candidates.candidate_pairs(field, rows, shapes, image, eligible, largest, 0.4, flip)
     kept = set(zip(found.first.tolist(), found.second.tolist(), strict=True))
     reference = exhaustive_shape_symmetry(rig.deltas, norms, masks, mirror, normal, eligible, 0.4, 1.0, axis)
     assert reference[0] and {(a, b) for a, b, _ in reference[0]} <= kept

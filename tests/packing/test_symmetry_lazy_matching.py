@@ -53,17 +53,21 @@ def test_lazy_matching_equals_the_greedy_matching_of_every_score(n_shapes, seed,
     assert len(scored) == len(set(scored))  # each pair scored once at most
 
 
-@pytest.fixture(scope="module")
-def female() -> SimpleNamespace:
-    """The symmetry step's inputs on the ``female`` rig, up to the per-cell sums of the candidate bounds."""
+@pytest.fixture(scope="module", params=["mirror cells", "grid cells"])
+def female(request) -> SimpleNamespace:
+    """The symmetry step's inputs on the ``female`` rig, up to the per-cell sums of the candidate bounds: over
+    cells that are mirror images of each other (as `shape_symmetry` makes them for an involutive mirror map)
+    or over a plain grid (as for any other map)."""
     rig = rigs.generate("female")
     norms, masks, mirror, normal, eligible, _ = inputs(rig)
     active = sparse_masks(masks)
     rows, cols = entries(active)
     field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
     preimages = Preimages.of(mirror, cols)
-    cells = vertex_cells(rig.neutral, active, cols, eligible)
-    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells)
+    mirrored = request.param == "mirror cells"
+    cells, flip = vertex_cells(rig.neutral, active, cols, eligible, *((mirror, normal) if mirrored else ()))
+    assert (flip is not None) == mirrored
+    shapes, image = cell_sums(field, rows, cols, preimages, eligible, cells, flip)
     return SimpleNamespace(
         norms=norms,
         mirror=mirror,
@@ -75,6 +79,7 @@ def female() -> SimpleNamespace:
         image_own=mirrored_lengths(rows, cols, field.lengths, preimages, rig.n_shapes),
         image=image,
         shapes=shapes,
+        flip=flip,
     )
 
 
@@ -82,7 +87,14 @@ def test_floors_of_the_candidate_bounds_are_below_the_exact_scores(female):
     """Each candidate's floor ``(numerator - slack) / shared`` is at most its eq. 9 error, and the film
     layout's candidates are mostly scored only in part."""
     found = candidate_pairs(
-        female.field, female.rows, female.shapes, female.image, female.eligible, female.norms.max(axis=1), 0.4
+        female.field,
+        female.rows,
+        female.shapes,
+        female.image,
+        female.eligible,
+        female.norms.max(axis=1),
+        0.4,
+        female.flip,
     )
     overlap, summed = symmetry._pair_sums(female.field, female.cols, female.mirror, found.first, found.second)
     error = np.where(
@@ -115,9 +127,16 @@ def test_self_candidates_keep_every_self_symmetric_shape(female):
 def test_an_involution_probes_one_direction_and_scores_both(female, monkeypatch):
     """On a symmetric mesh the mirror map is an involution: scoring each pair from its smaller shape gives
     the scores of probing both directions, up to rounding, with half the probes."""
-    assert symmetry._is_involution(female.mirror)
+    assert symmetry.is_involution(female.mirror)
     found = candidate_pairs(
-        female.field, female.rows, female.shapes, female.image, female.eligible, female.norms.max(axis=1), 0.4
+        female.field,
+        female.rows,
+        female.shapes,
+        female.image,
+        female.eligible,
+        female.norms.max(axis=1),
+        0.4,
+        female.flip,
     )
     upper = found.first < found.second
     first, second = found.first[upper], found.second[upper]
@@ -131,7 +150,7 @@ def test_an_involution_probes_one_direction_and_scores_both(female, monkeypatch)
 
     monkeypatch.setattr(symmetry, "_pair_sums", counted)
     shared = symmetry._scores(*arguments)
-    monkeypatch.setattr(symmetry, "_is_involution", lambda mirror: False)
+    monkeypatch.setattr(symmetry, "is_involution", lambda mirror: False)
     both = symmetry._scores(*arguments)
     assert probed == [first.size, 2 * first.size]
     finite = np.isfinite(both)
@@ -151,7 +170,7 @@ def test_an_involution_probes_one_direction_and_scores_both(female, monkeypatch)
     ],
 )
 def test_involutions_are_told_from_other_mirror_maps(mirror, expected):
-    assert symmetry._is_involution(np.array(mirror)) is expected
+    assert symmetry.is_involution(np.array(mirror)) is expected
 
 
 def test_an_involution_probes_half_of_each_self_symmetric_shape(female, monkeypatch):
@@ -168,9 +187,38 @@ def test_an_involution_probes_half_of_each_self_symmetric_shape(female, monkeypa
     monkeypatch.setattr(SymmetryField, "image_entries", counted)
     halved = symmetry._self_errors(*arguments)
     half = sum(probed)
-    monkeypatch.setattr(symmetry, "_is_involution", lambda mirror: False)
+    monkeypatch.setattr(symmetry, "is_involution", lambda mirror: False)
     whole = symmetry._self_errors(*arguments)
     assert 0.4 < half / (sum(probed) - half) < 0.6
     finite = np.isfinite(whole)
     assert finite.sum() > 10 and np.array_equal(np.isfinite(halved), finite)
     np.testing.assert_allclose(halved[finite], whole[finite], rtol=1e-9, atol=1e-12 * female.own.max())
+
+
+def test_bounds_over_mirror_cells_equal_those_over_every_cell():
+    """Visiting only the cells c <= flip(c) and adding both directions gives each pair the bounds of visiting
+    every cell with the image's sums taken from the preimages (the same cells), up to rounding."""
+    rig = rigs.generate("female")
+    norms, masks, mirror, normal, eligible, _ = inputs(rig)
+    active = sparse_masks(masks)
+    rows, cols = entries(active)
+    field = SymmetryField.of(rig.deltas, norms, active, rows, cols, normal)
+    preimages = Preimages.of(mirror, cols)
+    cells, flip = vertex_cells(rig.neutral, active, cols, eligible, mirror, normal)
+    largest = norms.max(axis=1)
+    halved = candidate_pairs(
+        field,
+        rows,
+        *cell_sums(field, rows, cols, preimages, eligible, cells, flip),
+        eligible,
+        largest,
+        0.4,
+        flip,
+    )
+    every = candidate_pairs(
+        field, rows, *cell_sums(field, rows, cols, preimages, eligible, cells), eligible, largest, 0.4
+    )
+    assert halved.first.size > 100
+    assert np.array_equal(halved.first, every.first) and np.array_equal(halved.second, every.second)
+    assert np.array_equal(halved.shared, every.shared)
+    np.testing.assert_allclose(halved.numerator, every.numerator, rtol=1e-9, atol=1e-12 * float(norms.max()))
