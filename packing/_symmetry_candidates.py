@@ -374,7 +374,7 @@ def candidate_pairs(
     # (K, K) gap and shared-count bounds, cell after cell (``add.at`` adds term by term, in order). With
     # mirror cells the term of (k, m) in cell c is that of (m, k) in c' = flip(c), as ``|A_kc - R A_mc'| =
     # |A_mc' - R A_kc|``: only the cells c <= flip(c) are visited (of a cell that is its own image, the
-    # pairs k < m), and each bound is the sum of its two directions.
+    # pairs k < m), and both directions add into the entry (min(k, m), max(k, m)).
     shape_first = np.searchsorted(shape_present, np.arange(n_cells + 1) * n_shapes)
     image_first = np.searchsorted(image_present, np.arange(n_cells + 1) * n_shapes)
     gaps = np.zeros(n_shapes * n_shapes)
@@ -397,33 +397,48 @@ def candidate_pairs(
             gap = np.sqrt(squared, out=squared)
             gap -= shape_norms[shapes, None]
             gap -= image_norms[None, images]
-            pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
             count = np.minimum.outer(shape_counts[shapes], image_counts[images]).ravel()
             gap = gap.ravel()
-            if flip is not None and flip[index] == index:
-                upper = np.flatnonzero(pair // n_shapes < pair % n_shapes)
-                pair, gap, count = pair[upper], gap[upper], count[upper]
+            if flip is None:
+                pair = np.add.outer(shape_of[shapes] * n_shapes, image_of[images]).ravel()
+            else:
+                pair = np.minimum.outer(shape_of[shapes], image_of[images]).ravel() * n_shapes
+                pair += np.maximum.outer(shape_of[shapes], image_of[images]).ravel()
+                if flip[index] == index:  # (each pair once: k < m)
+                    upper = np.flatnonzero(np.less.outer(shape_of[shapes], image_of[images]))
+                    pair, gap, count = pair[upper], gap[upper], count[upper]
             np.add.at(gaps, pair, gap)
             np.add.at(shared, pair, count)
 
-    # The bounds of the pairs present in some cell together, a block of shapes k at a time.
+    # The bounds of the pairs present in some cell together, a block of shapes k at a time (with mirror
+    # cells, of the pairs k < m, in both directions).
     kept, bounds, counts = [], [], []
     gaps, shared = gaps.reshape(n_shapes, n_shapes), shared.reshape(n_shapes, n_shapes)
     per_block = max(1, COMBO_CHUNK // n_shapes)
     for low in range(0, n_shapes, per_block):
-        block = slice(low, min(low + per_block, n_shapes))
-        block_gaps, block_shared = gaps[block], shared[block]
+        block, columns = slice(low, min(low + per_block, n_shapes)), 0 if flip is None else low
+        present = np.flatnonzero(shared[block, columns:])
+        k, m = low + present // (n_shapes - columns), columns + present % (n_shapes - columns)
+        distinct = np.flatnonzero(k != m)
+        k, m, present = k[distinct], m[distinct], present[distinct]
+        count = shared[block, columns:].ravel()[present].astype(np.float64)
+        gap = gaps[block, columns:].ravel()[present]
+        keep, bound = _bounds(k, m, count, gap, totals, largest, tol)
         if flip is not None:
-            block_gaps, block_shared = block_gaps + gaps[:, block].T, block_shared + shared[:, block].T
-        present = np.flatnonzero(block_shared)
-        k, m = low + present // n_shapes, present % n_shapes
-        count = block_shared.ravel()[present].astype(np.float64)
-        keep, bound = _bounds(k, m, count, block_gaps.ravel()[present], totals, largest, tol)
-        keep &= k != m
+            keep_back, bound_back = _bounds(m, k, count, gap, totals, largest, tol)
+            keep &= keep_back
+            k, m = np.concatenate([k[keep], m[keep]]), np.concatenate([m[keep], k[keep]])
+            bound, count = np.concatenate([bound[keep], bound_back[keep]]), np.concatenate([count[keep]] * 2)
+            keep = np.ones(k.size, dtype=bool)
         kept.append(k[keep] * n_shapes + m[keep])
         bounds.append(bound[keep])
         counts.append(count[keep])
     both, bound, count = np.concatenate(kept), np.concatenate(bounds), np.concatenate(counts)
-    mutual = np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
-    both, bound, count = both[mutual], bound[mutual], count[mutual]
+    if flip is None:
+        chosen = np.flatnonzero(
+            np.isin(both % n_shapes * n_shapes + both // n_shapes, both, assume_unique=True)
+        )
+    else:
+        chosen = np.argsort(both)
+    both, bound, count = both[chosen], bound[chosen], count[chosen]
     return Candidates(both // n_shapes, both % n_shapes, bound, count)
