@@ -133,6 +133,13 @@ def shape_symmetry(
     error. No (K, N) array is made: O(nnz + C K + P) time and O(nnz + K^2 + `TABLE_CELLS`) memory for the
     nnz active entries, C cells and the P active vertices of the candidate pairs (`TABLE_CELLS` of
     `packing._symmetry_field`).
+
+    A symmetric mesh's mirror map is an involution (``mirror(mirror(n)) = n``), and eq. 9 is then the same
+    sum read from either shape of a pair: n is in ``b_k & p(b_m)`` exactly when ``mirror(n)`` is in ``b_m &
+    p(b_k)``, with the same term. The search uses it three times: the cells are mirror images of each other
+    (the image's per-cell sums are the shapes', and the bounds visit half the cells), a pair is probed from
+    its smaller shape only, and a self error from the vertices ``n <= mirror(n)``. Any other map (a noisy
+    capture matched to shared or one-way mirror vertices) takes the general path.
     """
     active = sparse_masks(masks)
     n_shapes = active.shape[0]

@@ -13,7 +13,7 @@ from rigs import bounding_box
 
 #: Cells of the spatial hash along a typical shape's extent (`vertex_cells`).
 CELLS_PER_SHAPE = 4
-#: Shapes whose extents set the cell side at most (`vertex_cells`: about this many, evenly spaced).
+#: Shapes whose extents set the cell side (`vertex_cells` takes this many to twice as many, evenly spaced).
 EXTENT_SAMPLE = 256
 #: Largest number of (cell, shape) sums the spatial hash keeps (`vertex_cells` coarsens the grid to stay
 #: below).
