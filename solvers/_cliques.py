@@ -77,12 +77,16 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
         word = (candidates != 0).argmax(axis=1)
         taken = candidates[np.arange(word.size), word]  # the next item's word, zero for a maximal row
         open_rows = taken != 0
-        if not open_rows.all():
+        n_open = int(np.count_nonzero(open_rows))
+        if 2 * n_open < open_rows.size:  # (maximal rows stay until half are: they take nothing more)
             finished.append(grown_bits[~open_rows])
             grown_bits, common = grown_bits[open_rows], common[open_rows]
             word, taken = word[open_rows], taken[open_rows]
-        lowest = taken & (~taken + np.uint64(1))  # (-taken, two's complement)
+            if n_open == 0:
+                break
+        lowest = taken & (~taken + np.uint64(1))  # (-taken, two's complement; zero for a maximal row)
         grown_bits[np.arange(word.size), word] |= lowest
+        # (a maximal row reads some row here: its candidates stay none, whatever it keeps of them)
         common &= ranked[word * 64 + np.frexp(lowest.astype(np.float64))[1] - 1]  # (powers of 2: exact)
     grown = pack_bit_rows(unpack_bit_rows(np.concatenate(finished), width)[:, column])
     rows = unpack_bit_rows(grown[distinct_bit_rows(grown)], n_items)
