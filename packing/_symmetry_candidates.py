@@ -62,11 +62,10 @@ def vertex_cells(
             placed = (height > height[partner]) | ((height == height[partner]) & placed)
         anchor = np.where(placed, vertex, partner)
         side = np.select([mirror < 0, partner == vertex, placed], [_UNMIRRORED, _ON_PLANE, _PLACED], _IMAGE)
-        most = max(1, most // 2)  # (a cell of the grid and its image)
     counts = np.diff(active.indptr)
     shapes = np.flatnonzero(candidates & (counts > 0))
-    if neutral is None or shapes.size == 0:
-        return _with_images(anchor * most // n_vertices, side)
+    if neutral is None or shapes.size == 0:  # (at most four sides of a run)
+        return _with_images(anchor * (most if side is None else max(1, most // 4)) // n_vertices, side)
     shapes = shapes[:: max(1, shapes.size // EXTENT_SAMPLE)]
     cols = np.concatenate([cols[active.indptr[k] : active.indptr[k + 1]] for k in shapes.tolist()])
     first = np.zeros(shapes.size, dtype=np.int64)
@@ -85,8 +84,9 @@ def vertex_cells(
         grid = np.floor((placed_at - origin) / length).astype(np.int64)
         width = bounding_box(grid)[1] + 1
         _, cell = np.unique((grid[:, 0] * width[1] + grid[:, 1]) * width[2] + grid[:, 2], return_inverse=True)
+        cell, flip = _with_images(cell, side)
         if cell.max() < most:
-            return _with_images(cell, side)
+            return cell, flip
         length *= 1.5
 
 
