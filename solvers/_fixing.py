@@ -143,15 +143,14 @@ def _relaxation(
         import highspy
     except ImportError:
         return None
-    from solvers._highs_model import configured_highs, highs_lp
+    from solvers._highs_model import configured_highs, pass_model
 
     highs = configured_highs(highspy, None, 0, presolve="off", solver="simplex", simplex_strategy=1)
     n_rows, n_items = matrix.shape
-    lp = highs_lp(
-        highspy, matrix, np.full(n_rows, -np.inf), upper, -weights, np.zeros(n_items), np.ones(n_items),
-        integral=False,
+    pass_model(
+        highspy, highs, matrix, np.full(n_rows, -np.inf), upper, -weights,
+        np.zeros(n_items), np.ones(n_items), integral=False,
     )  # fmt: skip
-    highs.passModel(lp)
     highs.run()
     if highs.getModelStatus() != highspy.HighsModelStatus.kOptimal:
         return None

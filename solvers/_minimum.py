@@ -259,7 +259,7 @@ def colour_highs(problem, start, lower, time_limit, seed):
     """The colouring model as a HiGHS MILP: (colours, proved lower bound, proved optimal, version)."""
     import highspy
 
-    from solvers._highs_model import configured_highs, highs_lp, highs_solution
+    from solvers._highs_model import configured_highs, highs_solution, pass_model
 
     n_items, n_colours = problem.n_items, int(start.max()) + 1
     n_x = n_items * n_colours  # x[i, c] is column i * n_colours + c, used[c] is column n_x + c
@@ -309,11 +309,9 @@ def colour_highs(problem, start, lower, time_limit, seed):
         col_lower[item * n_colours + c] = 1.0
     col_lower[n_x : n_x + lower] = 1.0  # used[c] for c < lower bound
     highs = configured_highs(highspy, time_limit, seed)
-    highs.passModel(
-        highs_lp(
-            highspy, matrix, np.array(lower_rows), np.array(upper_rows),
-            np.concatenate([np.zeros(n_x), np.ones(n_colours)]), col_lower, np.ones(n_x + n_colours),
-        )
+    pass_model(
+        highspy, highs, matrix, np.array(lower_rows), np.array(upper_rows),
+        np.concatenate([np.zeros(n_x), np.ones(n_colours)]), col_lower, np.ones(n_x + n_colours),
     )  # fmt: skip
     hint = np.zeros(n_x + n_colours)
     hint[np.arange(n_items) * n_colours + start] = 1.0

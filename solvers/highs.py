@@ -15,7 +15,7 @@ import numpy as np
 from packing import Termination
 from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
 from solvers._exact import ExactSolver
-from solvers._highs_model import configured_highs, highs_lp, highs_solution
+from solvers._highs_model import configured_highs, highs_solution, pass_model
 from solvers._model import CliqueModel
 
 #: HiGHS version bundled by each OR-Tools release line; highspy must match it to share a process.
@@ -87,11 +87,9 @@ class HighsSolver(ExactSolver):
         )
         matrix = model.matrix()
         n_items = model.n_items
-        highs.passModel(
-            highs_lp(
-                highspy, matrix, np.full(matrix.shape[0], -np.inf), model.upper(), model.weights,
-                np.zeros(n_items), np.ones(n_items), maximise=True,
-            )
+        pass_model(
+            highspy, highs, matrix, np.full(matrix.shape[0], -np.inf), model.upper(), model.weights,
+            np.zeros(n_items), np.ones(n_items), maximise=True,
         )  # fmt: skip
         values = np.zeros(n_items)
         values[np.asarray(start, dtype=np.int64)] = 1.0
