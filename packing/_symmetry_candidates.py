@@ -85,7 +85,7 @@ def vertex_cells(
         width = bounding_box(grid)[1] + 1
         _, cell = np.unique((grid[:, 0] * width[1] + grid[:, 1]) * width[2] + grid[:, 2], return_inverse=True)
         cell, flip = _with_images(cell, side)
-        if cell.max() < most:
+        if cell.max() < most or (width == 1).all():  # (one grid cell: its sides are at most four cells)
             return cell, flip
         length *= 1.5
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from packing import _symmetry_candidates as symmetry_candidates
 from packing._symmetry_candidates import cell_sums, vertex_cells
 from packing._symmetry_field import Preimages, SymmetryField, compact_entries, mirrored_lengths
 
@@ -151,6 +152,24 @@ def test_mirror_cells_are_images_of_each_other(seed, with_neutral):
         vertex_cells(neutral, active, cols, np.ones(N_SHAPES, dtype=bool), _mirror("bijection", rng))[1]
         is None
     )
+
+
+@pytest.mark.parametrize("with_neutral", [True, False])
+@pytest.mark.parametrize("budget", [1, 2, 3])
+def test_a_budget_below_the_four_sides_stops_at_one_grid_cell(monkeypatch, with_neutral, budget):
+    """A budget of fewer (cell, shape) sums than the four sides of one grid cell ends the coarsening at a
+    single grid cell (its placed, image, on-plane and unmirrored vertices: four cells) instead of looping."""
+    rng = np.random.default_rng(5)
+    mirror = _involution(rng)  # all four sides present
+    neutral = rng.normal(size=(N_VERTICES, 3)) if with_neutral else None
+    active = sp.csr_matrix(rng.random((N_SHAPES, N_VERTICES)) < 0.4)
+    active.sort_indices()
+    _, cols = compact_entries(active)
+    monkeypatch.setattr(symmetry_candidates, "MAX_CELL_SUMS", budget * N_SHAPES)
+    cell, flip = vertex_cells(neutral, active, cols, np.ones(N_SHAPES, dtype=bool), mirror, np.eye(3)[0])
+    assert cell.max() + 1 == 4 and sorted(flip.tolist()) == [-1, 0, 1, 2]
+    mirrored = np.flatnonzero(mirror >= 0)
+    assert np.array_equal(cell[mirror[mirrored]], flip[cell[mirrored]])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
