@@ -16,7 +16,8 @@ CELLS_PER_SHAPE = 4
 #: Shapes whose extents set the cell side (`vertex_cells` takes this many to twice as many, evenly spaced).
 EXTENT_SAMPLE = 256
 #: Largest number of (cell, shape) sums the spatial hash keeps (`vertex_cells` coarsens the grid to stay
-#: below).
+#: below, down to one grid cell: its up to four mirror sides may then hold 4 K sums, only for a budget of
+#: fewer than four sums per shape).
 MAX_CELL_SUMS = 2_000_000
 #: (cell, shape, shape) combinations `candidate_pairs` visits at once (bounds its temporary arrays).
 COMBO_CHUNK = 1 << 18
