@@ -64,32 +64,36 @@ def grown_cliques(model: CliqueModel, closed: np.ndarray) -> CliqueModel:
     # Equal rows grow alike: each is grown once (rows cut from an earlier problem's sets repeat a lot).
     member_bits = pack_bit_rows(members)
     distinct = distinct_bit_rows(member_bits)
-    grown_bits = member_bits[distinct]  # (a copy: grown in place)
+    grown_bits = member_bits.take(distinct, axis=0)  # (a copy: grown in place)
     # Items conflicting with every member (the members included: neighbourhoods are closed).
     sizes = np.diff(model.row_starts)[distinct]
     starts = np.zeros(distinct.size, dtype=np.int64)
     np.cumsum(sizes[:-1], out=starts[1:])
     entries = np.repeat(model.row_starts[distinct] - starts, sizes) + np.arange(sizes.sum())
-    common = np.bitwise_and.reduceat(ranked[rank[model.row_items[entries]]], starts, axis=0)
+    # (``take`` along axis 0: fancy indexing gathers these short rows 2.5 times slower)
+    common = np.bitwise_and.reduceat(ranked.take(rank[model.row_items[entries]], axis=0), starts, axis=0)
     finished = []  # the rows grown to maximal cliques
     while grown_bits.shape[0]:
         candidates = common & ~grown_bits
         word = (candidates != 0).argmax(axis=1)
-        taken = candidates[np.arange(word.size), word]  # the next item's word, zero for a maximal row
+        flat = np.arange(word.size) * common.shape[1] + word  # (each row's first candidate word, flat)
+        taken = candidates.reshape(-1).take(flat)  # the next item's word, zero for a maximal row
         open_rows = taken != 0
         n_open = int(np.count_nonzero(open_rows))
         if 2 * n_open < open_rows.size:  # (maximal rows stay until half are: they take nothing more)
             finished.append(grown_bits[~open_rows])
             grown_bits, common = grown_bits[open_rows], common[open_rows]
             word, taken = word[open_rows], taken[open_rows]
+            flat = np.arange(word.size) * common.shape[1] + word
             if n_open == 0:
                 break
         lowest = taken & (~taken + np.uint64(1))  # (-taken, two's complement; zero for a maximal row)
-        grown_bits[np.arange(word.size), word] |= lowest
+        grown_bits.reshape(-1)[flat] |= lowest
         # (a maximal row reads some row here: its candidates stay none, whatever it keeps of them)
-        common &= ranked[word * 64 + np.frexp(lowest.astype(np.float64))[1] - 1]  # (powers of 2: exact)
-    grown = pack_bit_rows(unpack_bit_rows(np.concatenate(finished), width)[:, column])
-    rows = unpack_bit_rows(grown[distinct_bit_rows(grown)], n_items)
+        common &= ranked.take(word * 64 + np.frexp(lowest.astype(np.float64))[1] - 1, axis=0)  # (2**k: exact)
+    maximal = np.concatenate(finished)  # (rows grown alike from different rows are put back in order once)
+    grown = pack_bit_rows(unpack_bit_rows(maximal.take(distinct_bit_rows(maximal), axis=0), width)[:, column])
+    rows = unpack_bit_rows(grown.take(distinct_bit_rows(grown), axis=0), n_items)
     row_of, items = np.divmod(np.flatnonzero(rows), n_items)  # (as np.nonzero, a third of its time)
     starts = np.zeros(rows.shape[0] + 1, dtype=np.int64)
     np.cumsum(np.bincount(row_of, minlength=rows.shape[0]), out=starts[1:])
