@@ -2,10 +2,11 @@
 
 Target: ``harness run --preset paper --executor dask --jobs 2`` (a `distributed.LocalCluster` of two
 single-threaded worker processes, started by the run) takes at most 1.1x the wall time of
-``harness run --preset paper --jobs 2`` on the same machine, and records the same cells. Both runs are
-whole ``harness`` processes timed in this one benchmark, local first, so a ratio of one run is quoted;
-the grid takes about a minute each way on two cores, so it is ``slow``
-(``pytest tests/benchmarks/test_bench_dask.py -m slow --benchmark-enable``).
+``harness run --preset paper --jobs 2`` on the same machine, and records the same cells. Every run is a
+whole ``harness`` process timed in this one benchmark, `REPEATS` of each executor interleaved (local,
+Dask, local, Dask: a machine that slows down part-way slows both sides alike), and the ratio is of the best
+of each, every sample kept in ``extra_info``; the grid takes about a minute each way on two cores, so it is
+``slow`` (``pytest tests/benchmarks/test_bench_dask.py -m slow --benchmark-enable``).
 """
 
 from __future__ import annotations
@@ -20,8 +21,10 @@ import pytest
 
 import harness
 
-#: Largest wall time of the Dask run over the local run's.
+#: Largest wall time of the Dask run over the local run's (the best of each).
 DASK_OVER_LOCAL = 1.1
+#: Runs of each executor.
+REPEATS = 2
 
 
 def _timed_run(out: Path, *executor: str) -> float:
@@ -49,12 +52,21 @@ def test_bench_paper_grid_on_a_local_dask_cluster(
     pytest.importorskip("distributed")
     if benchmark.disabled:
         pytest.skip("the paper grid is timed only with --benchmark-enable")
-    local = _timed_run(tmp_path / "local")
-    dask = benchmark.pedantic(
-        _timed_run, args=(tmp_path / "dask", "--executor", "dask"), rounds=1, iterations=1
-    )
-    benchmark.extra_info.update(local_seconds=local, dask_seconds=dask)
-    pd.testing.assert_frame_equal(_findings(tmp_path / "dask"), _findings(tmp_path / "local"))
+    local, dask = [], []
+
+    def dask_run(run: int) -> float:
+        return _timed_run(tmp_path / f"dask-{run}", "--executor", "dask")
+
+    for run in range(REPEATS):
+        local.append(_timed_run(tmp_path / f"local-{run}"))
+        # (the benchmark's own timing is the first Dask run; every run is kept in extra_info)
+        dask.append(benchmark.pedantic(dask_run, args=(run,), rounds=1) if run == 0 else dask_run(run))
+        pd.testing.assert_frame_equal(
+            _findings(tmp_path / f"dask-{run}"), _findings(tmp_path / f"local-{run}")
+        )
+    benchmark.extra_info.update(local_seconds=local, dask_seconds=dask, repeats=REPEATS)
     speed_target(
-        "paper grid: Dask cluster of 2 workers over the local executor [wall]", dask / local, DASK_OVER_LOCAL
+        "paper grid: Dask cluster of 2 workers over the local executor [wall, best of each]",
+        min(dask) / min(local),
+        DASK_OVER_LOCAL,
     )

@@ -189,6 +189,8 @@ def test_ordered_minimum_sequence_against_the_plain_sequence(benchmark, preset):
 #: Film-scale exact sequences (the Female layout on 20k vertices, the alien target, Algorithm 1 until every
 #: shape is used): CPU seconds of the whole sequence per (shapes, backend).
 FILM_SEQUENCE_TARGETS = {(1000, "cpsat"): 1.0, (2000, "cpsat"): 5.0, (2000, "highs"): 10.0}
+#: Timed runs of each film-scale sequence; the target is checked on the best (every run is recorded).
+FILM_SEQUENCE_REPEATS = 3
 
 
 @functools.cache
@@ -202,8 +204,9 @@ def _film_analysis(n_shapes: int):
 @pytest.mark.slow
 @pytest.mark.parametrize(("n_shapes", "name"), sorted(FILM_SEQUENCE_TARGETS))
 def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
-    """The whole exact sequence in CPU seconds, against the whole kernel solved without reduced-cost fixing
-    (`solvers._fixing`): the same items and objective at every expression, and how much faster."""
+    """The whole exact sequence in CPU seconds (best of `FILM_SEQUENCE_REPEATS`), against the whole kernel
+    solved without reduced-cost fixing (`solvers._fixing`): the same items and objective at every expression,
+    and how much faster."""
     rig, analysis = _film_analysis(n_shapes)
     loaded = available(name)
     plain = variant(name, "Unfixed", fixes_by_reduced_costs=False)
@@ -213,14 +216,20 @@ def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
         expressions = packing.sequence(rig, solver, analysis=analysis)
         return time.process_time() - start, expressions
 
-    grown_time, grown = min((cpu_seconds(loaded) for _ in range(2)), key=lambda run: run[0])
+    runs = [cpu_seconds(loaded) for _ in range(FILM_SEQUENCE_REPEATS)]
+    grown_time, grown = min(runs, key=lambda run: run[0])
     plain_time, reference = cpu_seconds(plain)
     benchmark.pedantic(cpu_seconds, args=(loaded,), rounds=1, iterations=1)
     packing.check(rig, grown, pairs=analysis.pairs)
     assert [e.items for e in grown] == [e.items for e in reference]
     assert [e.objective for e in grown] == [e.objective for e in reference]
     benchmark.extra_info.update(
-        shapes=n_shapes, solver=name, expressions=len(grown), cpu_s=grown_time, plain_cpu_s=plain_time
+        shapes=n_shapes,
+        solver=name,
+        expressions=len(grown),
+        cpu_s=grown_time,
+        cpu_s_runs=[seconds for seconds, _ in runs],
+        plain_cpu_s=plain_time,
     )
     limit = FILM_SEQUENCE_TARGETS[n_shapes, name]
     speed_target(f"film {n_shapes} shapes, whole {name} sequence [CPU s]", grown_time, limit)
