@@ -6,9 +6,10 @@ of eq. 3 after presolve). `ExactSolver.solve` answers the empty problem, applies
 that the backend sees only the kernel, grows the kernel's rows to maximal cliques of its conflict graph
 (`solvers._cliques`: the same feasible packings, a tighter relaxation), leaves out of large kernels the items
 that the LP bound proves no optimal packing holds (`solvers._fixing`, reduced-cost fixing: the optimal
-packings stay exactly the same), maps the kernel's items back to the problem's and times the array
-preparation. A plugin that declares ``Capabilities(warm_start=True)`` also gets a start packing,
-``solve_model(..., start=...)``: Algorithm 2's packing of the kernel (on a fixed kernel, the best packing
+packings stay exactly the same), solves a kernel whose conflict graph falls apart component by component
+when no cap binds, maps the kernel's items back to the problem's and times the array preparation. A plugin
+that declares ``Capabilities(warm_start=True)`` also gets a start packing, ``solve_model(..., start=...)``:
+Algorithm 2's packing of the kernel (on a fixed kernel, the best packing
 found before, `solvers._fixing`), which its backend takes as an incumbent or hint. When a time limit stops a
 backend with no incumbent or one worse than Algorithm 2's packing, the base answers that packing instead
 (valid by construction) and says so in ``Result.fallback``, so a time-limited solve always has an incumbent at
@@ -19,14 +20,14 @@ any plugin.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from packing import Termination, unpack_bit_rows
 from solvers._base import Capabilities, Result, Stopwatch, trivial_bound
-from solvers._cliques import grown_cliques, kernel_neighbourhoods
+from solvers._cliques import grown_cliques, kernel_components, kernel_neighbourhoods
 from solvers._enumerate import ENUMERATION_MAX_ITEMS, enumerated_optimum
 from solvers._fixing import reduced_costs, solve_with_fixing
 from solvers._model import CliqueModel
@@ -54,7 +55,9 @@ class ExactSolver:
     the first fixing's target was not reached; False solves the whole kernel, for comparisons). A kernel
     of at most `solvers._enumerate.ENUMERATION_MAX_ITEMS` items is solved by listing its packings, without
     ``solve_model``, when ``enumerates_small_kernels`` (default True; False sends it to the backend, for
-    comparisons). A plugin that must see the problem as given (the paper's per-vertex formulation,
+    comparisons). Without a binding cap, a kernel whose conflict graph falls into several connected
+    components is solved component by component when ``decomposes`` (default True; False solves it whole,
+    for comparisons). A plugin that must see the problem as given (the paper's per-vertex formulation,
     ``naive-pulp-cbc``) sets ``reduces`` False and overrides `solve_problem`.
 
     A subclass that declares ``Capabilities(warm_start=True)`` accepts ``start`` in ``solve_model``.
@@ -76,6 +79,7 @@ class ExactSolver:
     grows_cliques: ClassVar[bool] = True
     fixes_by_reduced_costs: ClassVar[bool] = True
     enumerates_small_kernels: ClassVar[bool] = True
+    decomposes: ClassVar[bool] = True
 
     def solve_model(
         self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
@@ -127,6 +131,12 @@ class ExactSolver:
 
         Notes
         -----
+        Without a binding cap, eq. 3 over a kernel whose conflict graph falls into several connected
+        components is the sum of independent problems, one per component (no row holds items of two): each
+        is solved on its own (`kernel_components`), a component of at most `ENUMERATION_MAX_ITEMS` items by
+        enumeration, and the optimum is the union of theirs, its bound the sum of theirs. Under a binding
+        cap the components share the cap row and are solved together.
+
         A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`), or on a fixed
         kernel the best packing found before. Algorithm 1 removes every chosen item before the next
         expression, so the previous expression's optimum has nothing left to offer as a start. Nor does any
@@ -145,70 +155,163 @@ class ExactSolver:
         if problem.n_items == 0:
             return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
         cap_binds = problem.cap is not None and problem.cap < int(problem.item_shape_counts.sum())
-        reduction = reduce_problem(problem, cap_binds) if self.reduces else None
-        if reduction is not None and self.enumerates_small_kernels:
-            if reduction.kept.size <= ENUMERATION_MAX_ITEMS:
-                return _enumerated(problem, reduction, cap_binds, clock)
-        closed = None  # the kernel's closed neighbourhoods as bit rows, when the clique growing has them
-        if reduction is None:
+        searched = [0.0]  # seconds in the backend so far: every backend call of this solve shares the limit
+        if not self.reduces:
             model = CliqueModel.from_problem(problem)
-        elif self.grows_cliques:
-            closed = kernel_neighbourhoods(problem.conflict_bits, reduction.kept, problem.n_items)
-            model = grown_cliques(reduction.cut_model(), closed)
+            start = start_packing(problem, None) if self.capabilities.warm_start else None
+            prepare_time = clock.lap()
+            result = self._backend(problem, model, start, time_limit, seed, searched)
+            items = _model_items(result.items, model.n_items)
+            parts = [_Part(replace(result, items=items), start, 0.0, clock.lap())]
+            taken: tuple[int, ...] = ()
         else:
-            model = reduction.model
-        start = start_packing(problem, reduction) if self.capabilities.warm_start else None
+            reduction = reduce_problem(problem, cap_binds)
+            taken = tuple(reduction.taken.tolist())
+            kernels = self._kernels(problem, reduction, cap_binds)
+            prepare_time = clock.lap()
+            parts = [
+                self._solve_kernel(problem, kernel, closed, cap_binds, time_limit, seed, searched)
+                for kernel, closed in kernels
+            ]
+        return _answer(problem, parts, taken, prepare_time)
+
+    def _kernels(
+        self, problem: PackingProblem, reduction: Reduction, cap_binds: bool
+    ) -> list[tuple[Reduction, np.ndarray]]:
+        """The kernel, or its connected components when they are independent problems (no binding cap),
+        each with its closed neighbourhoods as bit rows (`kernel_neighbourhoods`)."""
+        kept = reduction.kept
+        closed = kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items)
+        if not self.decomposes or cap_binds or kept.size <= ENUMERATION_MAX_ITEMS:
+            return [(reduction, closed)]
+        pieces = kernel_components(closed)
+        if len(pieces) == 1:
+            return [(reduction, closed)]
+        return [
+            (Reduction(problem, kept[piece], kept[:0]), kernel_neighbourhoods(closed, piece, kept.size))
+            for piece in pieces
+        ]
+
+    def _solve_kernel(
+        self,
+        problem: PackingProblem,
+        kernel: Reduction,
+        closed: np.ndarray,
+        cap_binds: bool,
+        time_limit: float | None,
+        seed: int,
+        searched: list[float],
+    ) -> _Part:
+        """The optimum of ``problem`` over the items ``kernel.kept`` (by enumeration when they are few), as
+        items of ``problem`` without ``kernel.taken``; ``closed`` are their closed neighbourhoods."""
+        clock = Stopwatch()
+        kept = kernel.kept
+        if self.enumerates_small_kernels and kept.size <= ENUMERATION_MAX_ITEMS:
+            weights = np.asarray(problem.weights, dtype=np.float64)[kept]
+            conflicts = unpack_bit_rows(closed, kept.size)
+            cap = problem.cap if cap_binds else None
+            prepare_time = clock.lap()
+            chosen = kept[list(enumerated_optimum(weights, problem.item_shape_counts[kept], cap, conflicts))]
+            items = tuple(chosen.tolist())
+            message = f"kernel of {kept.size} items solved by enumeration"
+            result = Result(items, Termination.OPTIMAL, problem.objective(items), message=message)
+            return _Part(result, None, prepare_time, clock.lap())
+        model = grown_cliques(kernel.cut_model(), closed) if self.grows_cliques else kernel.model
+        start = start_packing(problem, kernel) if self.capabilities.warm_start else None
         costs = None
-        if reduction is not None and self.fixes_by_reduced_costs:
+        if self.fixes_by_reduced_costs:
             costs = reduced_costs(model, () if start is None else start, closed)
         prepare_time = clock.lap()
-
-        searched = [0.0]  # seconds in the backend so far: the calls of reduced-cost fixing share the limit
-
-        def backend(solved: CliqueModel, begin: Sequence[int] | None) -> Result:
-            if solved.n_items == 0:  # the reductions decided every item
-                return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
-            hint = {} if begin is None else {"start": begin}  # `solve_problem` overrides may not take one
-            left = None if time_limit is None else max(time_limit - searched[0], LEAST_SEARCH_SECONDS)
-            call = Stopwatch()
-            answer = self.solve_problem(problem, solved, time_limit=left, seed=seed, **hint)
-            searched[0] += call.lap()
-            return answer
-
         if costs is None:
-            result = backend(model, start)
+            result = self._backend(problem, model, start, time_limit, seed, searched)
         else:
             warm = start is not None
-            result = solve_with_fixing(costs, lambda solved, begin: backend(solved, begin if warm else None))
-        items, message, bound = _model_items(result.items, model.n_items), result.message, result.bound
-        if reduction is not None:
-            items = reduction.items(items)
-            if bound is not None:
-                bound += float(problem.weights[reduction.taken].sum())
-        fallback = result.fallback
-        if result.termination is Termination.TIME_LIMIT:
-            from solvers.greedy import greedy_items
 
-            candidates = [tuple(sorted(greedy_items(problem)))]  # sorted: one sum order per packing
-            if start is not None:
-                candidates.append(start if reduction is None else reduction.items(start))
-            greedy = max(candidates, key=problem.objective)
-            if not items or problem.objective(greedy) > problem.objective(items):
-                items, fallback = greedy, "greedy"
-                message = (
-                    message + "; " if message else ""
-                ) + "incumbent at the time limit: Algorithm 2's packing"
-            if bound is None or bound < problem.objective(items) - 1e-9 * max(1.0, abs(bound)):
-                bound = trivial_bound(problem)  # the backend proved nothing usable before it stopped
-        return replace(
-            result,
-            items=items,
-            bound=bound,
-            message=message,
-            fallback=fallback,
-            build_time=prepare_time + (result.build_time or 0.0),
-            solve_time=result.solve_time if result.solve_time is not None else clock.lap(),
+            def backend(solved: CliqueModel, begin: Sequence[int]) -> Result:
+                return self._backend(problem, solved, begin if warm else None, time_limit, seed, searched)
+
+            result = solve_with_fixing(costs, backend)
+        items = tuple(kept[list(_model_items(result.items, model.n_items))].tolist())
+        begun = None if start is None else tuple(kept[list(start)].tolist())
+        solve_time = clock.lap()
+        return _Part(replace(result, items=items), begun, prepare_time, solve_time)
+
+    def _backend(
+        self,
+        problem: PackingProblem,
+        model: CliqueModel,
+        start: Sequence[int] | None,
+        time_limit: float | None,
+        seed: int,
+        searched: list[float],
+    ) -> Result:
+        """`solve_problem` on ``model`` with what is left of the time limit after ``searched[0]`` seconds
+        (at least `LEAST_SEARCH_SECONDS`), adding its seconds to ``searched[0]``."""
+        if model.n_items == 0:  # the reductions decided every item
+            return Result((), Termination.OPTIMAL, 0.0, build_time=0.0, solve_time=0.0)
+        hint = {} if start is None else {"start": start}  # `solve_problem` overrides may not take one
+        left = None if time_limit is None else max(time_limit - searched[0], LEAST_SEARCH_SECONDS)
+        call = Stopwatch()
+        answer = self.solve_problem(problem, model, time_limit=left, seed=seed, **hint)
+        searched[0] += call.lap()
+        return answer
+
+
+@dataclass(frozen=True)
+class _Part:
+    """The answer for one kernel (or one component of it): ``result.items`` and ``start`` are items of the
+    problem (the taken items left out), ``result.bound`` bounds this part alone; ``prepare_time`` is the
+    seconds before its backend ran, ``seconds`` those after."""
+
+    result: Result
+    start: tuple[int, ...] | None
+    prepare_time: float
+    seconds: float
+
+
+def _answer(
+    problem: PackingProblem, parts: Sequence[_Part], taken: tuple[int, ...], prepare_time: float
+) -> Result:
+    """The problem's answer from its parts', the items every optimum takes and the seconds spent before the
+    parts (the reductions): the union of their items, the sum of their bounds, OPTIMAL when every part is;
+    at a time limit the better of that packing and Algorithm 2's (`ExactSolver.solve`)."""
+    results = [part.result for part in parts]
+    build_time = prepare_time + sum(part.prepare_time + (part.result.build_time or 0.0) for part in parts)
+    solve_time = sum(
+        part.seconds if part.result.solve_time is None else part.result.solve_time for part in parts
+    )
+    version = next((r.version for r in results if r.version), "")
+    failed = [r for r in results if r.termination not in (Termination.OPTIMAL, Termination.TIME_LIMIT)]
+    if failed:
+        return replace(failed[0], items=(), bound=None, build_time=build_time, solve_time=solve_time)
+    items = tuple(sorted(taken + tuple(i for r in results for i in r.items)))
+    bounds = [r.bound for r in results]
+    bound = None if None in bounds else float(sum(bounds)) + problem.objective(taken)
+    messages = [r.message for r in results if r.message]
+    if len(parts) > 1:
+        sizes = ", ".join(str(len(part.result.items)) for part in parts)
+        messages.insert(0, f"kernel solved as {len(parts)} components (items chosen: {sizes})")
+    message = "; ".join(dict.fromkeys(messages))
+    fallback = next((r.fallback for r in results if r.fallback), "")
+    timed_out = any(r.termination is Termination.TIME_LIMIT for r in results)
+    if timed_out:
+        from solvers.greedy import greedy_items
+
+        # Each part's better packing of its incumbent and its start: the parts share no row (and no cap).
+        started = taken + tuple(
+            i for part in parts for i in max((part.result.items, part.start or ()), key=problem.objective)
         )
+        candidates = [tuple(sorted(greedy_items(problem))), tuple(sorted(started))]  # one sum order each
+        greedy = max(candidates, key=problem.objective)
+        if not items or problem.objective(greedy) > problem.objective(items):
+            items, fallback = greedy, "greedy"
+            message = (
+                message + "; " if message else ""
+            ) + "incumbent at the time limit: Algorithm 2's packing"
+        if bound is None or bound < problem.objective(items) - 1e-9 * max(1.0, abs(bound)):
+            bound = trivial_bound(problem)  # the backends proved nothing usable before they stopped
+    termination = Termination.TIME_LIMIT if timed_out else Termination.OPTIMAL
+    return Result(items, termination, bound, build_time, solve_time, version, message, fallback)
 
 
 def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple[int, ...]:
@@ -258,21 +361,6 @@ def start_packing(problem: PackingProblem, reduction: Reduction | None) -> tuple
         best = max((greedy_items(problem, order=visit) for visit in orders), key=problem.objective)
     chosen = np.sort(np.asarray(best, dtype=np.int64))
     return tuple(np.searchsorted(reduction.kept, chosen[np.isin(chosen, reduction.kept)]).tolist())
-
-
-def _enumerated(problem: PackingProblem, reduction: Reduction, cap_binds: bool, clock: Stopwatch) -> Result:
-    """The optimum of a problem whose kernel holds at most `ENUMERATION_MAX_ITEMS` items, by listing the
-    kernel's packings (`solvers._enumerate`): proved optimal, no backend run."""
-    kept = reduction.kept
-    closed = kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items)
-    conflicts = unpack_bit_rows(closed, kept.size)
-    weights = np.asarray(problem.weights, dtype=np.float64)[kept]
-    cap = problem.cap if cap_binds else None
-    build_time = clock.lap()
-    items = reduction.items(enumerated_optimum(weights, problem.item_shape_counts[kept], cap, conflicts))
-    message = f"kernel of {kept.size} items solved by enumeration"
-    objective = problem.objective(items)
-    return Result(items, Termination.OPTIMAL, objective, build_time, clock.lap(), message=message)
 
 
 def _model_items(items: Iterable[int], n_items: int) -> tuple[int, ...]:
