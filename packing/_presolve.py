@@ -87,12 +87,12 @@ class ConflictSets:
         if n_rows == 0:
             empty = np.zeros(0, dtype=np.int64)
             return cls._frozen(empty, empty.copy(), n_items), n_vertex_rows
-        row_of_vertex = np.cumsum(conflicted) - 1
+        # (32-bit entries: a film-sized incidence has millions, and they are the presolve's largest arrays)
+        row_of_vertex = (np.cumsum(conflicted) - 1).astype(np.int32)
         inside = conflicted[incidence.indices]
         entry_row = row_of_vertex[incidence.indices[inside]]  # entries grouped by item (CSR order)
-        entry_item = np.repeat(np.arange(n_items), np.diff(incidence.indptr))[inside]
-        rows = _bit_rows(entry_row, entry_item, n_rows, n_items)
-        words, sizes = _words(rows), vertex_sizes[conflicted]
+        entry_item = np.repeat(np.arange(n_items, dtype=np.int32), np.diff(incidence.indptr))[inside]
+        words, sizes = _words(_bit_rows(entry_row, entry_item, n_rows, n_items)), vertex_sizes[conflicted]
         order = _canonical_order(words, sizes)
         first = np.ones(n_rows, dtype=bool)  # first row of each run of equal sets in canonical order
         first[1:] = _differ(words, order[1:], order[:-1])
@@ -106,7 +106,7 @@ class ConflictSets:
             set_of_row[entry_row[mine]], entry_item[mine], _take(words, unique), sizes[unique], n_items
         )
         maximal = unique[~dominated]
-        _, members = np.nonzero(rows[maximal])
+        _, members = np.nonzero(unpack_bit_rows(np.ascontiguousarray(_take(words, maximal).T), n_items))
         return cls._frozen(members.astype(np.int64), sizes[maximal], n_items), n_vertex_rows
 
     @classmethod
@@ -319,7 +319,7 @@ def _bit_rows(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> n
     """(n_rows, 64 W) bool matrix with ones at ``(rows, cols)``, W the 64-bit words needed for n_cols."""
     width = -(-n_cols // 64) * 64
     dense = np.zeros(n_rows * width, dtype=bool)
-    dense[rows * width + cols] = True
+    dense[rows.astype(np.int64) * width + cols] = True
     return dense.reshape(n_rows, width)
 
 

@@ -260,3 +260,20 @@ def test_unknown_distortion_is_refused(square):
         packing.importance(square, STRETCHED, distortion="ratio")
     with pytest.raises(ValueError, match="distortion must be"):
         triangle_distortion(SQUARE, STRETCHED, TRIANGLES, "ratio")
+
+
+@pytest.mark.parametrize("entries", [1, 37, 1000])
+def test_eq7_summed_a_block_of_shapes_at_a_time_equals_all_at_once(monkeypatch, entries):
+    """`distortion_strength` bounds its transient by gathering ``DISTORTION_ENTRIES`` active entries at a
+    time; every block size gives the sums of one block of all the shapes, bit for bit."""
+    import packing._importance as importance
+
+    rig = rigs.generate("male", seed=3)
+    masks = packing.binary_blendshapes(rig.deltas, 0.3)
+    distortion = triangle_distortion(rig.neutral, rigs.warp(rig, "alien").neutral, rig.triangles)
+    monkeypatch.setattr(importance, "DISTORTION_ENTRIES", 1 << 40)
+    whole = importance.distortion_strength(distortion, masks, rig.triangles)
+    monkeypatch.setattr(importance, "DISTORTION_ENTRIES", entries)
+    blocked = importance.distortion_strength(distortion, masks, rig.triangles)
+    assert whole.shape == (rig.n_shapes,) and whole.max() == 1.0
+    np.testing.assert_array_equal(blocked, whole)
