@@ -80,6 +80,18 @@ def test_kernel_components_are_the_connected_components(n_items, density, n_bloc
     assert all((np.diff(piece) > 0).all() for piece in pieces)
 
 
+@pytest.mark.parametrize("n_items", [1, 2, 64, 65, 300])
+def test_a_path_is_one_component_and_isolated_items_are_one_each(n_items):
+    """The far end of a path is reached one step per pass; isolated items (their own neighbourhood only)
+    are components of their own, across word boundaries."""
+    step = np.arange(n_items - 1)
+    path = np.eye(n_items, dtype=bool)
+    path[step, step + 1] = path[step + 1, step] = True
+    assert [piece.tolist() for piece in kernel_components(pack_bit_rows(path))] == [list(range(n_items))]
+    alone = kernel_components(pack_bit_rows(np.eye(n_items, dtype=bool)))
+    assert [piece.tolist() for piece in alone] == [[item] for item in range(n_items)]
+
+
 @pytest.mark.parametrize("name", ["cpsat", "highs", "cbc-mip"])
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000), n_blocks=st.integers(2, 4), items_per_block=st.integers(10, 40))
