@@ -135,7 +135,10 @@ class ExactSolver:
         components is the sum of independent problems, one per component (no row holds items of two): each
         is solved on its own (`kernel_components`), a component of at most `ENUMERATION_MAX_ITEMS` items by
         enumeration, and the optimum is the union of theirs, its bound the sum of theirs. Under a binding
-        cap the components share the cap row and are solved together.
+        cap the components share the cap row and are solved together. Under a time limit each component in
+        turn gets its share of the time left (its share of the items left), so that the backend calls
+        together stay within the limit; a component whose turn comes with no time left gets no backend
+        call, and each component stopped answers the better of its incumbent and Algorithm 2's packing.
 
         A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`), or on a fixed
         kernel the best packing found before. Algorithm 1 removes every chosen item before the next
@@ -169,10 +172,20 @@ class ExactSolver:
             taken = tuple(reduction.taken.tolist())
             kernels = self._kernels(problem, reduction, cap_binds)
             prepare_time = clock.lap()
-            parts = [
-                self._solve_kernel(problem, kernel, closed, cap_binds, time_limit, seed, searched)
-                for kernel, closed in kernels
-            ]
+            sizes = [kernel.kept.size for kernel, _ in kernels]
+            parts = []
+            for index, (kernel, closed) in enumerate(kernels):
+                # Each component's share of the time left is its share of the items left (what one leaves
+                # unused goes to the next); one that starts with no time left gets no backend call.
+                budget = None if time_limit is None else time_limit - searched[0]
+                if budget is not None and index > 0 and budget <= 0:
+                    parts.append(_stopped(problem, kernel))
+                    continue
+                if budget is not None:
+                    budget *= sizes[index] / sum(sizes[index:])
+                spent = [0.0]
+                parts.append(self._solve_kernel(problem, kernel, closed, cap_binds, budget, seed, spent))
+                searched[0] += spent[0]
         return _answer(problem, parts, taken, prepare_time)
 
     def _kernels(
@@ -232,6 +245,8 @@ class ExactSolver:
 
             result = solve_with_fixing(costs, backend)
         items = tuple(kept[list(_model_items(result.items, model.n_items))].tolist())
+        if start is None and result.termination is Termination.TIME_LIMIT:
+            start = start_packing(problem, kernel)  # (the fallback, for a plugin that takes no start)
         begun = None if start is None else tuple(kept[list(start)].tolist())
         solve_time = clock.lap()
         return _Part(replace(result, items=items), begun, prepare_time, solve_time)
@@ -255,6 +270,17 @@ class ExactSolver:
         answer = self.solve_problem(problem, model, time_limit=left, seed=seed, **hint)
         searched[0] += call.lap()
         return answer
+
+
+def _stopped(problem: PackingProblem, kernel: Reduction) -> _Part:
+    """The part of a kernel whose turn came after the time limit: no backend run, Algorithm 2's packing
+    of its items as the start (`start_packing`) and the sum of their positive weights as the bound."""
+    clock = Stopwatch()
+    start = tuple(kernel.kept[list(start_packing(problem, kernel))].tolist())
+    bound = float(np.clip(np.asarray(problem.weights)[kernel.kept], 0.0, None).sum())
+    message = "no time left for this component"
+    result = Result((), Termination.TIME_LIMIT, bound, message=message)
+    return _Part(result, start, clock.lap(), 0.0)
 
 
 @dataclass(frozen=True)
@@ -287,6 +313,8 @@ def _answer(
     items = tuple(sorted(taken + tuple(i for r in results for i in r.items)))
     bounds = [r.bound for r in results]
     bound = None if None in bounds else float(sum(bounds)) + problem.objective(taken)
+    if bound is not None and all(r.termination is Termination.OPTIMAL for r in results):
+        bound = max(bound, problem.objective(items))  # (the parts' sums may round a unit below the whole's)
     messages = [r.message for r in results if r.message]
     if len(parts) > 1:
         sizes = ", ".join(str(len(part.result.items)) for part in parts)

@@ -4,6 +4,8 @@ optimum and its bound are the union and the sum of theirs."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -14,7 +16,7 @@ from scipy.sparse.csgraph import connected_components
 import packing
 import solvers
 from packing import Termination, pack_bit_rows, problem_from_incidence
-from solvers import Result
+from solvers import Capabilities, Result
 from solvers._cliques import kernel_components, kernel_neighbourhoods
 from solvers._reduce import reduce_problem
 from solvers.testing import check_packing
@@ -160,3 +162,75 @@ def test_a_component_stopped_by_its_time_limit_keeps_the_others_optima():
         )
     assert set(stopped.items) & set(first.tolist())  # the stopped one still gets a packing
     check_packing(problem, stopped.items)
+
+
+def _sleeping(name: str, first_call_seconds: float | None = None) -> type:
+    """The plugin ``name`` whose backend sleeps through its whole time limit (the first call through
+    ``first_call_seconds`` when given) and stops with no incumbent; the limits it got are recorded."""
+    plugin = type(available(name).plugin)
+
+    class Sleeping(plugin):
+        limits: list[float] = []
+
+        def solve_model(self, model, *, time_limit, seed, start=()):
+            Sleeping.limits.append(time_limit)
+            seconds = first_call_seconds if first_call_seconds and len(Sleeping.limits) == 1 else time_limit
+            time.sleep(seconds)
+            return Result((), Termination.TIME_LIMIT, None, 0.0, seconds)
+
+    return Sleeping
+
+
+def test_each_component_gets_its_share_of_the_time_left():
+    """Three components of 21, 29 and 20 items under a 0.3 s limit: the first gets 21/70 of it, each next
+    one its share of what is left, so the backend calls together stay within the limit."""
+    problem = blocks_problem(2, 3, 40)
+    sleeping = _sleeping("cpsat")
+    solution = solvers.load(sleeping).solve(problem, time_limit=0.3)
+    first, second, third = sleeping.limits
+    assert first == pytest.approx(0.3 * 21 / 70)
+    assert 0 < second <= (0.3 - first) * 29 / 49 and 0 < third <= 0.3 - first - second
+    assert first + second + third <= 0.3
+    assert solution.termination is Termination.TIME_LIMIT and solution.fallback == "greedy"
+    for piece in _kernel_pieces(problem):  # every component still gets Algorithm 2's packing
+        assert set(solution.items) & set(piece.tolist())
+    check_packing(problem, solution.items)
+
+
+def test_a_component_whose_turn_comes_after_the_limit_gets_no_backend_call():
+    problem = blocks_problem(2, 3, 40)
+    sleeping = _sleeping("cpsat", first_call_seconds=0.2)
+    solution = solvers.load(sleeping).solve(problem, time_limit=0.1)
+    optimum = available("cpsat").solve(problem)
+    assert len(sleeping.limits) == 1
+    assert "no time left for this component" in solution.message
+    assert solution.termination is Termination.TIME_LIMIT
+    assert solution.bound >= optimum.objective - 1e-12
+    for piece in _kernel_pieces(problem):
+        assert set(solution.items) & set(piece.tolist())
+    check_packing(problem, solution.items)
+
+
+def test_a_plugin_without_a_start_gets_algorithm_2s_packing_for_a_stopped_component():
+    problem = blocks_problem(2, 3, 40)
+    plugin = type(available("cpsat").plugin)
+    cold = Capabilities(exact=True, time_limit=True, minimum_cover=True, warm_start=False)
+
+    class FirstCallStopsCold(plugin):
+        capabilities = cold
+        calls = 0
+
+        def solve_model(self, model, *, time_limit, seed):
+            FirstCallStopsCold.calls += 1
+            if FirstCallStopsCold.calls == 1:
+                return Result((), Termination.TIME_LIMIT, None, 0.0, 0.0)
+            return super().solve_model(model, time_limit=time_limit, seed=seed)
+
+    solution = solvers.load(FirstCallStopsCold).solve(problem, time_limit=10.0)
+    optimum = set(available("cpsat").solve(problem).items)
+    first, *others = _kernel_pieces(problem)
+    assert solution.termination is Termination.TIME_LIMIT and solution.fallback == "greedy"
+    assert set(solution.items) & set(first.tolist())
+    for piece in others:  # solved to optimality: their optimum stays
+        assert set(solution.items) & set(piece.tolist()) == optimum & set(piece.tolist())
+    check_packing(problem, solution.items)
