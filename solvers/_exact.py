@@ -181,7 +181,7 @@ class ExactSolver:
                 if budget is not None and index > 0 and budget <= 0:
                     parts.append(_stopped(problem, kernel))
                     continue
-                if budget is not None:
+                if budget is not None and len(kernels) > 1:  # (components hold an item each)
                     budget *= sizes[index] / sum(sizes[index:])
                 spent = [0.0]
                 parts.append(self._solve_kernel(problem, kernel, closed, cap_binds, budget, seed, spent))

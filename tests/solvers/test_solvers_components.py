@@ -234,3 +234,15 @@ def test_a_plugin_without_a_start_gets_algorithm_2s_packing_for_a_stopped_compon
     for piece in others:  # solved to optimality: their optimum stays
         assert set(solution.items) & set(piece.tolist()) == optimum & set(piece.tolist())
     check_packing(problem, solution.items)
+
+
+@pytest.mark.parametrize("name", ["cpsat", "highs"])
+@pytest.mark.parametrize("n_items", [1, 5, 20])
+def test_a_kernel_the_reductions_empty_is_solved_under_a_time_limit(name, n_items):
+    """Items on vertices of their own conflict with none: the reductions take them all, and the empty
+    kernel left is answered without a backend, with or without a time limit."""
+    problem = problem_from_incidence(np.eye(n_items, dtype=bool), np.linspace(0.5, 1.0, n_items))
+    for time_limit in (None, 5.0):
+        solution = available(name).solve(problem, time_limit=time_limit)
+        assert solution.termination is Termination.OPTIMAL
+        assert solution.items == tuple(range(n_items))
