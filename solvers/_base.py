@@ -213,9 +213,11 @@ def make_solution(
     )
 
 
-def trivial_bound(problem: PackingProblem) -> float:
-    """Upper bound on eq. 3a that needs no solver: the sum of the positive weights."""
-    return float(np.clip(problem.weights, 0.0, None).sum())
+def trivial_bound(problem: PackingProblem, items: np.ndarray | None = None) -> float:
+    """Upper bound on eq. 3a that needs no solver: the sum of the positive weights (of ``items`` only, for
+    the packings of those items)."""
+    weights = np.asarray(problem.weights) if items is None else np.asarray(problem.weights)[items]
+    return float(np.clip(weights, 0.0, None).sum())
 
 
 class Stopwatch:

@@ -166,10 +166,8 @@ class ExactSolver:
             result = self._backend(problem, model, start, time_limit, seed, searched)
             items = _model_items(result.items, model.n_items)
             parts = [_Part(replace(result, items=items), start, 0.0, clock.lap())]
-            taken: tuple[int, ...] = ()
         else:
             reduction = reduce_problem(problem, cap_binds)
-            taken = tuple(reduction.taken.tolist())
             kernels = self._kernels(problem, reduction, cap_binds)
             prepare_time = clock.lap()
             sizes = [kernel.kept.size for kernel, _ in kernels]
@@ -186,13 +184,14 @@ class ExactSolver:
                 spent = [0.0]
                 parts.append(self._solve_kernel(problem, kernel, closed, cap_binds, budget, seed, spent))
                 searched[0] += spent[0]
-        return _answer(problem, parts, taken, prepare_time)
+        return _answer(problem, parts, prepare_time)
 
     def _kernels(
         self, problem: PackingProblem, reduction: Reduction, cap_binds: bool
     ) -> list[tuple[Reduction, np.ndarray]]:
-        """The kernel, or its connected components when they are independent problems (no binding cap),
-        each with its closed neighbourhoods as bit rows (`kernel_neighbourhoods`)."""
+        """The kernel, or its connected components when they are independent problems (no binding cap, the
+        first holding the items every optimum takes), each with its closed neighbourhoods as bit rows
+        (`kernel_neighbourhoods`)."""
         kept = reduction.kept
         closed = kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items)
         if not self.decomposes or cap_binds or kept.size <= ENUMERATION_MAX_ITEMS:
@@ -201,8 +200,11 @@ class ExactSolver:
         if len(pieces) == 1:
             return [(reduction, closed)]
         return [
-            (Reduction(problem, kept[piece], kept[:0]), kernel_neighbourhoods(closed, piece, kept.size))
-            for piece in pieces
+            (
+                Reduction(problem, kept[piece], reduction.taken if index == 0 else kept[:0]),
+                kernel_neighbourhoods(closed, piece, kept.size),
+            )
+            for index, piece in enumerate(pieces)
         ]
 
     def _solve_kernel(
@@ -215,8 +217,9 @@ class ExactSolver:
         seed: int,
         searched: list[float],
     ) -> _Part:
-        """The optimum of ``problem`` over the items ``kernel.kept`` (by enumeration when they are few), as
-        items of ``problem`` without ``kernel.taken``; ``closed`` are their closed neighbourhoods."""
+        """The optimum of ``problem`` over the items ``kernel.kept`` (by enumeration when they are few) with
+        ``kernel.taken``, as items of ``problem`` (`Reduction.items`); ``closed`` are the closed
+        neighbourhoods of ``kernel.kept``."""
         clock = Stopwatch()
         kept = kernel.kept
         if self.enumerates_small_kernels and kept.size <= ENUMERATION_MAX_ITEMS:
@@ -224,8 +227,7 @@ class ExactSolver:
             conflicts = unpack_bit_rows(closed, kept.size)
             cap = problem.cap if cap_binds else None
             prepare_time = clock.lap()
-            chosen = kept[list(enumerated_optimum(weights, problem.item_shape_counts[kept], cap, conflicts))]
-            items = tuple(chosen.tolist())
+            items = kernel.items(enumerated_optimum(weights, problem.item_shape_counts[kept], cap, conflicts))
             message = f"kernel of {kept.size} items solved by enumeration"
             result = Result(items, Termination.OPTIMAL, problem.objective(items), message=message)
             return _Part(result, None, prepare_time, clock.lap())
@@ -244,12 +246,14 @@ class ExactSolver:
                 return self._backend(problem, solved, begin if warm else None, time_limit, seed, searched)
 
             result = solve_with_fixing(costs, backend)
-        items = tuple(kept[list(_model_items(result.items, model.n_items))].tolist())
+        items, bound = kernel.items(_model_items(result.items, model.n_items)), result.bound
+        if bound is not None:
+            bound += float(problem.weights[kernel.taken].sum())
         if start is None and result.termination is Termination.TIME_LIMIT:
             start = start_packing(problem, kernel)  # (the fallback, for a plugin that takes no start)
-        begun = None if start is None else tuple(kept[list(start)].tolist())
+        begun = None if start is None else kernel.items(start)
         solve_time = clock.lap()
-        return _Part(replace(result, items=items), begun, prepare_time, solve_time)
+        return _Part(replace(result, items=items, bound=bound), begun, prepare_time, solve_time)
 
     def _backend(
         self,
@@ -276,8 +280,8 @@ def _stopped(problem: PackingProblem, kernel: Reduction) -> _Part:
     """The part of a kernel whose turn came after the time limit: no backend run, Algorithm 2's packing
     of its items as the start (`start_packing`) and the sum of their positive weights as the bound."""
     clock = Stopwatch()
-    start = tuple(kernel.kept[list(start_packing(problem, kernel))].tolist())
-    bound = float(np.clip(np.asarray(problem.weights)[kernel.kept], 0.0, None).sum())
+    start = kernel.items(start_packing(problem, kernel))
+    bound = trivial_bound(problem, np.concatenate([kernel.taken, kernel.kept]))
     message = "no time left for this component"
     result = Result((), Termination.TIME_LIMIT, bound, message=message)
     return _Part(result, start, clock.lap(), 0.0)
@@ -285,8 +289,8 @@ def _stopped(problem: PackingProblem, kernel: Reduction) -> _Part:
 
 @dataclass(frozen=True)
 class _Part:
-    """The answer for one kernel (or one component of it): ``result.items`` and ``start`` are items of the
-    problem (the taken items left out), ``result.bound`` bounds this part alone; ``prepare_time`` is the
+    """The answer for one kernel (or one component of it) with the items it takes: ``result.items`` and
+    ``start`` are items of the problem, ``result.bound`` bounds this part alone; ``prepare_time`` is the
     seconds before its backend ran, ``seconds`` those after."""
 
     result: Result
@@ -295,12 +299,10 @@ class _Part:
     seconds: float
 
 
-def _answer(
-    problem: PackingProblem, parts: Sequence[_Part], taken: tuple[int, ...], prepare_time: float
-) -> Result:
-    """The problem's answer from its parts', the items every optimum takes and the seconds spent before the
-    parts (the reductions): the union of their items, the sum of their bounds, OPTIMAL when every part is;
-    at a time limit the better of that packing and Algorithm 2's (`ExactSolver.solve`)."""
+def _answer(problem: PackingProblem, parts: Sequence[_Part], prepare_time: float) -> Result:
+    """The problem's answer from its parts' and the seconds spent before them (the reductions): the union
+    of their items, the sum of their bounds, OPTIMAL when every part is; at a time limit the better of that
+    packing and Algorithm 2's (`ExactSolver.solve`)."""
     results = [part.result for part in parts]
     build_time = prepare_time + sum(part.prepare_time + (part.result.build_time or 0.0) for part in parts)
     solve_time = sum(
@@ -310,9 +312,9 @@ def _answer(
     failed = [r for r in results if r.termination not in (Termination.OPTIMAL, Termination.TIME_LIMIT)]
     if failed:
         return replace(failed[0], items=(), bound=None, build_time=build_time, solve_time=solve_time)
-    items = tuple(sorted(taken + tuple(i for r in results for i in r.items)))
+    items = tuple(sorted(i for r in results for i in r.items))
     bounds = [r.bound for r in results]
-    bound = None if None in bounds else float(sum(bounds)) + problem.objective(taken)
+    bound = None if None in bounds else float(sum(bounds))
     if bound is not None and all(r.termination is Termination.OPTIMAL for r in results):
         bound = max(bound, problem.objective(items))  # (the parts' sums may round a unit below the whole's)
     messages = [r.message for r in results if r.message]
@@ -326,7 +328,7 @@ def _answer(
         from solvers.greedy import greedy_items
 
         # Each part's better packing of its incumbent and its start: the parts share no row (and no cap).
-        started = taken + tuple(
+        started = tuple(
             i for part in parts for i in max((part.result.items, part.start or ()), key=problem.objective)
         )
         candidates = [tuple(sorted(greedy_items(problem))), tuple(sorted(started))]  # one sum order each
