@@ -17,10 +17,24 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
+    from harness._bench_session import SAMPLE_COLUMNS, Measurement, ProbeError, measure
+    from harness._bench_suites import SUITES, Group, Suite, suite
     from harness._cli_constraints import check_file_pairs, constraint_options, constraint_params
     from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
+    from harness._commits import (
+        CodeVersion,
+        CommitError,
+        CommitFacts,
+        commit_facts,
+        commit_range,
+        first_parents,
+        prepare,
+        remove_worktree,
+        repository_of,
+        resolve,
+    )
     from harness._durations import format_duration, parse_duration
-    from harness._environment import commits_since
+    from harness._environment import commits_since, machine
     from harness._executors import DaskExecutor, LocalExecutor
     from harness._grid import (
         DEFAULT_J_VALUES,
@@ -34,15 +48,30 @@ if TYPE_CHECKING:
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
     from harness._run import RunDirectoryError, RunSummary, in_progress, read_run, run_grid
-    from harness._settings import settings_text, split_label
+    from harness._settings import settings_text, split_label, split_requests
+    from harness._track_store import StoreError, TrackStore, machine_id
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
+        "_bench_session": ["SAMPLE_COLUMNS", "Measurement", "ProbeError", "measure"],
+        "_bench_suites": ["SUITES", "Group", "Suite", "suite"],
+        "_commits": [
+            "CodeVersion",
+            "CommitError",
+            "CommitFacts",
+            "commit_facts",
+            "commit_range",
+            "first_parents",
+            "prepare",
+            "remove_worktree",
+            "repository_of",
+            "resolve",
+        ],
         "_cli_constraints": ["check_file_pairs", "constraint_options", "constraint_params"],
         "_cli_types": ["DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
         "_durations": ["format_duration", "parse_duration"],
-        "_environment": ["commits_since"],
+        "_environment": ["commits_since", "machine"],
         "_executors": ["DaskExecutor", "LocalExecutor"],
         "_grid": [
             "DEFAULT_J_VALUES",
@@ -56,6 +85,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],
         "_run": ["RunDirectoryError", "RunSummary", "in_progress", "read_run", "run_grid"],
-        "_settings": ["settings_text", "split_label"],
+        "_settings": ["settings_text", "split_label", "split_requests"],
+        "_track_store": ["StoreError", "TrackStore", "machine_id"],
     },
 )

@@ -97,6 +97,10 @@ termination      string         ``optimal``, ``completed``, ``time_limit``, ``in
 presolve_time    float64        seconds to derive the expression's problem (restrict and presolve)
 build_time       float64        seconds to build the backend model
 solve_time       float64        seconds in the backend
+cpu_time         float64, null  CPU seconds of the solve call: every thread of the process, the child
+                                processes it waited for and its calls to worker processes
+                                (`solvers.cpu_seconds`); unlike the seconds above, not the moments the
+                                machine gave to another job (null in runs recorded before the column)
 extra_time       float64        seconds choosing extra examples (sec. 6 second pass; 0 when off)
 n_items          int64          items available to this expression
 vertex_rows      int64          eq. 3b rows before presolve (vertices active in an available item)
@@ -245,6 +249,7 @@ _EXPRESSION_ORDER: tuple[str, ...] = (
     "covered",
     "coverage",
     "fallback",
+    "cpu_time",
 )
 #: ``kind == "expression"`` columns the cell computes from the sequence (`harness._cell`).
 _SEQUENCE_COLUMNS: dict[str, pa.DataType] = {

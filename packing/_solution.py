@@ -46,6 +46,9 @@ class Solution:
         Why the solver stopped.
     build_time, solve_time : float
         Seconds spent building the backend model and solving it.
+    cpu_time : float or None
+        CPU seconds of the whole solve call (`solvers.cpu_seconds`: every thread of the process, the
+        child processes it waited for and its calls to worker processes); None where not measured.
     backend : str
         Solver plugin name; ``version`` the backend library version.
     message : str
@@ -63,6 +66,7 @@ class Solution:
     termination: Termination
     build_time: float = 0.0
     solve_time: float = 0.0
+    cpu_time: float | None = None
     backend: str = ""
     version: str = ""
     message: str = ""
@@ -159,6 +163,11 @@ class Expression:
     def solve_time(self) -> float:
         """Seconds the solver spent solving."""
         return self.solution.solve_time
+
+    @property
+    def cpu_time(self) -> float | None:
+        """CPU seconds of the solver's call (None where not measured)."""
+        return self.solution.cpu_time
 
     @property
     def backend(self) -> str:

@@ -19,6 +19,7 @@ from registry._atomic import (
     swap_folder,
     sync_file,
     sync_folders,
+    write_new,
 )
 from registry._availability import Availability, AvailabilityStatus, package_availability
 from registry._checks import parametrize_checks, run_checks
@@ -73,4 +74,5 @@ __all__ = [
     "swap_folder",
     "sync_file",
     "sync_folders",
+    "write_new",
 ]

@@ -8,7 +8,8 @@ choosing writes to the temporary file of `atomic_path`. A temporary file a kille
 recognisable by its name (`staged_target`), so that the next writer can remove it. `append_text` is the one
 writer that adds to a file instead of replacing it (a line log that a reader cuts at its last whole line),
 `move_apart` the one that moves a file aside (never over another), and `swap_folder` puts a whole folder
-written beside its place into it.
+written beside its place into it. `write_new` is the writer of a file in a store that may be remote (an
+fsspec file system): a new file under a new name, never one that exists.
 """
 
 from __future__ import annotations
@@ -119,6 +120,31 @@ def atomic_path(path: str | os.PathLike, *, sync: bool = True) -> Iterator[Path]
         raise
     if sync:
         _sync_folder(path.parent)
+
+
+def write_new(filesystem: object, path: str, data: bytes) -> None:
+    """Write ``data`` as the new file ``path`` of an fsspec ``filesystem`` (a local folder, an object
+    store): written whole under a staged name beside it and moved into place, so that a reader never sees a
+    part of it. A local file system gets `atomic_write`.
+
+    Raises
+    ------
+    FileExistsError
+        When ``path`` exists (a store's files are never replaced).
+    OSError
+        When the store cannot be written.
+    """
+    if filesystem.exists(path):  # type: ignore[attr-defined]
+        raise FileExistsError(f"{path} exists; a store's files are never replaced")
+    protocol = getattr(filesystem, "protocol", "")
+    if "file" in (protocol if isinstance(protocol, tuple) else (protocol,)):
+        filesystem.makedirs(os.path.dirname(path), exist_ok=True)  # type: ignore[attr-defined]
+        atomic_write(path, data)
+        return
+    folder, name = path.rsplit("/", 1) if "/" in path else ("", path)
+    staged = f"{folder}/{staged_prefix(name)}{os.urandom(4).hex()}.tmp".lstrip("/")
+    filesystem.pipe_file(staged, data)  # type: ignore[attr-defined]
+    filesystem.mv(staged, path)  # type: ignore[attr-defined]
 
 
 def append_text(path: str | os.PathLike, text: str) -> None:

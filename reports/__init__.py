@@ -1,7 +1,8 @@
 """Reports of runs: timing, agreement (the paper's Table 3) and expression-count tables, the paper's claims
 held or not (``harness show``), coverage and RMS figures, expression contact sheets, a self-contained HTML
-page with its Markdown twin, run-to-run comparison for CI, and the history of CI runs' timings as ratios to
-each run's median exact solver (`read_history`, `append_history`, `run_figures`), and solver benchmark
+page with its Markdown twin, run-to-run comparison (`compare`), paired timing verdicts of two commits
+measured side by side (`compare_measurement`, ``harness compare --commits``), timings across commits with
+their steps and a dashboard (``harness track``: `detect_steps`), and solver benchmark
 summaries across instances: shifted geometric means, outcome counts, wins and Dolan-More performance
 profiles (`solve_outcomes`, `performance_profile`).
 
@@ -18,21 +19,23 @@ from typing import TYPE_CHECKING
 import lazy_loader
 
 if TYPE_CHECKING:
+    from reports._ab import ABComparison, CaseVerdict, compare_measurement
     from reports._agreement import AGREEMENT_COLUMNS, agreement_counts
     from reports._claims import claims_table
-    from reports._compare import Change, Comparison, compare, comparison_table, run_figures
+    from reports._compare import Change, Comparison, compare, comparison_table
     from reports._contact import contact_sheet
     from reports._figures import (
         coverage_figure,
         distribution_figure,
-        history_figure,
         profile_figure,
         rms_figure,
     )
-    from reports._history import HISTORY_COLUMNS, HistoryError, Spread, append_history, read_history
+    from reports._gate import Accepted, read_accepted
+    from reports._paired import PairedTest, judge, paired_test
     from reports._paper import PAPER_AGREEMENT, PAPER_TIMINGS
     from reports._png import png_bytes
     from reports._report import build_report
+    from reports._steps import Step, commit_series, detect_steps
     from reports._summary import (
         SHIFT,
         common_table,
@@ -63,19 +66,21 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_agreement": ["AGREEMENT_COLUMNS", "agreement_counts"],
         "_claims": ["claims_table"],
-        "_compare": ["Change", "Comparison", "compare", "comparison_table", "run_figures"],
+        "_ab": ["ABComparison", "CaseVerdict", "compare_measurement"],
+        "_compare": ["Change", "Comparison", "compare", "comparison_table"],
         "_contact": ["contact_sheet"],
         "_figures": [
             "coverage_figure",
             "distribution_figure",
-            "history_figure",
             "profile_figure",
             "rms_figure",
         ],
-        "_history": ["HISTORY_COLUMNS", "HistoryError", "Spread", "append_history", "read_history"],
+        "_gate": ["Accepted", "read_accepted"],
+        "_paired": ["PairedTest", "judge", "paired_test"],
         "_paper": ["PAPER_AGREEMENT", "PAPER_TIMINGS"],
         "_png": ["png_bytes"],
         "_report": ["build_report"],
+        "_steps": ["Step", "commit_series", "detect_steps"],
         "_summary": [
             "SHIFT",
             "common_table",

@@ -1,11 +1,11 @@
 """Comparing two runs (record directories) or two pytest-benchmark JSON files, metric by metric.
 
 Quality figures (objective, coverage, expression count, transfer RMS, benchmark ``extra_info``) must not
-change beyond a relative tolerance; times are judged by a statistical test (`reports._timing`): each
-repetition's sequence time as a ratio to the median exact solver measured in the same run, slower or faster
-only when Welch's t-test, adjusted over the comparison's cases, says so and the change is beyond a
-threshold. A case with too few repetitions to test is judged against its history across commits
-(`reports._history`), when given.
+change beyond a relative tolerance. Times are judged case by case against the same case's times in the
+other run, paired expression by expression where both runs solved the same problem (`reports._timing`),
+by the paired test and verdicts of `reports._paired` (slower, faster, same, inconclusive); and only when
+both runs ran on one machine (`one_machine`): a time measured elsewhere is shown, never judged. Two
+commits are best timed side by side, in one job: ``harness compare --commits``.
 """
 
 from __future__ import annotations
@@ -27,28 +27,12 @@ from rich.table import Table
 
 import harness
 from registry import HarnessError
-from reports._history import (
-    HISTORY_COLUMNS,
-    RUN_COLUMNS,
-    Spread,
-    read_history,
-    run_identity,
-    spreads,
-)
+from reports._paired import PairedTest, judge, paired_test
 from reports._tables import CASE_COLUMNS, SETTING_COLUMNS, rig_labels, setting_label, termination_counts
-from reports._timing import (
-    MIN_REFERENCE_SOLVERS,
-    REFERENCE,
-    TimingTest,
-    case_samples,
-    has_reference,
-    judge_times,
-    timing_samples,
-    timing_test,
-)
+from reports._timing import case_samples, clock, paired_units, timing_samples
 
 Kind = Literal["time", "quality"]
-Verdict = Literal["same", "slower", "faster", "changed", "missing", "added"]
+Verdict = Literal["same", "slower", "faster", "inconclusive", "untested", "changed", "missing", "added"]
 Value = float | str | tuple
 
 
@@ -64,10 +48,9 @@ class Metric:
     name: str
     kind: Kind
     value: Value
-    seconds: float | None = None  #: the absolute time behind a time metric
+    seconds: float | None = None  #: the median sequence seconds behind a time metric
     case_id: str = ""
     samples: pd.DataFrame | None = None  #: a run's `timing_samples` of the case, behind a time metric
-    column: str = "seconds"  #: the column of ``samples`` the metric's value sums (``ratio`` or ``seconds``)
 
 
 @dataclass(frozen=True)
@@ -75,8 +58,8 @@ class Change:
     """How one metric moved from the old to the new run.
 
     ``old`` and ``new`` are shown values: for vectors (per expression, per J) the first element that differs,
-    named in ``where``. ``ratio`` is new / old for times. ``spread`` is the history's spread of the figure
-    when that judged the new value; ``termination`` how the new run's solves of a time ended.
+    named in ``where``. ``ratio`` is new / old for times (the paired geometric mean when tested);
+    ``termination`` how the new run's solves of a time ended.
     """
 
     case: str
@@ -87,14 +70,13 @@ class Change:
     verdict: Verdict
     ratio: float | None = None
     where: str = ""
-    spread: Spread | None = None
     termination: str = ""
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """All metric changes between two runs and the rules that judge them (``history``: the rule for times
-    with a history, empty without one)."""
+    """All metric changes between two runs and the rules that judge them (``machine``: the one machine both
+    runs ran on, empty when they did not, and then no time is judged)."""
 
     old: str
     new: str
@@ -103,7 +85,7 @@ class Comparison:
     min_time: float
     time_basis: str
     changes: tuple[Change, ...]
-    history: str = ""
+    machine: str = ""
     alpha: float = 0.01
 
     def regressions(self, *, fail_on_time: bool = False) -> list[Change]:
@@ -184,11 +166,11 @@ def _case_keys(frame: pd.DataFrame) -> list[tuple]:
     ]
 
 
-def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
-    """Metrics of a run keyed by case tuples; times as ratios to the baseline solver when ``ratios``.
+def _run_metrics(records: pd.DataFrame) -> list[Metric]:
+    """Metrics of a run keyed by case tuples.
 
-    Quality comes from the first repetition (repetitions only differ in time); times are medians over
-    repetitions, each carrying its absolute seconds for the noise floor (`_time_metrics`).
+    Quality comes from the first repetition (repetitions only differ in time); times are the median
+    sequence over repetitions, with every sample behind it (`_time_metrics`).
     """
     cells = records[records["kind"] == "cell"].sort_values("repetition")
     metrics = [
@@ -215,20 +197,20 @@ def _run_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
     for transfer, of_method in transfers.groupby("transfer", sort=True):
         for case, rows in zip(*_grouped(of_method), strict=True):
             metrics.append(Metric(case, f"RMS {transfer} per J", "quality", tuple(rows["rms"].astype(float))))
-    return metrics + _time_metrics(records, ratios)
+    return metrics + _time_metrics(records)
 
 
-def _time_metrics(records: pd.DataFrame, ratios: bool) -> list[Metric]:
-    """Times of a run keyed by case tuples: the median sequence, as a ratio to the run's `REFERENCE` when
-    ``ratios`` or in seconds, with every sample behind it (`reports._timing.timing_samples`)."""
-    name = f"sequence / {REFERENCE}" if ratios else "sequence (s)"
-    value = "ratio" if ratios else "seconds"
+#: Name of every run's time metric.
+SEQUENCE = "sequence (s)"
+
+
+def _time_metrics(records: pd.DataFrame) -> list[Metric]:
+    """Times of a run keyed by case tuples: the median sequence seconds over repetitions, with every solve
+    behind it (`reports._timing.timing_samples`)."""
     metrics = []
     for case, rows in case_samples(timing_samples(records)).items():
-        sequences = rows.groupby("cell")[["ratio", "seconds"]].sum()
-        median = float(sequences[value].median())
-        seconds = float(sequences["seconds"].median())
-        metrics.append(Metric(case, name, "time", median, seconds, samples=rows, column=value))
+        median = float(rows.groupby("cell")["seconds"].sum().median())
+        metrics.append(Metric(case, SEQUENCE, "time", median, median, samples=rows))
     return metrics
 
 
@@ -272,8 +254,7 @@ def _read_run(path: Path) -> pd.DataFrame:
 def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]:
     """Metrics of two run directories or two pytest-benchmark files, and how their times are measured.
 
-    Runs are timed as ratios to their `REFERENCE` when both have one, else in seconds; their cases are
-    labelled ``rig/warp/solver`` plus the settings that vary over both runs.
+    Runs' cases are labelled ``rig/warp/solver`` plus the settings that vary over both runs.
 
     Raises
     ------
@@ -286,9 +267,7 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         )
     if old.is_file():
         return _benchmark_metrics(old), _benchmark_metrics(new), "median seconds per benchmark"
-    old_records, new_records = _read_run(old), _read_run(new)
-    ratios = _has_ratios(old_records) and _has_ratios(new_records)
-    old_metrics, new_metrics = _run_metrics(old_records, ratios), _run_metrics(new_records, ratios)
+    old_metrics, new_metrics = _run_metrics(_read_run(old)), _run_metrics(_read_run(new))
     labels = _case_labels(sorted({metric.case for metric in old_metrics + new_metrics}, key=repr))
     old_metrics, new_metrics = (
         [
@@ -297,11 +276,7 @@ def read_metrics(old: Path, new: Path) -> tuple[list[Metric], list[Metric], str]
         ]
         for metrics in (old_metrics, new_metrics)
     )
-    basis = (
-        f"ratio to the {REFERENCE} in the same run"
-        if ratios
-        else f"seconds (fewer than {MIN_REFERENCE_SOLVERS} exact solvers in a group of a run)"
-    )
+    basis = "each case's solves paired expression by expression, CPU seconds where both runs recorded them"
     return old_metrics, new_metrics, basis
 
 
@@ -329,9 +304,8 @@ def one_machine(old: Path, new: Path) -> str | None:
     """The machine both runs ran on, when their ``run.json`` say the same host name, platform, core count and
     processor model (a model must be recorded), else None.
 
-    The ratio to the `REFERENCE` cancels a machine's speed and its moments of load, but it couples the
-    solvers of a group: with two exact solvers, one slowing down makes the other's ratio faster though its
-    seconds did not move. On one machine the seconds tell the two apart (`_time_change`).
+    Times are only judged between two runs of one machine: seconds measured on another say as much about
+    the machine as about the code.
     """
     found = []
     for path in (old, new):
@@ -346,74 +320,6 @@ def one_machine(old: Path, new: Path) -> str | None:
     return f"{first['hostname']}, {first['cpu_count']} CPUs, {first['cpu_model']}"
 
 
-def _has_ratios(records: pd.DataFrame) -> bool:
-    return has_reference(timing_samples(records))
-
-
-def run_figures(run_dir: str | os.PathLike) -> pd.DataFrame:
-    """The history rows of one run: each case's median sequence as a ratio to the run's `REFERENCE`.
-
-    Parameters
-    ----------
-    run_dir : path
-        A run directory (``harness run --out``) with at least `MIN_REFERENCE_SOLVERS` exact solvers in
-        every group.
-
-    Returns
-    -------
-    DataFrame with the `reports._history.HISTORY_COLUMNS`, one row per (case, figure), named as
-    `compare` names them (cases labelled by the settings that vary within this run) and identified in full
-    (`case_id`).
-
-    Raises
-    ------
-    FileNotFoundError
-        When ``run_dir`` holds no run.
-    ValueError
-        When it is not a run directory or a group of it has too few exact solvers for a reference.
-    """
-    run_dir = Path(run_dir)
-    records = _read_run(run_dir)
-    if not _has_ratios(records):
-        raise HarnessError(
-            f"{run_dir}: a group of cells has fewer than {MIN_REFERENCE_SOLVERS} exact solvers, so no "
-            f"reference time and no ratios for the history"
-        )
-    metrics = _time_metrics(records, ratios=True)
-    labels = _figure_labels(metrics)
-    identity = run_identity(harness.read_run(run_dir))
-    rows = [
-        {
-            **identity,
-            "case": labels[m.case],
-            "figure": m.name,
-            "ratio": m.value,
-            "seconds": m.seconds,
-            "case_id": case_id(m.case),
-        }
-        for m in metrics
-    ]
-    return pd.DataFrame(rows, columns=list(HISTORY_COLUMNS))
-
-
-def _figure_labels(metrics: list[Metric]) -> dict[tuple, str]:
-    """The history's ``case`` label of each case of one run's time metrics."""
-    return _case_labels(sorted({metric.case for metric in metrics}, key=repr))
-
-
-def _history_spreads(
-    path: Path, new: Path, *, window: int, k: float, tolerance: float, min_runs: int
-) -> dict[tuple[str, str], Spread]:
-    """Spreads of the figures in the history at ``path`` by (`case_id`, figure) over its commits
-    (`reports._history.spreads`), leaving out the rows of run ``new`` itself."""
-    if not (new / "records").is_dir():
-        raise HarnessError(f"compare: a history applies to run directories, not to {new}")
-    history = read_history(path)
-    identity = run_identity(harness.read_run(new))
-    own = (history[list(RUN_COLUMNS)] == pd.Series({c: identity[c] for c in RUN_COLUMNS})).all(axis=1)
-    return spreads(history[~own], window=window, k=k, tolerance=tolerance, min_runs=min_runs)
-
-
 # -- judging changes ---------------------------------------------------------------------------------------
 
 
@@ -421,6 +327,8 @@ def _close(old: Value, new: Value, tolerance: float) -> bool:
     if isinstance(old, float) and isinstance(new, float):
         if math.isnan(old) or math.isnan(new):
             return math.isnan(old) and math.isnan(new)
+        if math.isinf(old) or math.isinf(new):
+            return old == new
         return abs(new - old) <= tolerance * max(abs(old), abs(new))
     return old == new
 
@@ -454,34 +362,27 @@ def _below_floor(old: Metric, new: Metric, min_time: float) -> bool:
 
 def _time_tests(
     pairs: list[tuple[Metric, Metric]], *, min_time: float, alpha: float, threshold: float
-) -> dict[int, TimingTest]:
-    """The tests of one comparison's times with samples on both sides, judged as one family
-    (`reports._timing.judge_times`), by position in ``pairs``."""
-    tested = [
-        index
-        for index, (old, new) in enumerate(pairs)
-        if old.kind == "time"
-        and old.samples is not None
-        and new.samples is not None
-        and not _below_floor(old, new, min_time)
-        and not math.isnan(_time_ratio(old, new))
-    ]
-    tests = [timing_test(pairs[i][0].samples, pairs[i][1].samples, value=pairs[i][1].column) for i in tested]
-    return dict(zip(tested, judge_times(tests, alpha=alpha, threshold=threshold), strict=True))
-
-
-def _held_in_seconds(change: Change, old: Metric, new: Metric, threshold: float) -> Change:
-    """``change`` whose ratio to the `REFERENCE` was judged slower or faster, kept only when the median
-    sequence also moved that way in seconds by more than ``threshold`` (both runs of one machine): else the
-    reference moved, not the case, and the verdict is ``same``, saying so."""
-    if change.verdict not in ("slower", "faster") or new.column != "ratio" or not old.seconds:
-        return change
-    seconds = (new.seconds or 0.0) / old.seconds
-    held = seconds > 1.0 + threshold if change.verdict == "slower" else seconds < 1.0 / (1.0 + threshold)
-    if held:
-        return change
-    note = f"; x{seconds:.2f} in seconds on one machine: the {REFERENCE} moved, not this case)"
-    return dataclasses.replace(change, verdict="same", where=change.where[:-1] + note)
+) -> dict[int, tuple[PairedTest, int]]:
+    """The paired tests of one comparison's times with samples on both sides, judged as one family
+    (`reports._paired.judge`), with the expressions left out of each; by position in ``pairs``."""
+    tested, tests, left = [], [], []
+    for index, (old, new) in enumerate(pairs):
+        if (
+            old.kind != "time"
+            or old.samples is None
+            or new.samples is None
+            or _below_floor(old, new, min_time)
+        ):
+            continue
+        column = clock(old.samples, new.samples)
+        units, unit, left_out = paired_units(old.samples, new.samples, column)
+        samples = len(old.samples) + len(new.samples)
+        name = "cpu" if column == "cpu" else "wall"
+        tests.append(paired_test(units, samples=samples, clock=name, unit=unit, alpha=alpha))
+        tested.append(index)
+        left.append(left_out)
+    judged = judge(tests, alpha=alpha, threshold=threshold)
+    return {index: (test, left_out) for index, test, left_out in zip(tested, judged, left, strict=True)}
 
 
 def _terminations(old: Metric, new: Metric) -> str:
@@ -500,35 +401,33 @@ def _time_change(
     *,
     threshold: float,
     min_time: float,
-    test: TimingTest | None = None,
-    spread: Spread | None = None,
-    one_machine: bool = False,
+    tested: tuple[PairedTest, int] | None = None,
+    machine: str | None = None,
 ) -> Change:
     """Judge a time.
 
-    Under ``min_time`` seconds in both runs it is timer noise. With samples on both sides (a run's cases)
-    its ``test`` (`_time_tests`) judges it; a case with too few samples to test is judged by the history's
-    ``spread`` when there is one (slower above ``spread.high``, faster below ``spread.low``) and otherwise
-    left untested. A benchmark's single median is judged by new / old against ``threshold``. On
-    ``one_machine`` (`one_machine`) a ratio judged slower or faster must have moved the same way in seconds
-    (`_held_in_seconds`).
+    Under ``min_time`` seconds in both runs it is timer noise. Two runs of different machines (``machine``
+    None) are never judged. A run's case is judged by its paired test (`_time_tests`), its ratio the
+    test's; a benchmark's single median by new / old against ``threshold``.
     """
     ratio = _time_ratio(old, new)
     termination = _terminations(old, new)
     change = Change(old.case, old.name, "time", old.value, new.value, "same", ratio, termination=termination)
+    if math.isnan(ratio) or math.isinf(ratio):
+        changed = math.isnan(old.value) != math.isnan(new.value) or math.isinf(ratio)
+        return dataclasses.replace(change, verdict="changed" if changed else "same")
     if _below_floor(old, new, min_time):
-        return dataclasses.replace(change, where=f"(< {min_time:g} s)")
-    if math.isnan(ratio):
+        return dataclasses.replace(change, verdict="untested", where=f"(< {min_time:g} s)")
+    if old.samples is not None and machine is None:
         return dataclasses.replace(
-            change, verdict="changed" if math.isnan(old.value) != math.isnan(new.value) else "same"
+            change, verdict="untested", where="(other machine: use harness compare --commits)"
         )
-    if test is not None and (test.p is not None or spread is None):
-        judged = dataclasses.replace(change, verdict=test.verdict, where=f"({test.describe()})")
-        return _held_in_seconds(judged, old, new, threshold) if one_machine else judged
-    if spread is not None:
-        verdict = "slower" if new.value > spread.high else "faster" if new.value < spread.low else "same"
-        judged = dataclasses.replace(change, verdict=verdict, where="(history)", spread=spread)
-        return _held_in_seconds(judged, old, new, threshold) if one_machine else judged
+    if tested is not None:
+        test, left_out = tested
+        note = f"; {left_out} expressions solved other problems" if left_out else ""
+        return dataclasses.replace(
+            change, verdict=test.verdict, ratio=test.ratio, where=f"({test.describe()}{note})"
+        )
     verdict = "slower" if ratio > 1.0 + threshold else "faster" if ratio < 1.0 / (1.0 + threshold) else "same"
     return dataclasses.replace(change, verdict=verdict)
 
@@ -537,14 +436,10 @@ def compare(
     old: str | os.PathLike,
     new: str | os.PathLike,
     *,
-    threshold: float = 0.25,
+    threshold: float = 0.1,
     tolerance: float = 1e-7,
     min_time: float = 0.01,
     alpha: float = 0.01,
-    history: str | os.PathLike | None = None,
-    window: int = 10,
-    spread: float = 3.0,
-    min_runs: int = 5,
 ) -> Comparison:
     """Compare two runs (record directories) or two pytest-benchmark JSON files metric by metric.
 
@@ -553,57 +448,34 @@ def compare(
     old, new : path
         Two run directories (``harness run --out``) or two ``--benchmark-json`` files.
     threshold : float
-        A time counts as slower only when new / old of the median sequence > 1 + threshold (0.25 = 25 %)
-        (and the test is significant). With a history, the least margin above a figure's median, relative
-        to it.
+        Least relative change of a time that counts (`reports._paired.judge`): slower beyond ``1 +
+        threshold`` when the test says so, the same when the interval lies within it. A benchmark's single
+        median is slower beyond it.
     tolerance : float
         Quality values count as changed when they differ by more than this, relative to the larger.
     min_time : float
-        Seconds below which a run's time (in both runs) is timer noise and never counts as slower or
-        faster. Benchmark medians (many rounds each) are always judged.
+        Seconds below which a run's median sequence (in both runs) is timer noise and left untested.
+        Benchmark medians (many rounds each) are always judged.
     alpha : float in (0, 1)
-        Level of the two-sided tests of the cases' repetitions, Benjamini-Hochberg adjusted over all of them
-        (`reports._timing.judge_times`).
-    history : path, optional
-        A history file (`reports.append_history`) of earlier runs' ratios. A case with too few repetitions
-        to test whose figure has at least ``min_runs`` commits there (``new``'s own rows left out) is
-        judged against their spread (`reports._history.spreads`): slower above ``median + max(spread *
-        1.4826 MAD, threshold * median)`` of the per-commit medians of its last ``window`` commits, faster
-        below the median by as much.
-    window : int
-        Latest commits of a figure in the history that give its spread (each commit counts once, with the
-        median of its runs; runs from a dirty tree or without a commit are left out).
-    spread : float
-        Robust standard deviations (1.4826 MAD) a ratio may move from its history's median.
-    min_runs : int
-        Fewest commits of a figure in the history for it to be judged by the history.
+        Level of the paired tests of the cases' times, Benjamini-Hochberg adjusted over all of them, and of
+        their intervals.
 
     Returns
     -------
     Comparison
         Every metric of either side; one only in ``old`` is ``missing``, one only in ``new`` ``added``.
+        Times of two runs that did not run on one machine (`one_machine`) are ``untested``.
 
     Raises
     ------
-    ValueError
-        When a path is neither kind, the two kinds differ, a threshold or tolerance is negative, a history
-        is given for benchmark files, or the history file is not one (`reports.HistoryError`).
-    FileNotFoundError
-        When ``history`` does not exist.
+    HarnessError
+        When a path is neither kind, the two kinds differ, or a threshold or tolerance is negative.
     """
-    if min(threshold, tolerance, min_time, spread) < 0 or min(window, min_runs) < 1 or not 0 < alpha < 1:
+    if min(threshold, tolerance, min_time) < 0 or not 0 < alpha < 1:
         raise HarnessError(
-            f"compare: threshold, tolerance, min_time and spread must be >= 0, window and min_runs >= 1 and "
-            f"alpha in (0, 1), got {threshold}, {tolerance}, {min_time}, {spread}, {window}, {min_runs} and "
-            f"{alpha}"
+            f"compare: threshold, tolerance and min_time must be >= 0 and alpha in (0, 1), got {threshold}, "
+            f"{tolerance}, {min_time} and {alpha}"
         )
-    judged = (
-        {}
-        if history is None
-        else _history_spreads(
-            Path(history), Path(new), window=window, k=spread, tolerance=threshold, min_runs=min_runs
-        )
-    )
     old_metrics, new_metrics, basis = read_metrics(Path(old), Path(new))
     machine = None if Path(old).is_file() else one_machine(Path(old), Path(new))
     by_key = {(m.case, m.name): m for m in new_metrics}
@@ -613,30 +485,24 @@ def compare(
     changes = [Change(m.case, m.name, m.kind, m.value, None, "missing") for m, o in pairs if o is None]
     for index, (metric, other) in enumerate(found):
         if metric.kind == "time":
-            history_spread = judged.get((other.case_id, other.name))
             changes.append(
                 _time_change(
                     metric,
                     other,
                     threshold=threshold,
                     min_time=min_time,
-                    test=tests.get(index),
-                    spread=history_spread,
-                    one_machine=machine is not None,
-                )
+                    tested=tests.get(index),
+                    machine=machine,
+                )  # fmt: skip
             )
         else:
             changes.append(_quality_change(metric, other, tolerance))
     changes += [Change(m.case, m.name, m.kind, None, m.value, "added") for m in by_key.values()]
     changes.sort(key=lambda change: change.case)
     floor = 0.0 if Path(old).is_file() else min_time  # benchmark medians are never floored
-    rule = (
-        ""
-        if history is None
-        else f"{history}: a case with too few repetitions is slower above median + max({spread:g} x 1.4826 "
-        f"MAD, {threshold:.0%}) of its last {window} commits (at least {min_runs})"
+    return Comparison(
+        str(old), str(new), threshold, tolerance, floor, basis, tuple(changes), machine or "", alpha
     )
-    return Comparison(str(old), str(new), threshold, tolerance, floor, basis, tuple(changes), rule, alpha)
 
 
 # -- showing changes ---------------------------------------------------------------------------------------
@@ -644,6 +510,8 @@ def compare(
 _STYLES = {
     "same": "green",
     "faster": "cyan",
+    "inconclusive": "dim",
+    "untested": "dim",
     "added": "dim",
     "slower": "yellow",
     "changed": "red",
@@ -663,37 +531,29 @@ def comparison_table(
     comparison: Comparison, *, fail_on_time: bool = False, only_changes: bool = False
 ) -> Table:
     """A rich table with one row per metric: case, metric, old, new, ratio, verdict (failures in red) and,
-    for times, how the new run's solves ended; with a history, also the spread that judged a time (median
-    and limits over the commits counted)."""
+    for times, how the new run's solves ended."""
     failing = set(comparison.regressions(fail_on_time=fail_on_time))
-    floor = f" (times under {comparison.min_time:g} s are noise)" if comparison.min_time else ""
-    history = f"; history {comparison.history}" if comparison.history else ""
+    floor = f" (sequences under {comparison.min_time:g} s are left untested)" if comparison.min_time else ""
+    machine = (
+        f"both runs on {comparison.machine}"
+        if comparison.machine
+        else "the runs name different machines (or none): times are shown, not judged"
+    )
     table = Table(
         title=f"{comparison.old} -> {comparison.new}",
-        caption=f"times: {comparison.time_basis} (time limits and errors charged at the limit); slower or "
-        f"faster means Welch's t-test over the repetitions, Benjamini-Hochberg adjusted over the "
-        f"comparison's tests, q < {comparison.alpha:g} and a median change beyond "
-        f"{comparison.threshold:.0%}{floor}; quality tolerance {comparison.tolerance:g} relative"
-        f"{history}",
+        caption=f"times: {comparison.time_basis} (time limits and errors charged at the limit), {machine}; "
+        f"slower or faster: the paired t-test, Benjamini-Hochberg adjusted over the comparison's tests, q < "
+        f"{comparison.alpha:g} and a ratio beyond {1 + comparison.threshold:.2f}; same: the interval within "
+        f"it{floor}; quality tolerance {comparison.tolerance:g} relative",
     )
-    columns = ["case", "metric", "old", "new", "new/old", "verdict", "termination"]
-    columns += ["history"] if history else []
-    for column in columns:
+    for column in ("case", "metric", "old", "new", "new/old", "verdict", "termination"):
         table.add_column(column, justify="right" if column in ("old", "new", "new/old") else "left")
     for change in comparison.changes:
-        if only_changes and change.verdict == "same":
+        if only_changes and change.verdict in ("same", "untested"):
             continue
         style = "bold red" if change in failing else _STYLES[change.verdict]
         verdict = f"{change.verdict} {change.where}".strip() + (" (fails)" if change in failing else "")
         ratio = "" if change.ratio is None else f"{change.ratio:.3f}"
         cells = [escape(change.case), change.metric, _shown(change.old), _shown(change.new), ratio, verdict]
-        cells.append(change.termination)
-        table.add_row(*cells, *([_spread_text(change.spread)] if history else []), style=style)
+        table.add_row(*cells, change.termination, style=style)
     return table
-
-
-def _spread_text(spread: Spread | None) -> str:
-    if spread is None:
-        return ""
-    limits = f"[{spread.low:.4g}, {spread.high:.4g}]"
-    return f"median {spread.median:.4g} in {limits} over {spread.commits} commits"

@@ -1,5 +1,5 @@
-"""Plots from records: coverage per expression, transfer RMS vs J (Carrigan et al. 2020, Figs. 9-10), the
-history of benchmark ratios over CI runs, and the solvers' performance profiles and time distributions."""
+"""Plots from records: coverage per expression, transfer RMS vs J (Carrigan et al. 2020, Figs. 9-10), and
+the solvers' performance profiles and time distributions."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from reports._history import RUN_COLUMNS
 from reports._png import report_style
 from reports._summary import (
     RESOLUTION,
@@ -230,92 +229,6 @@ def _reference_lines(ax: Axes, references: pd.DataFrame) -> float:
         )
         top = max(top, value)
     return top
-
-
-def _run_ticks(runs: pd.DataFrame, most: int = 12) -> tuple[list[int], list[str]]:
-    """At most ``most`` x ticks over the runs: date and short commit (``+`` when the tree was dirty)."""
-    step = max(1, -(-len(runs) // most))
-    positions = list(range(0, len(runs), step))
-    labels = []
-    for position in positions:
-        run = runs.iloc[position]
-        labels.append(f"{run['date'][:10]}\n{run['commit'][:7] or '?'}{'+' if run['dirty'] else ''}")
-    return positions, labels
-
-
-def _case_style(index: int) -> dict:
-    """Colour and marker of the ``index``-th case: the 10 dark colours of tab20, then its 10 light ones, with
-    another marker for each further 10 cases."""
-    return {
-        "color": colormaps["tab20"](2 * index % 20 + 2 * index // 20 % 2),
-        "marker": _MARKERS[index // 10 % len(_MARKERS)],
-    }
-
-
-def _history_lines(rows: pd.DataFrame) -> pd.Series:
-    """The legend label of each history row's case (``case_id``): its ``case`` label, numbered
-    (``label [2]``) where cases of other grids share it."""
-    labels = {}
-    for case, ids in rows.groupby("case", sort=True)["case_id"]:
-        for number, key in enumerate(dict.fromkeys(ids), start=1):
-            labels[key] = case if number == 1 else f"{case} [{number}]"
-    return rows["case_id"].map(labels)
-
-
-def history_figure(history: pd.DataFrame) -> Figure:
-    """Each figure's ratio to the median exact solver of its run over the CI runs: a panel per figure, a
-    line per case (per ``case_id``; see `_history_lines`).
-
-    Parameters
-    ----------
-    history : DataFrame
-        `reports.read_history` of a history file.
-
-    Returns
-    -------
-    matplotlib Figure; x is the runs in date order (labelled by date and commit, ``+`` for a dirty tree),
-    y the ratio on a log axis, so that a doubling looks the same at every level; one legend below.
-
-    Raises
-    ------
-    ValueError
-        When the history holds no ratio.
-    """
-    rows = history[history["ratio"].notna()]
-    if rows.empty:
-        raise ValueError("history_figure: the history holds no ratio")
-    runs = rows.drop_duplicates(list(RUN_COLUMNS)).sort_values("date", kind="stable").reset_index(drop=True)
-    order = {key: i for i, key in enumerate(runs[list(RUN_COLUMNS)].itertuples(index=False, name=None))}
-    rows = rows.assign(run=[order[key] for key in rows[list(RUN_COLUMNS)].itertuples(index=False, name=None)])
-    rows = rows.assign(line=_history_lines(rows))
-    figures = sorted(rows["figure"].unique())
-    cases = sorted(rows["line"].unique())
-    positions, labels = _run_ticks(runs)
-    with report_style():
-        figure = Figure(figsize=(10.0, 3.4 * len(figures) + 0.15 * len(cases) + 0.6), layout="constrained")
-        for ax, name in zip(figure.subplots(len(figures), 1, squeeze=False)[:, 0], figures, strict=True):
-            of_figure = rows[rows["figure"] == name]
-            for case, line in of_figure.groupby("line", sort=True):
-                line = line.sort_values("run")
-                ax.plot(
-                    line["run"].to_numpy(dtype=float),
-                    line["ratio"].to_numpy(dtype=float),
-                    label=case,
-                    **_case_style(cases.index(case)),
-                    markersize=3,
-                )
-            ax.set_yscale("log")
-            ax.set_title(name)
-            ax.set_xlabel("CI run (date, commit)")
-            ax.set_ylabel("ratio (same run)")
-            ax.set_xticks(positions, labels, fontsize=7)
-            ax.set_xlim(-0.5, len(runs) - 0.5)
-        legend = {}
-        for ax in figure.axes:
-            handles, names = ax.get_legend_handles_labels()
-            legend.update(zip(names, handles, strict=True))
-        figure.legend(list(legend.values()), list(legend), loc="outside lower center", ncols=3, fontsize=7)
-    return figure
 
 
 def profile_figure(solves: pd.DataFrame) -> Figure:

@@ -5,6 +5,3 @@ The commands (`reports.cli`) show them in their help, which ``harness --help`` i
 
 #: Folder inside a run directory that receives its report.
 REPORT_DIR = "report"
-
-#: Name of the history file of CI runs that ``harness report`` looks for beside a run directory.
-HISTORY_FILE = "history.csv"

@@ -13,8 +13,7 @@ from reports._agreement import agreement_counts
 from reports._claims import claims_table
 from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
-from reports._figures import coverage_figure, distribution_figure, history_figure, profile_figure, rms_figure
-from reports._history import RUN_COLUMNS, read_history
+from reports._figures import coverage_figure, distribution_figure, profile_figure, rms_figure
 from reports._layout import REPORT_DIR
 from reports._png import png_bytes
 from reports._summary import SHIFT, TIE_TOLERANCE, common_table, outcome_table, sequence_table, solve_outcomes
@@ -36,7 +35,6 @@ from reports._tables import (
     varying_settings,
     worst_shapes_table,
 )
-from reports._timing import REFERENCE
 
 _EXAMPLES = {
     "scan": "scan-like (transfer.scan_expressions: correctives where combined shapes meet, scanner noise, "
@@ -215,31 +213,7 @@ def _solver_section(run: dict, records: pd.DataFrame) -> Section:
     )
 
 
-def _history_section(path: Path) -> Section:
-    """The ratios of every CI run in the history file at ``path``, plotted over the runs."""
-    history = read_history(path)
-    if history["ratio"].notna().sum() == 0:
-        return Section("Performance history", [f"The history {path} holds no ratio yet."])
-    runs = len(history.drop_duplicates(list(RUN_COLUMNS)))
-    return Section(
-        "Performance history",
-        [
-            f"Times of the {runs} runs recorded in {path}, each as a ratio to the {REFERENCE} measured in "
-            "the same run, so that the machine's speed cancels out. `harness compare --history` flags a "
-            "ratio, of a case with too few repetitions to test, above its figure's commit-to-commit spread "
-            "there: median + max(k x 1.4826 MAD, threshold x median) over its last commits, each commit "
-            "the median of its runs (`harness compare --help` gives the defaults).",
-            Image(
-                "history",
-                png_bytes(history_figure(history)),
-                f"Ratio to the {REFERENCE} of each case's whole sequence over the runs of the history (log "
-                "scale; + after a commit: uncommitted changes).",
-            ),
-        ],
-    )
-
-
-def report_sections(run_dir: Path, *, expressions: int = 5, history: Path | None = None) -> list[Section]:
+def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
     """The sections of the report of the run in ``run_dir`` (see `build_report`)."""
     run = harness.read_run(run_dir)
     records = harness.read_records(run_dir)
@@ -332,17 +306,13 @@ def report_sections(run_dir: Path, *, expressions: int = 5, history: Path | None
         ),
         Section("Contact sheets", _contact_sheets(records, expressions) or ["No finished expressions."]),
     ]
-    if history is not None:
-        sections.insert(2, _history_section(history))
     problems = problem_table(records)
     if not problems.empty:
         sections.append(Section("Cells that did not finish", [problems]))
     return sections
 
 
-def build_report(
-    run_dir: str | os.PathLike, *, expressions: int = 5, history: str | os.PathLike | None = None
-) -> tuple[Path, Path]:
+def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[Path, Path]:
     """Write the report of a run to ``RUN_DIR/report/index.html`` and ``RUN_DIR/report/report.md``.
 
     Parameters
@@ -351,9 +321,6 @@ def build_report(
         A run directory written by ``harness run`` (``run.json``, ``records/``).
     expressions : int
         How many leading expressions each contact-sheet row shows.
-    history : path, optional
-        A history file of CI runs (`reports.append_history`): its ratios are plotted over the runs in a
-        "Performance history" section after the timings.
 
     Returns
     -------
@@ -363,14 +330,10 @@ def build_report(
     Raises
     ------
     FileNotFoundError
-        When ``run_dir`` holds no run or no records, or ``history`` does not exist.
-    reports.HistoryError
-        When ``history`` is not a history file.
+        When ``run_dir`` holds no run or no records.
     """
     run_dir = Path(run_dir)
-    sections = report_sections(
-        run_dir, expressions=expressions, history=None if history is None else Path(history)
-    )
+    sections = report_sections(run_dir, expressions=expressions)
     return write_documents(
         f"Expression packing report: {run_dir.resolve().name}", sections, run_dir / REPORT_DIR
     )

@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING
 
 import click
 
-from reports._layout import HISTORY_FILE, REPORT_DIR
+from harness import DURATION
+from reports._layout import REPORT_DIR
 
 if TYPE_CHECKING:
-    import pandas as pd
     from rich.console import Console
 
 
@@ -46,47 +46,92 @@ def show(out: Path) -> None:
     show_default=True,
     help="Leading expressions drawn per solver on the contact sheets.",
 )
-@click.option(
-    "--history",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=None,
-    show_default=f"{HISTORY_FILE} beside OUT, when there is one",
-    help="History file of CI runs (harness compare --history FILE --append) to plot in the report.",
-)
-def report(out: Path, expressions: int, history: Path | None) -> None:
+def report(out: Path, expressions: int) -> None:
     from reports._report import build_report
 
-    beside = out.parent / HISTORY_FILE
-    if history is None and beside.is_file():
-        history = beside
     try:
-        page, text = build_report(out, expressions=expressions, history=history)
+        page, text = build_report(out, expressions=expressions)
     except FileNotFoundError as error:
         raise InputError(f"{error}. Run `harness run --out {out}` first.") from None
-    except ValueError as error:  # a history file that is not one
-        raise InputError(str(error)) from None
     click.echo(f"report: {page}")
     click.echo(f"markdown: {text}")
 
 
 @click.command(
     "compare",
-    help="Compare two runs (record directories) or two pytest-benchmark JSON files, OLD then NEW. "
-    "With --history, a time of NEW with too few repetitions to test (as a ratio to the median exact solver "
-    "in the same run) is judged against its commit-to-commit spread in earlier commits, and --append "
-    "records NEW there. "
-    "Exit code 1 when a quality figure changed (or, with --fail-on-time, a time regressed), 2 on unusable "
-    "input, else 0.",
+    help="Compare two runs (record directories) or two pytest-benchmark JSON files, OLD then NEW; or, with "
+    "--commits BASE HEAD, measure two commits of the repository alternately on the same instances and judge "
+    "each case's CPU time against itself (A/B in one job, as asv continuous). "
+    "Exit code 1 when a quality figure changed, an answer failed the independent check, or (with "
+    "--fail-above) a case is confirmed slower beyond the limit; 2 on unusable input; else 0.",
 )
-@click.argument("old", type=click.Path(exists=True, path_type=Path))
-@click.argument("new", type=click.Path(exists=True, path_type=Path))
+@click.argument("old", type=click.Path(exists=True, path_type=Path), required=False)
+@click.argument("new", type=click.Path(exists=True, path_type=Path), required=False)
+@click.option(
+    "--commits",
+    nargs=2,
+    metavar="BASE HEAD",
+    default=None,
+    help="Measure these two commits (any git refs) of the repository holding the current folder, each from "
+    "a worktree of its own, instead of comparing two folders.",
+)
+@click.option(
+    "--suite",
+    default="quick",
+    show_default=True,
+    help="With --commits: the timing suite (quick, large, transfer, ci; see `harness track --help`).",
+)
+@click.option("--solvers", default=None, help="With --commits: only these solver labels (comma list).")
+@click.option(
+    "--rounds",
+    type=click.IntRange(min=1, max=100),
+    default=3,
+    show_default=True,
+    help="With --commits: rounds of fresh processes, at most (the --budget may end it sooner, after 2).",
+)
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1, max=100),
+    default=3,
+    show_default=True,
+    help="With --commits: samples per job, commit and round, the two commits' taken alternately.",
+)
+@click.option(
+    "--sample-time",
+    type=DURATION,
+    default="10ms",
+    show_default=True,
+    help="With --commits: least CPU time of one sample; a faster solve is repeated within it.",
+)
+@click.option(
+    "--budget",
+    type=DURATION,
+    default="5m",
+    show_default=True,
+    help="With --commits: no round starts that would end past this time.",
+)
+@click.option(
+    "--fail-above",
+    type=click.FloatRange(min=1, min_open=True),
+    default=None,
+    show_default="never",
+    help="With --commits: fail when a case is confirmed slower by more than this ratio (not accepted in "
+    "benchmarks/accepted-slowdowns.toml of HEAD).",
+)
+@click.option(
+    "--warn-above",
+    type=click.FloatRange(min=1),
+    default=1.25,
+    show_default=True,
+    help="With --commits: print a warning for a case confirmed slower by more than this ratio.",
+)
 @click.option(
     "--threshold",
     type=click.FloatRange(min=0),
-    default=0.25,
+    default=0.1,
     show_default=True,
-    help="A time is slower when NEW/OLD exceeds 1 + threshold; with a history, the least margin above a "
-    "figure's median, relative to it.",
+    help="A time is slower when NEW/OLD exceeds 1 + threshold and the paired test says so, the same when its "
+    "interval lies within it.",
 )
 @click.option(
     "--tolerance",
@@ -106,101 +151,62 @@ def report(out: Path, expressions: int, history: Path | None) -> None:
     type=click.FloatRange(min=0),
     default=0.01,
     show_default=True,
-    help="Seconds below which a time is timer noise: never judged slower or faster.",
+    help="Of two runs: seconds below which a case's median sequence is timer noise, left untested.",
 )
 @click.option(
     "--alpha",
     type=click.FloatRange(min=0, max=1, min_open=True, max_open=True),
     default=0.01,
     show_default=True,
-    help="Significance level of the test of a case's times (Welch's t-test over the repetitions of both "
-    "runs, on log ratios to the median exact solver, Benjamini-Hochberg adjusted over all cases of the "
-    "comparison); a time needs q < ALPHA and a change beyond --threshold to be slower or faster.",
+    help="Level of the paired test of each case's times (Benjamini-Hochberg adjusted over all cases of the "
+    "comparison) and of their intervals.",
 )
 @click.option(
     "--fail-on-time/--warn-on-time",
     default=False,
     show_default=True,
-    help="Fail on slower times too; by default they are printed as warnings (shared machines are noisy).",
+    help="Of two runs: fail on slower times too; by default they are printed as warnings.",
 )
-@click.option("--only-changes", is_flag=True, help="Leave unchanged metrics out of the table.")
-@click.option(
-    "--history",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    show_default="none",
-    help="History file of earlier runs' ratios (e.g. benchmarks/history.csv): a time of NEW with too few "
-    "repetitions to test is slower when above its figure's median + max(SPREAD x 1.4826 MAD, THRESHOLD x "
-    "median) over the last WINDOW commits, each commit one value (the median of its runs; runs from a dirty "
-    "tree are left out).",
-)
-@click.option(
-    "--append",
-    is_flag=True,
-    help="After a comparison without regressions, append NEW's ratios to the --history file (created when "
-    "missing; a run already there is not added again).",
-)
-@click.option(
-    "--window",
-    type=click.IntRange(min=1),
-    default=10,
-    show_default=True,
-    help="Latest commits of a figure in the history that give its spread.",
-)
-@click.option(
-    "--spread",
-    type=click.FloatRange(min=0),
-    default=3.0,
-    show_default=True,
-    help="Robust standard deviations (1.4826 MAD) a ratio may move from its history's median.",
-)
-@click.option(
-    "--min-runs",
-    type=click.IntRange(min=1),
-    default=5,
-    show_default=True,
-    help="Fewest commits of a figure in the history to judge it by its spread (several runs of one commit "
-    "count once); with fewer, a time with too few repetitions to test is left untested.",
-)
+@click.option("--only-changes", is_flag=True, help="Leave unchanged and untested metrics out of the table.")
 def compare(
-    old: Path,
-    new: Path,
+    old: Path | None,
+    new: Path | None,
+    commits: tuple[str, str] | None,
+    suite: str,
+    solvers: str | None,
+    rounds: int,
+    repeat: int,
+    sample_time: float,
+    budget: float,
+    fail_above: float | None,
+    warn_above: float,
     threshold: float,
     tolerance: float,
     min_time: float,
     alpha: float,
     fail_on_time: bool,
     only_changes: bool,
-    history: Path | None,
-    append: bool,
-    window: int,
-    spread: float,
-    min_runs: int,
     fresh_baseline: bool,
 ) -> None:
     from rich.console import Console
     from rich.markup import escape
 
-    from reports._compare import changed_inputs, comparison_table, run_figures
+    from reports._compare import changed_inputs, comparison_table
     from reports._compare import compare as compare_runs
 
-    if append and history is None:
-        raise click.UsageError("--append needs --history FILE.")
-    if history is not None and not append and not history.exists():
-        raise InputError(f"{history}: no such history file (--append creates it)")
+    if commits is not None:
+        if old is not None or new is not None:
+            raise click.UsageError("give either OLD NEW or --commits BASE HEAD, not both.")
+        _compare_commits(
+            commits, suite=suite, solvers=solvers, rounds=rounds, repeat=repeat, sample_time=sample_time,
+            budget=budget, alpha=alpha, threshold=threshold, fail_above=fail_above, warn_above=warn_above,
+        )  # fmt: skip
+        return
+    if old is None or new is None:
+        raise click.UsageError("give OLD and NEW (two runs or two benchmark files), or --commits BASE HEAD.")
     try:
-        figures = run_figures(new) if append else None
         comparison = compare_runs(
-            old,
-            new,
-            threshold=threshold,
-            tolerance=tolerance,
-            min_time=min_time,
-            alpha=alpha,
-            history=history if history is not None and history.exists() else None,
-            window=window,
-            spread=spread,
-            min_runs=min_runs,
+            old, new, threshold=threshold, tolerance=tolerance, min_time=min_time, alpha=alpha
         )
     except (FileNotFoundError, ValueError) as error:
         raise InputError(str(error)) from None
@@ -210,17 +216,33 @@ def compare(
         console.print(f"[yellow]inputs differ:[/] {escape(line)}")
     stale = _baseline_stale(old, console)
     regressions = comparison.regressions(fail_on_time=fail_on_time)
-    if figures is not None and not regressions:  # a run that fails its comparison is not history
-        _append(history, figures, new)
     warnings = comparison.warnings(fail_on_time=fail_on_time)
     compared = sum(change.verdict != "added" for change in comparison.changes)
-    judged = sum(change.spread is not None for change in comparison.changes)
     summary = f"{compared} metrics compared: {len(regressions)} regressions, {len(warnings)} timing warnings"
-    summary += f" ({judged} times judged by the history)" if comparison.history else ""
     if regressions or (stale and fresh_baseline):
         console.print(f"[bold red]FAIL[/] {summary}" + ("; the baseline is stale" if stale else ""))
         click.get_current_context().exit(1)
     console.print(f"[green]OK[/] {summary}")
+
+
+def _compare_commits(commits: tuple[str, str], *, suite: str, solvers: str | None, **settings) -> None:
+    """``compare --commits``: measure, judge, print, and exit 1 when the gate fails."""
+    from rich.console import Console
+
+    import harness
+    from registry import HarnessError
+    from reports._commits_compare import check_suite_solvers, report, run
+
+    console = Console(width=180)
+    try:
+        chosen = check_suite_solvers(harness.suite(suite), solvers)
+        repository = harness.repository_of(Path.cwd())
+        result = run(repository, *commits, chosen, console=console, **settings)
+    except HarnessError as error:
+        raise InputError(str(error)) from None
+    report(result, console)
+    if result.failed:
+        click.get_current_context().exit(1)
 
 
 def _baseline_stale(old: Path, console: Console) -> bool:
@@ -232,17 +254,3 @@ def _baseline_stale(old: Path, console: Console) -> bool:
     found = provenance(old)
     console.print(found.describe(), style="yellow" if found.stale else "dim", highlight=False)
     return found.stale
-
-
-def _append(history: Path, figures: pd.DataFrame, new: Path) -> None:
-    """Append a run's figures to the history file and say what was done."""
-    from reports._history import append_history
-
-    try:
-        appended = append_history(history, figures)
-    except (OSError, ValueError) as error:
-        raise InputError(str(error)) from None
-    if appended:
-        click.echo(f"history: appended {appended} figures of {new} to {history}")
-    else:
-        click.echo(f"history: {new} is already in {history}")

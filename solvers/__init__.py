@@ -32,6 +32,7 @@ if TYPE_CHECKING:
         Capabilities,
         Result,
         Solver,
+        cpu_seconds,
         package_availability,
     )
     from solvers._exact import ExactSolver
@@ -68,6 +69,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "Capabilities",
             "Result",
             "Solver",
+            "cpu_seconds",
             "package_availability",
         ],
         "_exact": ["ExactSolver"],

@@ -13,6 +13,7 @@ import functools
 import importlib.metadata
 import importlib.util
 import math
+import resource
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
@@ -180,6 +181,7 @@ def make_solution(
     version: str,
     message: str = "",
     fallback: str = "",
+    cpu_time: float | None = None,
 ) -> Solution:
     """A `Solution` with items sorted, shape names and the objective recomputed from the problem's weights.
 
@@ -206,6 +208,7 @@ def make_solution(
         termination=termination,
         build_time=float(build_time),
         solve_time=float(solve_time),
+        cpu_time=None if cpu_time is None else float(cpu_time),
         backend=backend,
         version=version,
         message=message,
@@ -218,6 +221,19 @@ def trivial_bound(problem: PackingProblem, items: np.ndarray | None = None) -> f
     the packings of those items)."""
     weights = np.asarray(problem.weights) if items is None else np.asarray(problem.weights)[items]
     return float(np.clip(weights, 0.0, None).sum())
+
+
+def cpu_seconds() -> float:
+    """CPU seconds this process has used so far: every thread, the child processes it waited for (a
+    backend run as a program), and the calls it made to worker processes (`solvers._worker`).
+
+    A solve's CPU time is the difference of two readings; unlike its wall time, it does not count the
+    moments the scheduler gave to another job.
+    """
+    from solvers._worker import worker_cpu_seconds
+
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime + worker_cpu_seconds()
 
 
 class Stopwatch:

@@ -21,7 +21,14 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from registry import raised_without_signal
-from solvers._base import Availability, Capabilities, Result, check_solve_arguments, make_solution
+from solvers._base import (
+    Availability,
+    Capabilities,
+    Result,
+    check_solve_arguments,
+    cpu_seconds,
+    make_solution,
+)
 
 if TYPE_CHECKING:
     from packing import PackingProblem, Solution
@@ -82,11 +89,11 @@ class LoadedSolver:
             ``time_limit`` or a seed out of range (before the plugin is called).
         """
         check_solve_arguments(problem, time_limit, seed)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), cpu_seconds()
         try:
             answer = self.plugin.solve(problem, time_limit=time_limit, seed=seed)
-            elapsed = time.perf_counter() - start
-            solution = _solution(problem, answer, elapsed, self.name, self.plugin)
+            elapsed, spent = time.perf_counter() - start, cpu_seconds() - cpu
+            solution = _solution(problem, answer, elapsed, spent, self.name, self.plugin)
             return _with_overrun(solution, time_limit, elapsed, self.plugin)
         except Exception as error:  # a failing plugin is reported, never raised into the run
             detail = "".join(traceback.format_exception_only(error)).strip()
@@ -120,9 +127,11 @@ def load(solver: Any) -> LoadedSolver:
     return LoadedSolver(solver() if isinstance(solver, type) else solver)
 
 
-def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, plugin: Any) -> Solution:
-    """The `Solution` of a plugin's `Result` (or of a wrapping solver's `Solution`); the plugin's reported
-    version only when the answer names none."""
+def _solution(
+    problem: PackingProblem, answer: Any, elapsed: float, spent: float, name: str, plugin: Any
+) -> Solution:
+    """The `Solution` of a plugin's `Result` (or of a wrapping solver's `Solution`, whose CPU time, measured
+    where it solved, is kept); the plugin's reported version only when the answer names none."""
     from packing import Solution, Termination
 
     if not isinstance(answer, Result | Solution):
@@ -144,6 +153,7 @@ def _solution(problem: PackingProblem, answer: Any, elapsed: float, name: str, p
         version=answer.version or _version(plugin),
         message=answer.message,
         fallback=answer.fallback,
+        cpu_time=answer.cpu_time if isinstance(answer, Solution) and answer.cpu_time is not None else spent,
     )
 
 

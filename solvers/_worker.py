@@ -11,7 +11,9 @@ framing, `pickle` payloads) and restarts it on the call after it died or was sto
 ``"module:function"`` and run in order; interpreter and library start-up are paid once per process, never
 inside a call. A worker ignores Ctrl-C and runs in a session of its own: its parent stops it (a blocking
 `Worker.call` interrupted by Ctrl-C does), and it ends with its parent even when that is killed with
-``kill -9`` (`solvers._worker_child.exit_with_parent`).
+``kill -9`` (`solvers._worker_child.exit_with_parent`). Every reply carries the CPU seconds its call took in
+the worker, summed per calling process in `worker_cpu_seconds`, so that a solve timed by its CPU counts
+the work its backend did in a worker too (`solvers.cpu_seconds`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,16 @@ import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO
+
+_cpu_lock = threading.Lock()
+_cpu_total = [0.0]
+
+
+def worker_cpu_seconds() -> float:
+    """CPU seconds the calls of this process's workers took in them, so far (replies received)."""
+    with _cpu_lock:
+        return _cpu_total[0]
+
 
 #: Seconds a worker may take to exit once its connection is closed, before it is killed.
 STOP_GRACE = 5.0
@@ -140,10 +152,12 @@ class Worker:
         if self._connection is None or not self._pending:
             raise WorkerError(f"{self.label} worker: no call is waiting for a reply")
         try:
-            succeeded, value = pickle.loads(self._connection.recv_bytes())
+            succeeded, value, cpu = pickle.loads(self._connection.recv_bytes())
         except (EOFError, OSError):
             raise self._died() from None
         self._pending -= 1
+        with _cpu_lock:
+            _cpu_total[0] += float(cpu)
         if not succeeded:
             raise WorkerError(f"{self.label} worker: {value}")
         return value

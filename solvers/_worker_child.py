@@ -1,10 +1,11 @@
 """The worker process's side of `solvers._worker`: ``python -m solvers._worker_child FD PARENT``.
 
 It reads pickled ``(function, args)`` calls from the connected socket FD, runs ``function(*args)``
-(named ``"module:function"``) and answers each with ``(True, result)``, or ``(False, traceback)`` when the
-call cannot be read, the function raised, or its result cannot be pickled. A closed connection ends it,
-and so does the end of the process PARENT, however that ends (`exit_with_parent`). Ctrl-C is ignored: the
-parent stops its workers itself.
+(named ``"module:function"``) and answers each with ``(True, result, cpu)``, or ``(False, traceback, cpu)``
+when the call cannot be read, the function raised, or its result cannot be pickled; ``cpu`` is the CPU
+seconds the call took in this process (every thread) and in the child processes it waited for. A closed
+connection ends it, and so does the end of the process PARENT, however that ends (`exit_with_parent`).
+Ctrl-C is ignored: the parent stops its workers itself.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import importlib
 import multiprocessing.connection
 import os
 import pickle
+import resource
 import signal
 import sys
 import threading
@@ -56,13 +58,20 @@ def _resolve(function: str) -> Callable[..., object]:
     return getattr(importlib.import_module(module), name)
 
 
+def _cpu() -> float:
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
 def _answer(request: bytes) -> bytes:
     """The pickled reply to one pickled call."""
+    start = _cpu()
     try:
         function, args = pickle.loads(request)
-        return pickle.dumps((True, _resolve(function)(*args)), protocol=pickle.HIGHEST_PROTOCOL)
+        result = _resolve(function)(*args)
+        return pickle.dumps((True, result, _cpu() - start), protocol=pickle.HIGHEST_PROTOCOL)
     except BaseException:  # report everything; the parent decides
-        return pickle.dumps((False, traceback.format_exc()))
+        return pickle.dumps((False, traceback.format_exc(), _cpu() - start))
 
 
 def serve(connection: multiprocessing.connection.Connection) -> None:

@@ -1,6 +1,7 @@
 """Bad inputs to the `harness` command line, each run as a user would run it (a subprocess, a 60 s limit):
 malformed OBJ, glTF and ``.target`` rigs, hostile manifests, regions and constraints files, option values
-out of their domain, and run folders, records and histories that are not what they claim to be.
+out of their domain, run folders and records that are not what they claim to be, and commits or stores
+that cannot be measured.
 
 Every case must end *clear*: a non-zero exit (not 70, the code of a program fault), no traceback, and one
 line on stderr naming the file or option at fault. `outcome` tells the other endings apart: ``traceback``,
@@ -586,20 +587,18 @@ case("compare/run-with-benchmark-json")(
 case("compare/benchmark-json-list")(
     lambda place: (["compare", place.write("a.json", "[]"), place.write("b.json", "[]")], "a.json")
 )
-case("compare/history-garbage")(
-    lambda place: (
-        [
-            "compare",
-            place.run("a"),
-            place.run("b"),
-            "--history",
-            place.write("history.csv", "\x00\x01garbage\n"),
-        ],
-        "history.csv",
-    )
+case("compare/commits-outside-a-repository")(
+    lambda place: (["compare", "--commits", "HEAD~1", "HEAD"], "not inside a git repository")
 )
-case("compare/history-is-a-folder")(
-    lambda place: (["compare", place.run("a"), place.run("b"), "--history", place.folder], "--history")
+case("compare/commits-and-folders")(
+    lambda place: (["compare", place.run("a"), place.run("b"), "--commits", "HEAD", "HEAD"], "not both")
+)
+case("compare/commits-unknown-suite")(
+    lambda place: (["compare", "--commits", "HEAD", "HEAD", "--suite", "nosuch"], "nosuch")
+)
+case("track/steps-outside-a-repository")(lambda place: (["track", "steps"], "not inside a git repository"))
+case("track/store-of-an-unknown-file-system")(
+    lambda place: (["track", "steps", "--store", "nosuchfs://bucket/track"], "nosuchfs")
 )
 
 # -- rigs info / convert -----------------------------------------------------------------------------------

@@ -106,6 +106,7 @@ def _expression(**changes: object) -> Expression:
         termination=Termination.COMPLETED,
         build_time=0.25,
         solve_time=0.5,
+        cpu_time=0.75,
         backend="greedy",
         version="1.0",
         message="",
@@ -279,6 +280,7 @@ def test_an_expression_record_holds_plain_values() -> None:
         "status": "feasible",
         "build_time": 0.25,
         "solve_time": 0.5,
+        "cpu_time": 0.75,
         "message": "",
         "fallback": "",
     }

@@ -1,8 +1,10 @@
 """Solver plugins that misbehave on demand, for the end-to-end `harness compare` test.
 
 Both run Algorithm 2 (`solvers.greedy.GreedySolver`). With ``PROBE_SOLVERS=degraded`` in the environment
-(which the harness's worker processes inherit) ``probe-slow`` sleeps before answering and ``probe-worse``
-drops the last item of every answer that has more than one; otherwise both answer exactly as greedy.
+(which the harness's worker processes inherit) ``probe-slow`` spends ``SPIN`` seconds of CPU before
+answering (a few hundred times its solve: far beyond any machine's noise, and work that CPU time counts,
+unlike a sleep) and ``probe-worse`` drops the last item of every answer that has more than one; otherwise
+both answer exactly as greedy.
 ``probe-highs`` solves each problem with HiGHS twice, four times with ``PROBE_SOLVERS=doubled``: twice a real
 solver's work, which the state of a run (caches, clock, neighbours) slows as it slows the exact solvers
 the times are divided by, unlike a sleep or a spin loop (measured: a spin loop's ratio to them moved 1.46x
@@ -24,7 +26,8 @@ from solvers.highs import HighsSolver
 
 #: Environment variable that switches the probes from plain to degraded.
 MODE = "PROBE_SOLVERS"
-SLEEP = 0.05
+#: CPU seconds a degraded ``probe-slow`` spends per solve.
+SPIN = 0.05
 
 
 def _degraded() -> bool:
@@ -32,14 +35,16 @@ def _degraded() -> bool:
 
 
 class SlowedGreedy(GreedySolver):
-    """Greedy that sleeps ``SLEEP`` seconds per solve when degraded (and reports it as solve time)."""
+    """Greedy that spends ``SPIN`` CPU seconds per solve when degraded (and reports them as solve time)."""
 
     name: ClassVar[str] = "probe-slow"
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Solution:
         started = time.perf_counter()
         if _degraded():
-            time.sleep(SLEEP)
+            end = time.process_time() + SPIN
+            while time.process_time() < end:
+                pass
         solution = super().solve(problem, time_limit=time_limit, seed=seed)
         return dataclasses.replace(solution, solve_time=time.perf_counter() - started - solution.build_time)
 

@@ -15,7 +15,7 @@ from harness.cli import cli
 from reports import compare
 from tests.plugin_distribution import registered_module
 
-SEQUENCE = "sequence / median exact solver"
+SEQUENCE = "sequence (s)"
 
 _ENTRY_POINTS = """[harness.solvers]
 probe-slow = probe_solvers:SlowedGreedy
@@ -86,9 +86,9 @@ def _timings(comparison) -> dict[str, object]:
 def test_runs_of_the_same_code_give_no_timing_verdict_and_a_doubled_solve_is_flagged_10_of_10(
     benchmark, probe_plugins, tmp_path, monkeypatch
 ):
-    """The A/A and the injected slow-down test: 11 plain runs, 10 whose probe solves twice, 12 repetitions
-    each (at the noise of a shared 2-core machine, 8 find a 2x slow-down in only about 70 % of
-    comparisons once the tests of a comparison are judged as one family).
+    """The A/A and the injected slow-down test of two runs: 11 plain runs, 10 whose probe solves twice, 12
+    repetitions each, every solver's CPU time paired expression by expression with its own in the other
+    run.
 
     An acceptance test of the verdicts on the machine at hand (21 runs, about 5 minutes), so it runs in a
     benchmark run (``--benchmark-enable``), as the speed targets do: on a machine shared with other work
@@ -102,10 +102,12 @@ def test_runs_of_the_same_code_give_no_timing_verdict_and_a_doubled_solve_is_fla
     doubled = [
         _run(tmp_path / f"doubled{i}", "arkit52", "doubled", monkeypatch, solvers, 12) for i in range(10)
     ]
-    same = [_timings(compare(a, b)) for a, b in zip(plain, plain[1:], strict=False)]
-    slowed = [_timings(compare(a, b))["probe-highs"] for a, b in zip(plain, doubled, strict=False)]
-    assert all(change.verdict == "same" for changes in same for change in changes.values()), same
-    assert all(change.metric == SEQUENCE and "p=" in change.where for change in slowed), slowed
-    assert all("12+12 repetitions" in change.where for change in slowed), slowed
+    same = [_timings(compare(a, b, min_time=0.0)) for a, b in zip(plain, plain[1:], strict=False)]
+    slowed = [
+        _timings(compare(a, b, min_time=0.0))["probe-highs"] for a, b in zip(plain, doubled, strict=False)
+    ]
+    verdicts = [change.verdict for changes in same for change in changes.values()]
+    assert not {"slower", "faster"} & set(verdicts), same
+    assert all(change.metric == SEQUENCE and "q=" in change.where for change in slowed), slowed
     assert [change.verdict for change in slowed] == ["slower"] * 10, [(c.ratio, c.where) for c in slowed]
-    assert all(1.3 < change.ratio < 3.5 for change in slowed), slowed  # the reference is noisy too
+    assert all(1.5 < change.ratio < 2.5 for change in slowed), slowed
