@@ -5,11 +5,12 @@ tools) on the same problems, one reference sequence (Algorithm 1, one exact solv
 subproblems is written as the model the exact backends solve (DESIGN.md, "Common instances"). ``DIR`` holds:
 
 ``PREFIX-eXX.mps``
-    Expression XX's presolved model (eq. 3 after presolve, sec. 6): ``maximise sum_i w_i x_i`` over binary
-    x, one row ``sum_{i in C} x_i <= 1`` (``cR``) per maximal conflict set C (apart pairs among them) and
-    the cap row (``cap``) when a cap can bind, written by HiGHS from `solvers.CliqueModel`
-    (`solvers.write_mps`: ``OBJSENSE MAX``, not a negated objective; coefficients with 15 significant
-    digits). The weights are
+    Expression XX's presolved model (eq. 3 after presolve, sec. 6), written as the minimisation of
+    ``-sum_i w_i x_i`` over binary x (every MPS reader minimises by default; PuLP's CBC ignores an
+    ``OBJSENSE MAX`` section), one row ``sum_{i in C} x_i <= 1`` (``cR``) per maximal conflict set C (apart
+    pairs among them) and the cap row (``cap``) when a cap can bind, written by HiGHS from
+    `solvers.CliqueModel` (`solvers.write_mps`: free MPS, coefficients with 15 significant digits). The
+    weights are
     the problem's: the importance of eq. 4 plus the exact backends' tie-break (at most 1e-5 per item). This
     is the whole subproblem of the expression, before the exact reductions (`solvers._reduce`) a backend
     applies to it, so its optimum is the expression's.
@@ -18,7 +19,7 @@ subproblems is written as the model the exact backends solve (DESIGN.md, "Common
     optimality, ``=best= NAME VALUE`` when it stopped at its time limit (or is a heuristic), ``=inf=  NAME``
     for an infeasible one and ``=unkn= NAME`` when it found nothing (an error). VALUE is the objective of
     the MPS file as written (its coefficients as read back) at the reference packing, 17 significant digits,
-    in the file's own (maximisation) sense.
+    in the file's own (minimisation) sense: minus the packing's importance sum.
 ``instances.json``
     ``{"format": "harness-instances", "version": 1, "solver": str, "sequences": [...], "instances": [...]}``;
     each sequence is `harness._instances_source.Sequence.describe` plus ``expressions`` (how many); each

@@ -27,8 +27,20 @@ if TYPE_CHECKING:
 
 #: Characters kept in a file-name prefix; anything else becomes ``_``.
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
-#: The packing settings that tell the sequences of one run apart (`harness._grid.CellSpec` fields).
-SETTING_FIELDS = ("mu", "alpha", "beta", "symmetry", "importance", "cap")
+#: The `harness._grid.CellSpec` fields that decide a reference sequence, which tell the sequences of one run
+#: apart: the rig (its content and generator seed), the warp, every packing parameter, the sequence's length
+#: and its solves' time limit.
+SEQUENCE_FIELDS = (
+    "rig", "rig_seed", "rig_digest", "warp", "mu", "alpha", "beta", "symmetry", "importance", "cap",
+    "distortion", "together", "apart", "regions", "jmax", "time_limit",
+)  # fmt: skip
+#: The fields that do not: the cell's solver and its settings and seed (the reference sequence is the exact
+#: reference solver's, whose tie-broken optimum no seed changes), its repetition, its transfers and their
+#: training examples, whether it replays a reference, and the order its items are given in.
+OTHER_FIELDS = (
+    "solver", "solver_settings", "seed", "repetition", "transfers", "j_values", "examples", "scan_seed",
+    "mode", "permutation",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -53,8 +65,11 @@ class Sequence:
     time_limit : float or None
         Seconds per solve.
     seed : int
+        The reference solver's seed.
     inputs : tuple of Path
         The files and folders the rig argument reads, which the output folder must stay apart from.
+    rig_seed : int
+        The generator seed of a preset rig (and its actor).
     """
 
     prefix: str
@@ -67,9 +82,11 @@ class Sequence:
     time_limit: float | None
     seed: int
     inputs: tuple[Path, ...] = field(default=())
+    rig_seed: int = 0
 
     def describe(self) -> dict[str, Any]:
-        """JSON-ready description (``instances.json``): rig, warp, the parameters, jmax, time limit, seed."""
+        """JSON-ready description (``instances.json``): rig and its generator seed, warp, the parameters,
+        jmax, time limit, seed."""
         params = {
             key: (
                 {name: len(indices) for name, indices in value.items()}
@@ -81,6 +98,7 @@ class Sequence:
         return {
             "prefix": self.prefix,
             "rig": self.rig_argument,
+            "rig_seed": self.rig_seed,
             "warp": self.warp,
             "params": _plain(params),
             "jmax": self.jmax,
@@ -128,6 +146,7 @@ def from_rig(
         time_limit=time_limit,
         seed=seed,
         inputs=tuple(input_paths(argument)),
+        rig_seed=seed,
     )
 
 
@@ -156,7 +175,7 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
     chosen: dict[tuple[Any, ...], CellSpec] = {}
     for spec in config.cells(info.get("rig_digests") or {}):
         if rig is None or spec.rig == rig:
-            chosen.setdefault((spec.rig, spec.warp, *(getattr(spec, name) for name in SETTING_FIELDS)), spec)
+            chosen.setdefault(tuple(repr(getattr(spec, name)) for name in SEQUENCE_FIELDS), spec)
     specs = list(chosen.values())
     sequences = []
     for spec in specs:
@@ -176,14 +195,15 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
                 time_limit=spec.time_limit if time_limit is None else time_limit,
                 seed=spec.seed,
                 inputs=tuple(input_paths(spec.rig)),
+                rig_seed=spec.rig_seed,
             )
         )
     return sequences
 
 
 def _run_prefix(spec: CellSpec, specs: list[CellSpec]) -> str:
-    """``rig``, with ``-warp`` when the run has several warps of the rig, and ``-sN`` (the setting's
-    place among the rig's and warp's settings) when it has several settings."""
+    """``rig``, with ``-warp`` when the run has several warps of the rig, and ``-sN`` (the sequence's
+    place among the rig's and warp's, by seed and setting) when it has several."""
     prefix = rig_prefix(spec.rig)
     same_rig = [other for other in specs if other.rig == spec.rig]
     if len({other.warp for other in same_rig}) > 1:

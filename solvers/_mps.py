@@ -2,10 +2,13 @@
 
 `write_mps` hands a `CliqueModel` (what every exact backend builds: ``max w.x`` over the clique rows and the
 cap row, x binary) to HiGHS as arrays and lets HiGHS's own MPS writer write it, so the file is exactly the
-model the backends solve, in a format every MIP solver reads. HiGHS writes the objective sense as an
-``OBJSENSE MAX`` section (the objective is *not* negated) and the coefficients with 15 significant digits;
-`write_mps` reads the file back with HiGHS's parser and returns the objective coefficients as written, so
-that a value reported for the file (`solu_line`) is the objective of the file, not of the unrounded model.
+model the backends solve. The file *minimises the negated objective* ``-w.x``: MPS has no standard way to
+say "maximise" (the ``OBJSENSE`` section is an extension, and CBC 2.10, the CBC that PuLP bundles, ignores it
+and minimises ``w.x``, answering 0), while every reader minimises by default. It is **free MPS**: column
+names are the items' labels, up to 255 characters (``eyeBlink_L+eyeBlink_R``), which a fixed-format reader
+would cut at 8; a comment at its top says both. HiGHS writes the coefficients with 15 significant digits;
+`write_mps` reads the file back with HiGHS's parser and returns them as written, so that a value reported for
+the file (`solu_line`) is the objective of the file, not of the unrounded model.
 """
 
 from __future__ import annotations
@@ -26,6 +29,11 @@ from solvers._model import CliqueModel
 _SAFE_NAME = re.compile(r"[A-Za-z0-9_.][A-Za-z0-9_.+\-\[\]()<>=:@#/|]{0,254}")
 #: Name of the cap row (sec. 6); clique rows are ``c1``, ``c2``, ...
 CAP_ROW = "cap"
+#: The comment lines a file starts with (module notes).
+HEADER = (
+    "* Free MPS (names up to 255 characters; read it as free format).\n"
+    "* Minimises the negated importance sum of eq. 3a: the packing's value is minus the objective.\n"
+)
 #: Largest relative difference between a written coefficient and the model's (HiGHS writes 15 digits).
 WRITE_TOLERANCE = 1e-14
 
@@ -45,8 +53,8 @@ class MpsFile:
     rows : tuple of str
         The row names: ``c1`` ... ``cR`` for the clique rows, then `CAP_ROW` when the model has a cap.
     costs : (I,) float array
-        The objective coefficients as read back from ``text`` (the model's weights to 15 significant
-        digits): the objective of the file is ``costs @ x``.
+        The objective coefficients as read back from ``text`` (the model's negated weights to 15 significant
+        digits): the objective of the file, minimised, is ``costs @ x``.
     """
 
     text: str
@@ -55,7 +63,8 @@ class MpsFile:
     costs: np.ndarray
 
     def objective(self, items: Sequence[int]) -> float:
-        """The file's objective at the packing ``items`` (model indices): ``sum(costs[items])``."""
+        """The file's (minimised) objective at the packing ``items`` (model indices): ``sum(costs[items])``,
+        the negated importance sum."""
         return float(np.sum(self.costs[np.asarray(items, dtype=np.int64)], dtype=np.float64))
 
 
@@ -68,7 +77,8 @@ def column_names(labels: Sequence[str]) -> tuple[str, ...]:
 
 
 def write_mps(model: CliqueModel, *, name: str, columns: Sequence[str] | None = None) -> MpsFile:
-    """The MPS text of ``max w.x  s.t.  matrix() @ x <= upper(),  x binary`` (eq. 3 after presolve, sec. 6).
+    """The MPS text of ``min -w.x  s.t.  matrix() @ x <= upper(),  x binary``: eq. 3 after presolve (sec. 6),
+    its maximisation written as the minimisation of the negated objective.
 
     Parameters
     ----------
@@ -92,9 +102,8 @@ def write_mps(model: CliqueModel, *, name: str, columns: Sequence[str] | None = 
 
     Notes
     -----
-    The objective sense is written as ``OBJSENSE`` / ``MAX`` (free MPS as HiGHS, SCIP, CPLEX and Gurobi
-    read it); the objective is not negated. Variables are integer columns (``MARKER INTORG``) with
-    ``BV`` bounds.
+    No ``OBJSENSE`` section: the default sense, minimisation, of the negated weights (module notes).
+    Variables are integer columns (``MARKER INTORG``) with ``BV`` bounds. Free MPS (module notes).
     """
     import highspy
 
@@ -107,8 +116,8 @@ def write_mps(model: CliqueModel, *, name: str, columns: Sequence[str] | None = 
     matrix, upper = model.matrix(), model.upper()
     rows = tuple(f"c{r + 1}" for r in range(model.n_rows)) + ((CAP_ROW,) if model.cap is not None else ())
     lp = highs_lp(
-        highspy, matrix, np.full(matrix.shape[0], -np.inf), upper, model.weights,
-        np.zeros(n_items), np.ones(n_items), maximise=True,
+        highspy, matrix, np.full(matrix.shape[0], -np.inf), upper, -model.weights,
+        np.zeros(n_items), np.ones(n_items), maximise=False,
     )  # fmt: skip
     lp.col_names_, lp.row_names_, lp.model_name_ = list(columns), list(rows), name
     with tempfile.TemporaryDirectory(prefix="harness-mps-") as folder:
@@ -116,7 +125,7 @@ def write_mps(model: CliqueModel, *, name: str, columns: Sequence[str] | None = 
         highs = _silent(highspy)
         _ok(highspy, highs.passModel(lp), "passModel")
         _ok(highspy, highs.writeModel(str(path)), "writeModel")
-        text = path.read_text(encoding="ascii")
+        text = HEADER + path.read_text(encoding="ascii")  # comment lines: readers skip them
         back = _silent(highspy)
         _ok(highspy, back.readModel(str(path)), "readModel")
         read = back.getLp()
@@ -129,8 +138,8 @@ def solu_line(status: SoluStatus, name: str, value: float | None = None) -> str:
     """One line of a MIPLIB ``.solu`` file: ``=opt=  NAME  VALUE`` (proved optimal), ``=best= NAME VALUE``
     (best known), ``=inf=  NAME`` (infeasible) or ``=unkn= NAME`` (nothing known).
 
-    ``VALUE`` is in the file's own objective sense (here the maximised eq. 3a as written), printed with
-    17 significant digits (``repr`` of the double) so that it reads back as the same float.
+    ``VALUE`` is in the file's own objective sense (here the minimised negation of eq. 3a, as written),
+    printed with 17 significant digits (``repr`` of the double) so that it reads back as the same float.
     """
     if status in ("opt", "best"):
         if value is None or not np.isfinite(value):
@@ -156,7 +165,7 @@ def _ok(highspy, status, call: str) -> None:
 
 def _check_same(model, matrix, upper, columns, read, costs, highspy) -> None:
     """The model HiGHS read back from the file is ``model``: same rows, bounds, names and integrality,
-    the objective coefficients to `WRITE_TOLERANCE`, maximised."""
+    the negated objective coefficients to `WRITE_TOLERANCE`, minimised."""
     import scipy.sparse as sp
 
     a = read.a_matrix_
@@ -165,8 +174,8 @@ def _check_same(model, matrix, upper, columns, read, costs, highspy) -> None:
     else:
         back = sp.csc_matrix((a.value_, a.index_, a.start_), shape=(read.num_row_, read.num_col_))
     problems = []
-    if read.sense_ != highspy.ObjSense.kMaximize:
-        problems.append("the objective sense is not MAX")
+    if read.sense_ != highspy.ObjSense.kMinimize:
+        problems.append("the objective sense is not MIN")
     if back.shape != matrix.shape or (back != matrix).nnz:
         problems.append("the rows differ")
     if not np.array_equal(np.asarray(read.row_upper_), upper):
@@ -181,7 +190,7 @@ def _check_same(model, matrix, upper, columns, read, costs, highspy) -> None:
     if any(kind != highspy.HighsVarType.kInteger for kind in read.integrality_):
         problems.append("a column is not integer")
     scale = np.maximum(np.abs(model.weights), 1.0)
-    if costs.shape != model.weights.shape or np.any(np.abs(costs - model.weights) > WRITE_TOLERANCE * scale):
+    if costs.shape != model.weights.shape or np.any(np.abs(costs + model.weights) > WRITE_TOLERANCE * scale):
         problems.append("the objective coefficients differ beyond the written precision")
     if problems:
         raise ValueError(f"write_mps: the MPS file does not read back as the model: {'; '.join(problems)}")

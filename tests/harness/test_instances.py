@@ -95,8 +95,8 @@ def test_every_instance_solves_to_its_solu_value(registered, tmp_path: Path, rig
         status, value = solu[entry["name"]]
         assert status == "opt" and entry["status"] == "opt" and value == entry["value"]
         optimum, sense = solve_file(out / entry["file"])
-        assert sense == highspy.ObjSense.kMaximize
-        assert optimum > 0  # a minimisation of positive weights would answer 0
+        assert sense == highspy.ObjSense.kMinimize and "OBJSENSE" not in (out / entry["file"]).read_text()
+        assert optimum < 0  # the negated importance: a sense ignored would answer 0
         assert optimum == pytest.approx(value, rel=1e-9, abs=0)
         shapes = [name for names in entry["columns"].values() for name in names]
         assert len(shapes) == len(set(shapes)) and set(entry["chosen"]) <= set(entry["columns"])
@@ -122,7 +122,7 @@ def test_the_files_are_the_models_the_exact_backends_solve(registered, tmp_path:
     highs.setOptionValue("output_flag", False)
     highs.readModel(str(out / "tiny-e02.mps"))
     lp = highs.getLp()
-    np.testing.assert_allclose(lp.col_cost_, model.weights, rtol=1e-14)
+    np.testing.assert_allclose(lp.col_cost_, -model.weights, rtol=1e-14)  # minimised, negated
     assert list(lp.col_names_) == [second.item_label(i) for i in range(second.n_items)]
     assert list(lp.row_upper_) == list(model.upper())
 
@@ -232,15 +232,100 @@ def test_solu_lines() -> None:
         solvers.solu_line("opt", "a", None)
 
 
-def test_scip_reads_the_files_as_a_maximisation_of_the_solu_value(registered, tmp_path: Path) -> None:
-    """SCIP's own MPS reader (through pyscipopt) finds the .solu optimum, maximising."""
+def _cbc_programs() -> list[tuple[str, str]]:
+    """(which, path) of the CBC programs here: PuLP's bundled CBC 2.10.3 and cbcbox's."""
+    import pulp
+
+    found = [("pulp's", pulp.PULP_CBC_CMD().path)]
+    try:
+        import cbcbox
+    except ImportError:
+        return found
+    return [*found, ("cbcbox's", cbcbox.cbc_bin_path())]
+
+
+def _answers(path: Path) -> dict[str, float]:
+    """The optimum every MIP reader here finds for one MPS file, by reader."""
+    import os
+    import subprocess
+    import sys
+
+    from ortools.linear_solver.python import model_builder
+
+    found = {}
+    model = model_builder.Model()
+    model.import_from_mps_file(str(path))
+    for backend in ("sat", "scip", "highs"):
+        solver = model_builder.Solver(backend)
+        if solver.solver_is_supported():
+            assert solver.solve(model) == model_builder.SolveStatus.OPTIMAL
+            found[f"ortools {backend}"] = solver.objective_value
     pyscipopt = pytest.importorskip("pyscipopt")
+    scip = pyscipopt.Model()
+    scip.hideOutput()
+    scip.readProblem(str(path))
+    scip.optimize()
+    assert scip.getObjectiveSense() == "minimize" and scip.getStatus() == "optimal"
+    found["pyscipopt"] = scip.getObjVal()
+    found["highspy"] = solve_file(path)[0]
+    mip = (
+        "import mip, sys; m = mip.Model(solver_name=mip.CBC); m.verbose = 0; m.read(sys.argv[1]); "
+        "assert m.optimize() == mip.OptimizationStatus.OPTIMAL; print(repr(m.objective_value))"
+    )  # python-mip's CBC does not share a process with OR-Tools
+    done = subprocess.run(
+        [sys.executable, "-c", mip, str(path)], capture_output=True, text=True, env=os.environ
+    )
+    if "No module named 'mip'" not in done.stderr:
+        assert done.returncode == 0, done.stderr
+        found["python-mip"] = float(done.stdout.strip().splitlines()[-1])
+    for which, program in _cbc_programs():
+        printed = subprocess.run(
+            [program, str(path), "-solve", "-quit"], capture_output=True, text=True
+        ).stdout
+        (line,) = [line for line in printed.splitlines() if line.startswith("Objective value:")]
+        assert "Optimal solution found" in printed, printed
+        found[f"{which} cbc"] = float(line.split(":")[1])
+    return found
+
+
+def test_every_mip_reader_here_finds_the_solu_value(registered, tmp_path: Path) -> None:
+    """Each reader, PuLP's CBC 2.10.3 of the base install included (it ignores OBJSENSE), minimises the
+    negated importance and reaches the .solu value (CBC's program prints 8 significant digits)."""
     out = tmp_path / "instances"
-    assert export("tiny", "--out", out).exit_code == 0
+    assert export("arkit52", "--jmax", "3", "--out", out).exit_code == 0
     for name, (_, value) in read_solu(out).items():
-        model = pyscipopt.Model()
-        model.hideOutput()
-        model.readProblem(str(out / f"{name}.mps"))
-        model.optimize()
-        assert model.getObjectiveSense() == "maximize" and model.getStatus() == "optimal"
-        assert model.getObjVal() == pytest.approx(value, rel=1e-9, abs=0)
+        assert (out / f"{name}.mps").read_text().startswith("* Free MPS")
+        answers = _answers(out / f"{name}.mps")
+        assert {"pyscipopt", "highspy", "pulp's cbc"} <= set(answers)
+        for reader, optimum in answers.items():
+            tolerance = 1e-7 if reader.endswith("cbc") else 1e-9
+            assert optimum == pytest.approx(value, rel=tolerance, abs=0), (name, reader)
+
+
+def test_every_cell_field_either_decides_a_sequence_or_is_said_not_to() -> None:
+    """A new grid axis must be classified: part of a sequence's identity, or not (a test that fails until
+    it is, so that no export keeps one sequence of several without a word)."""
+    from harness._grid import CellSpec
+    from harness._instances_source import OTHER_FIELDS, SEQUENCE_FIELDS
+
+    names = {field.name for field in dataclasses.fields(CellSpec)}
+    assert not set(SEQUENCE_FIELDS) & set(OTHER_FIELDS)
+    assert names == set(SEQUENCE_FIELDS) | set(OTHER_FIELDS)
+
+
+def test_a_run_of_seeds_and_distortions_exports_every_sequence(registered, tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    config = RunConfig(
+        rigs=("tiny",), warps=("big-eyes",), solvers=("greedy",), transfers=(), seed=(0, 1, 2),
+        distortion=("paper", "excess"),
+    )  # fmt: skip
+    (run / "run.json").write_text(json.dumps({"config": config.to_dict(), "rig_digests": {}}))
+    out = tmp_path / "instances"
+    result = export(run, "--out", out)
+    assert result.exit_code == 0, result.output
+    sequences = json.loads((out / "instances.json").read_text())["sequences"]
+    assert len(sequences) == 6 and len({s["prefix"] for s in sequences}) == 6
+    assert {(s["rig_seed"], s["params"]["distortion"]) for s in sequences} == {
+        (seed, distortion) for seed in (0, 1, 2) for distortion in ("paper", "excess")
+    }
