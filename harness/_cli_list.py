@@ -51,12 +51,16 @@ def list_command(as_json: bool) -> None:
 def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Table:
     """One row per plugin: name, available, version, description, and its true capabilities or, when it
     cannot run, the reason."""
+    from rich import box
     from rich.markup import escape
     from rich.table import Table
 
-    table = Table(title=kind)
-    for column in ("name", "available", "version", "description", "capabilities / reason"):
-        table.add_column(column)
+    table = Table(title=kind, title_justify="left", box=box.SIMPLE_HEAD)  # text folds, nothing is cut
+    table.add_column("name", no_wrap=True)
+    table.add_column("available", no_wrap=True)
+    table.add_column("version", overflow="fold")
+    table.add_column("description", overflow="fold", ratio=3)
+    table.add_column("capabilities / reason", overflow="fold", ratio=2)
     for item in items:
         flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
         detail = flags if item["available"] else f"[yellow]{escape(item['reason'])}[/]"

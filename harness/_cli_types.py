@@ -182,10 +182,21 @@ DURATION = Duration()
 SWITCH = Switch()
 
 
+#: Width of what commands print to a pipe or a file when ``COLUMNS`` does not say: wide enough that no
+#: table is cut (a table is as wide as its content), the text plain.
+PIPED_WIDTH = 1000
+
+
 def terminal(*, stderr: bool = False) -> Console:
     """The console commands print to (made per use, so its width follows ``COLUMNS``); stderr for errors.
+    Printed to a pipe or a file, without ``COLUMNS``, it is `PIPED_WIDTH` wide: plain text, nothing cut.
 
     rich is imported here, not with the module, so that commands that print nothing start faster."""
+    import os
+    import sys
+
     from rich.console import Console
 
-    return Console(highlight=False, stderr=stderr, soft_wrap=stderr)
+    stream = sys.stderr if stderr else sys.stdout
+    piped = not (hasattr(stream, "isatty") and stream.isatty()) and "COLUMNS" not in os.environ
+    return Console(highlight=False, stderr=stderr, soft_wrap=stderr, width=PIPED_WIDTH if piped else None)

@@ -94,14 +94,15 @@ def listing(info: PluginInfo) -> dict[str, Any]:
 
 
 def describe(plugin: object) -> str:
-    """What a plugin is, in one line: its class's ``description`` attribute, else the first line of its
-    class's own docstring (not one inherited from a base class), else an empty string."""
+    """What a plugin is, in one line: its class's ``description`` attribute, else the first paragraph of
+    its class's own docstring (not one inherited from a base class) joined into one line, else an empty
+    string."""
     cls = plugin if isinstance(plugin, type) else type(plugin)
     text = getattr(cls, "description", None)
     if not isinstance(text, str) or not text.strip():
         text = cls.__dict__.get("__doc__") or ""
-    lines = text.strip().splitlines()
-    return " ".join(lines[0].split()) if lines else ""
+    paragraph = text.strip().split("\n\n")[0]
+    return " ".join(paragraph.split())
 
 
 def _overlap_clause(max_overlap: float) -> str:

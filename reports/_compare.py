@@ -169,35 +169,47 @@ def _case_keys(frame: pd.DataFrame) -> list[tuple]:
 def _run_metrics(records: pd.DataFrame) -> list[Metric]:
     """Metrics of a run keyed by case tuples.
 
-    Quality comes from the first repetition (repetitions only differ in time); times are the median
-    sequence over repetitions, with every sample behind it (`_time_metrics`).
+    Quality comes from every repetition (each repeats its cells with its own solver and scan seeds, the
+    same in both runs): a repetition after the first names its metrics ``..., repetition R``. Times are
+    the median sequence over repetitions, with every sample behind it (`_time_metrics`).
     """
     cells = records[records["kind"] == "cell"].sort_values("repetition")
     metrics = [
         Metric(case, "cell status per repetition", "quality", tuple(rows["status"].astype(str)))
         for case, rows in zip(*_grouped(cells), strict=True)
     ]
-    first_repetition = records[records["repetition"] == records["repetition"].min()]
-    ok = first_repetition[(first_repetition["kind"] == "cell") & (first_repetition["status"] == "ok")]
+    first = records["repetition"].min()
+    for repetition, of_repetition in records.groupby("repetition", sort=True):
+        metrics += _quality_metrics(
+            of_repetition, "" if repetition == first else f", repetition {repetition}"
+        )
+    return metrics + _time_metrics(records)
+
+
+def _quality_metrics(records: pd.DataFrame, suffix: str) -> list[Metric]:
+    """The quality metrics of one repetition's records (names ending in ``suffix``)."""
+    metrics = []
+    ok = records[(records["kind"] == "cell") & (records["status"] == "ok")]
     for case, (_, cell) in zip(_case_keys(ok), ok.iterrows(), strict=True):
-        metrics.append(Metric(case, "expressions", "quality", float(cell["n_expressions"])))
+        metrics.append(Metric(case, f"expressions{suffix}", "quality", float(cell["n_expressions"])))
         if pd.notna(cell.get("min_expressions")):
-            metrics.append(Metric(case, "minimum expressions", "quality", float(cell["min_expressions"])))
-    expressions = first_repetition[
-        (first_repetition["kind"] == "expression") & first_repetition["cell"].isin(ok["cell"])
-    ].sort_values("expression")  # a cell stopped by its timeout keeps expressions; its status is compared
+            metrics.append(
+                Metric(case, f"minimum expressions{suffix}", "quality", float(cell["min_expressions"]))
+            )
+    expressions = records[(records["kind"] == "expression") & records["cell"].isin(ok["cell"])].sort_values(
+        "expression"
+    )  # a cell stopped by its timeout keeps expressions; its status is compared
     for case, rows in zip(*_grouped(expressions), strict=True):
-        metrics.append(
-            Metric(case, "objective per expression", "quality", tuple(rows["objective"].astype(float)))
-        )
-        metrics.append(
-            Metric(case, "shapes covered per expression", "quality", tuple(rows["covered"].astype(float)))
-        )
-    transfers = first_repetition[first_repetition["kind"] == "transfer"].sort_values("j")
+        objectives = tuple(rows["objective"].astype(float))
+        metrics.append(Metric(case, f"objective per expression{suffix}", "quality", objectives))
+        covered = tuple(rows["covered"].astype(float))
+        metrics.append(Metric(case, f"shapes covered per expression{suffix}", "quality", covered))
+    transfers = records[records["kind"] == "transfer"].sort_values("j")
     for transfer, of_method in transfers.groupby("transfer", sort=True):
         for case, rows in zip(*_grouped(of_method), strict=True):
-            metrics.append(Metric(case, f"RMS {transfer} per J", "quality", tuple(rows["rms"].astype(float))))
-    return metrics + _time_metrics(records)
+            rms = tuple(rows["rms"].astype(float))
+            metrics.append(Metric(case, f"RMS {transfer} per J{suffix}", "quality", rms))
+    return metrics
 
 
 #: Name of every run's time metric.

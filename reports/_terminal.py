@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
+from rich import box
 from rich.markup import escape
 from rich.table import Table
 
@@ -35,60 +36,61 @@ def print_summary(out: Path) -> None:
         + ", ".join(f"{status} {count}" for status, count in sorted(statuses.items()))
         + (f", not yet run {missing} (harness run --resume {out})" if missing else "")
     )
-    terminal().print(_sequence_table(records))
+    for table in _sequence_tables(records):
+        terminal().print(table)
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
     if len(transfers):
-        terminal().print(_transfer_table(transfers))
+        for table in _transfer_tables(transfers, terminal().width):
+            terminal().print(table)
         terminal().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
-        table = Table(title="cells that did not finish ok")
-        for column in ("rig", "warp", "solver", "status", "message"):
-            table.add_column(column)
+        table = _table(
+            "cells that did not finish ok",
+            [(c, "left") for c in ("rig", "warp", "solver", "status", "message")],
+        )
         for row in problems.itertuples():
             table.add_row(*map(escape, (row.rig, row.warp, row.solver, row.status, row.message or "")))
         terminal().print(table)
 
 
-def _sequence_table(records: pd.DataFrame) -> Table:
-    """Per rig, warp and solver: expressions, coverage, first-expression and whole-sequence times (median),
-    and how every solve ended (termination; time-limited solves answered by Algorithm 2's packing)."""
+def _table(title: str, columns: list[tuple[str, str]]) -> Table:
+    """A table whose text columns fold instead of being cut (``justify`` per column: left or right), with
+    no rules between columns, so that it reads at 80 columns."""
+    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False)
+    for position, (name, justify) in enumerate(columns):  # the first column names the row: never folded
+        table.add_column(name, justify=justify, overflow="fold", no_wrap=position == 0)  # type: ignore[arg-type]
+    return table
+
+
+def _sequence_tables(records: pd.DataFrame) -> list[Table]:
+    """Per rig and warp (with N and K), per solver: cells, expressions, coverage, first-expression and
+    whole-sequence times (median), and how every solve ended (termination; time-limited solves answered by
+    Algorithm 2's packing)."""
     cells = records[(records["kind"] == "cell") & (records["status"] == "ok")]
     expressions = records[(records["kind"] == "expression") & records["cell"].isin(cells["cell"])]
     first = expressions[expressions["expression"] == 1]
     first_time = (first["build_time"] + first["solve_time"]).groupby(first["cell"]).first()
-    table = Table(title="sequences (median over repetitions and parameter settings)")
-    for column in (
-        "rig",
-        "warp",
-        "solver",
-        "cells",
-        "N",
-        "K",
-        "expressions",
-        "covered",
-        "first expr.",
-        "sequence",
-        "analysis",
-        "solves",
-    ):
-        table.add_column(column, justify="left" if column in ("rig", "warp", "solver") else "right")
-    for (rig, warp, solver), group in cells.groupby(["rig", "warp", "solver"], sort=True):
-        table.add_row(
-            escape(rig),
-            escape(warp),
-            escape(solver),
-            str(len(group)),
-            str(group["n_vertices"].iloc[0]),
-            str(group["n_shapes"].iloc[0]),
-            f"{group['n_expressions'].median():g}",
-            f"{group['n_covered'].median():g}",
-            format_duration(float(first_time.reindex(group["cell"]).median())),
-            format_duration(float(group["sequence_time"].median())),
-            format_duration(float(group["analysis_time"].median())),
-            _terminations(expressions[expressions["cell"].isin(group["cell"])]),
-        )
-    return table
+    columns = [("solver", "left"), ("cells", "right"), ("expr.", "right"), ("covered", "right")]
+    columns += [("first", "right"), ("sequence", "right"), ("analysis", "right"), ("solves", "left")]
+    tables = []
+    for (rig, warp), of_rig in cells.groupby(["rig", "warp"], sort=True):
+        n, k = of_rig["n_vertices"].iloc[0], of_rig["n_shapes"].iloc[0]
+        title = f"sequences of {escape(rig)} / {escape(warp)} (N {n}, K {k}; median over repetitions)"
+        table = _table(title, columns)
+        tables.append(table)
+        for solver, group in of_rig.groupby("solver", sort=True):
+            table.add_row(
+                escape(solver),
+                str(len(group)),
+                f"{group['n_expressions'].median():g}",
+                f"{group['n_covered'].median():g}",
+                format_duration(float(first_time.reindex(group["cell"]).median())),
+                format_duration(float(group["sequence_time"].median())),
+                format_duration(float(group["analysis_time"].median())),
+                _terminations(expressions[expressions["cell"].isin(group["cell"])]),
+            )
+    return tables
 
 
 def _terminations(expressions: pd.DataFrame) -> str:
@@ -101,29 +103,37 @@ def _terminations(expressions: pd.DataFrame) -> str:
     return text + "".join(f" ({count} {name})" for name, count in used.items())
 
 
-def _transfer_table(transfers: pd.DataFrame) -> Table:
+def _transfer_tables(transfers: pd.DataFrame, width: int) -> list[Table]:
     """RMS per rig, warp, solver and method at each J (median over repetitions and settings), with its
-    ratio to the ``dt`` RMS of the same rig, warp, solver and J when the run has that reference."""
+    ratio to the ``dt`` RMS of the same rig, warp, solver and J when the run has that reference: a column
+    per J, or, when those would not fit in ``width`` characters, every J of a row in one folded column."""
     j_values = sorted(int(j) for j in transfers["j"].unique())
     transfers = transfers.assign(setting=_setting_labels(transfers))
-    table = Table(title="transfer RMS vs J (rig units; median over repetitions; in brackets: / dt)")
-    for column in ("rig", "warp", "setting", "transfer", "solver", *(f"J={j}" for j in j_values)):
-        table.add_column(column, justify="left" if not column.startswith("J=") else "right")
+    stacked = width < 24 + 15 * len(j_values)
+    columns = [("transfer, solver", "left")]
+    columns += [("RMS at J (/ dt)", "left")] if stacked else [(f"J={j}", "right") for j in j_values]
     keys = ["rig", "warp", "setting", "transfer", "solver"]
     medians = transfers.groupby([*keys, "j"])["rms"].median()
-    for (rig, warp, setting, method, solver), series in medians.groupby(level=[0, 1, 2, 3, 4], sort=True):
-        values = series.droplevel([0, 1, 2, 3, 4])
-        reference = medians.get((rig, warp, setting, "dt", solver))
-        cells = []
-        for j in j_values:
-            if j not in values.index:
-                cells.append("-")
-            elif method != "dt" and reference is not None and j in reference.index and reference[j] > 0:
-                cells.append(f"{values[j]:.4g} ({values[j] / reference[j]:.2f})")
-            else:
-                cells.append(f"{values[j]:.4g}")
-        table.add_row(*map(escape, (rig, warp, setting or "-", method, solver)), *cells)
-    return table
+    tables = []
+    for (rig, warp, setting), of_rig in medians.groupby(level=[0, 1, 2], sort=True):
+        label = f"{escape(rig)} / {escape(warp)}" + (f", {escape(setting)}" if setting else "")
+        table = _table(f"transfer RMS vs J of {label} (rig units; median over repetitions; (/ dt))", columns)
+        tables.append(table)
+        for (method, solver), series in of_rig.groupby(level=[3, 4], sort=True):
+            values = series.droplevel([0, 1, 2, 3, 4])
+            reference = medians.get((rig, warp, setting, "dt", solver))
+            cells = []
+            for j in j_values:
+                if j not in values.index:
+                    cells.append("-")
+                elif method != "dt" and reference is not None and j in reference.index and reference[j] > 0:
+                    cells.append(f"{values[j]:.4g} ({values[j] / reference[j]:.2f})")
+                else:
+                    cells.append(f"{values[j]:.4g}")
+            if stacked:
+                cells = ["   ".join(f"{j}: {cell}" for j, cell in zip(j_values, cells, strict=True))]
+            table.add_row(f"{escape(method)}, {escape(solver)}", *cells)
+    return tables
 
 
 def _setting_labels(rows: pd.DataFrame) -> list[str]:
@@ -148,9 +158,12 @@ def _claims_table(records: pd.DataFrame) -> Table:
     from reports._claims import HELD, NOT_HELD, claims_table
 
     colours = {HELD: "green", NOT_HELD: "red"}
-    table = Table(title="the paper's claims (Carrigan et al. 2020, sec. 5.2)")
-    for column in ("claim", "measured", "verdict"):
-        table.add_column(column)
+    table = Table(
+        title="the paper's claims (Carrigan et al. 2020, sec. 5.2)", title_justify="left", box=box.SIMPLE_HEAD
+    )
+    table.add_column("claim", ratio=2, overflow="fold")
+    table.add_column("measured", ratio=3, overflow="fold")
+    table.add_column("verdict", no_wrap=True)
     for row in claims_table(records).itertuples():
         colour = colours.get(row.verdict, "yellow")
         table.add_row(escape(row.claim), escape(row.measured), f"[{colour}]{row.verdict}[/]")

@@ -12,16 +12,16 @@ from typing import TYPE_CHECKING
 import click
 
 from harness import DURATION
+from harness.cli import UserError
 from reports._layout import REPORT_DIR
 
 if TYPE_CHECKING:
     from rich.console import Console
 
 
-class InputError(click.ClickException):
-    """Unusable input: exit code 2, so that CI tells it apart from a regression (exit code 1)."""
-
-    exit_code = 2
+class InputError(UserError):
+    """Unusable input: exit code 2, so that CI tells it apart from a regression (exit code 1), printed as
+    every command prints bad input (``error: ...``)."""
 
 
 @click.command("show")

@@ -69,7 +69,7 @@ class _Inheriting(_Documented):
 
 
 def test_describe_prefers_the_description_then_the_own_docstring() -> None:
-    assert describe(_Documented) == "First line of the summary,"
+    assert describe(_Documented) == "First line of the summary, continued here."  # the whole first paragraph
     assert describe(_Described) == "The plugin's own words."
     assert describe(_Described()) == "The plugin's own words."  # an instance is described by its class
     assert describe(_Inheriting) == ""

@@ -11,6 +11,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 import pytest
 from click.testing import CliRunner
 
@@ -129,20 +130,19 @@ def test_a_solver_that_drops_a_shape_fails(make_run, fabric):
     )
     comparison = compare(old, new)
     changed = {(c.case.rsplit("/", 1)[-1], c.metric): c for c in comparison.changes if c.verdict == "changed"}
-    assert sorted(changed) == [  # dt ignores the expressions: its RMS stays
-        ("highs", "RMS ebfr per J"),
-        ("highs", "objective per expression"),
-        ("highs", "shapes covered per expression"),
-    ]
+    metrics = ["RMS ebfr per J", "objective per expression", "shapes covered per expression"]
+    assert sorted(changed) == sorted(  # dt ignores the expressions: its RMS stays; both repetitions change
+        ("highs", f"{metric}{suffix}") for metric in metrics for suffix in ("", ", repetition 1")
+    )
     objective = changed[("highs", "objective per expression")]
     weights = fabric["weights"]
     assert objective.where == "at 2"
     assert objective.old == pytest.approx(weights["smile_L"] + weights["smile_R"] + weights["noseWrinkle"])
     assert objective.new == pytest.approx(weights["smile_L"] + weights["smile_R"])
-    assert len(comparison.regressions()) == 3
+    assert len(comparison.regressions()) == 6
     result = _invoke(old, new, "--only-changes")
     assert result.exit_code == 1
-    assert "FAIL" in result.output and "3 regressions" in result.output
+    assert "FAIL" in result.output and "6 regressions" in result.output
     assert "objective per expression" in result.output and "browUp_L" not in result.output
 
 
@@ -150,7 +150,25 @@ def test_quality_changes_within_the_tolerance_pass(make_run):
     old, new = make_run("old"), make_run("new", objective_scale=1 + 1e-12)
     assert compare(old, new).regressions() == []
     changed = compare(old, new, tolerance=1e-13).regressions()
-    assert {c.metric for c in changed} == {"objective per expression"}
+    assert {c.metric for c in changed} == {
+        "objective per expression",
+        "objective per expression, repetition 1",
+    }
+
+
+def test_a_change_in_a_later_repetition_is_found(make_run):
+    """Quality is compared in every repetition, not only the first."""
+    import pyarrow.parquet as pq
+
+    old, new = make_run("old"), make_run("new")
+    for part in (new / "records").glob("*.parquet"):
+        table = pq.read_table(part)
+        frame = table.to_pandas()
+        later = (frame["repetition"] == 1) & (frame["transfer"] == "ebfr")
+        frame.loc[later, "rms"] *= 1.01
+        pq.write_table(pa.Table.from_pandas(frame, schema=table.schema, preserve_index=False), part)
+    changed = {c.metric for c in compare(old, new).regressions()}
+    assert changed == {"RMS ebfr per J, repetition 1"}
 
 
 def test_a_cell_that_errors_in_the_new_run_fails(make_run, fabric):
