@@ -25,16 +25,33 @@ td.text { text-align: left; }
 figure { margin: 1em 0 2em; }
 figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
 figcaption { font-size: 0.85em; color: #555; }
+details > summary { cursor: pointer; font-size: 1.5em; font-weight: bold; margin: 0.83em 0; }
+@page { size: A4; margin: 12mm; }
+@media print {
+  body { margin: 0; max-width: none; padding: 0; font-size: 9pt; }
+  table { font-size: 6.5pt; width: 100%; table-layout: auto; }
+  th, td { padding: 0.1em 0.25em; overflow-wrap: anywhere; }
+  figure, tr { break-inside: avoid; }
+  details::details-content { content-visibility: visible; display: block; }
+  details > summary { list-style: none; }
+}
 """
 
 
 @dataclass(frozen=True)
 class Image:
-    """A PNG figure of the report: file stem, bytes and caption."""
+    """A figure of the report: file stem, bytes, caption and format (``png`` for plots, ``jpeg`` for
+    renders, whose many shades a PNG stores at many times the size)."""
 
     name: str
     png: bytes
     caption: str
+    format: str = "png"
+
+    @property
+    def file(self) -> str:
+        """The figure's file name: stem and extension."""
+        return f"{self.name}.{'jpg' if self.format == 'jpeg' else self.format}"
 
 
 Block = str | pd.DataFrame | Image
@@ -42,10 +59,12 @@ Block = str | pd.DataFrame | Image
 
 @dataclass(frozen=True)
 class Section:
-    """A titled part of the report: paragraphs (str), tables (DataFrame) and figures (Image), in order."""
+    """A titled part of the report: paragraphs (str), tables (DataFrame) and figures (Image), in order; a
+    ``folded`` section is detail, closed on screen until opened (and printed whole)."""
 
     title: str
     blocks: Sequence[Block]
+    folded: bool = False
 
 
 def format_cell(value: object) -> str:
@@ -68,7 +87,7 @@ def markdown(title: str, sections: Sequence[Section], figures_dir: str) -> str:
         lines += [f"## {section.title}", ""]
         for block in section.blocks:
             if isinstance(block, Image):
-                lines += [f"![{block.caption}]({figures_dir}/{block.name}.png)", "", f"*{block.caption}*", ""]
+                lines += [f"![{block.caption}]({figures_dir}/{block.file})", "", f"*{block.caption}*", ""]
             elif isinstance(block, pd.DataFrame):
                 header = [str(column) for column in block.columns]
                 lines.append("| " + " | ".join(header) + " |")
@@ -106,24 +125,28 @@ def html_page(title: str, sections: Sequence[Section]) -> str:
         f"<h1>{html.escape(title)}</h1>",
     ]
     for section in sections:
-        parts.append(f"<h2>{html.escape(section.title)}</h2>")
+        title = html.escape(section.title)
+        parts.append(f"<details><summary>{title}</summary>" if section.folded else f"<h2>{title}</h2>")
         for block in section.blocks:
             if isinstance(block, Image):
                 data = base64.b64encode(block.png).decode("ascii")
                 parts.append(
-                    f'<figure><img alt="{html.escape(block.caption)}" src="data:image/png;base64,{data}">'
+                    f'<figure><img alt="{html.escape(block.caption)}" '
+                    f'src="data:image/{block.format};base64,{data}">'
                     f"<figcaption>{html.escape(block.caption)}</figcaption></figure>"
                 )
             elif isinstance(block, pd.DataFrame):
                 parts.append(_html_table(block))
             else:
                 parts.append(f"<p>{html.escape(block)}</p>")
+        if section.folded:
+            parts.append("</details>")
     parts.append("</body></html>")
     return "\n".join(parts)
 
 
 def write_documents(title: str, sections: Sequence[Section], directory: Path) -> tuple[Path, Path]:
-    """Write ``index.html``, ``report.md`` and ``figures/*.png`` as the whole content of ``directory``
+    """Write ``index.html``, ``report.md`` and ``figures/*`` as the whole content of ``directory``
     (`registry.claim`, kind ``report``: an earlier report is replaced, a folder holding anything else is
     refused); return both pages.
 
@@ -133,7 +156,7 @@ def write_documents(title: str, sections: Sequence[Section], directory: Path) ->
         When ``directory`` holds files no report wrote (naming them) or cannot be written.
     """
     figures = {
-        f"figures/{block.name}.png": block.png
+        f"figures/{block.file}": block.png
         for section in sections
         for block in section.blocks
         if isinstance(block, Image)

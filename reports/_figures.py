@@ -114,8 +114,18 @@ def coverage_figure(records: pd.DataFrame, rig: str) -> Figure:
             ax.set_xlabel("expressions (count)")
             ax.xaxis.set_major_locator(MaxNLocator(integer=True))
             ax.set_ylabel("shapes covered (count)")
-            ax.legend(fontsize=7)
+        _legend_outside(figure)
     return figure
+
+
+def _legend_outside(figure: Figure) -> None:
+    """One legend for all panels, to the right of them, where it covers no data."""
+    entries: dict[str, object] = {}
+    for ax in figure.axes:
+        handles, names = ax.get_legend_handles_labels()
+        entries.update(zip(names, handles, strict=True))
+    if entries:
+        figure.legend(list(entries.values()), list(entries), loc="outside right upper", fontsize=7)
 
 
 def rms_figure(records: pd.DataFrame, rig: str) -> Figure:
@@ -283,7 +293,7 @@ def profile_figure(solves: pd.DataFrame) -> Figure:
             ax.set_title(f"{comparison.title}: {len(times)} common instances")
             ax.set_xlabel("tau: time within a factor of the fastest (log)")
             ax.set_ylabel("fraction of instances solved")
-            ax.legend(fontsize=7, loc="lower right")
+        _legend_outside(figure)
     return figure
 
 
@@ -335,5 +345,5 @@ def distribution_figure(solves: pd.DataFrame) -> Figure:
         )
         ax.set_yscale("log")
         ax.set_ylabel("build + solve time per expression (s, log)")
-        ax.legend(fontsize=7)
+        _legend_outside(figure)
     return figure

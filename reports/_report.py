@@ -15,7 +15,7 @@ from reports._contact import contact_sheet
 from reports._document import Image, Section, write_documents
 from reports._figures import coverage_figure, distribution_figure, profile_figure, rms_figure
 from reports._layout import REPORT_DIR
-from reports._png import png_bytes
+from reports._png import jpeg_bytes, png_bytes
 from reports._summary import SHIFT, TIE_TOLERANCE, common_table, outcome_table, sequence_table, solve_outcomes
 from reports._tables import (
     BASELINE_SOLVER,
@@ -80,9 +80,11 @@ def _run_summary(run: dict, records: pd.DataFrame, live: bool) -> list[str]:
 
 
 def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str]:
-    """One contact sheet per rig, warp and setting (first repetition); identical sequences share a row."""
+    """One contact sheet per rig, warp and setting that every solver of the rig ran (first repetition;
+    the settings only the claims' solvers ran are left out); identical sequences share a row."""
     rows = expression_rows(records)
     rows = rows[rows["repetition"] == rows["repetition"].min()]
+    solvers_of = rows.groupby(["rig", "rig_seed"])["solver"].transform("nunique")
     settings = varying_settings(records)
     labels = rig_labels(records["rig"])
     blocks: list[Image | str] = []
@@ -94,6 +96,8 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
             continue
         keys = [c for c in GROUP_COLUMNS if c not in ("rig", "rig_seed", "repetition", "permutation")]
         for _, group in of_rig.groupby(keys, sort=True, dropna=False):
+            if group["solver"].nunique() < solvers_of.loc[group.index].iloc[0]:
+                continue
             sequences = {
                 solver: [list(shapes) for shapes in cell.sort_values("expression")["shapes"]]
                 for solver, cell in group.groupby("solver", sort=True)
@@ -108,9 +112,10 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
             blocks.append(
                 Image(
                     _slug("contact", labels[rig_name], first["warp"], setting_label(first, settings)),
-                    png_bytes(figure),
+                    jpeg_bytes(figure),
                     f"First {expressions} expressions of every solver on {title}; solvers with identical "
                     "expressions share a row. Active vertices (eq. 2) of each shape in its colour.",
+                    format="jpeg",
                 )
             )
     return blocks
@@ -237,38 +242,8 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
                 else []
             ),
         ),
-        Section(
-            "Timings (paper Table 2)",
-            [
-                "Seconds on this machine, median over repetitions; spread = max - min over repetitions. "
-                "First expression = presolve + model build + solve of expression 1; sequence = all "
-                f"expressions. The last column divides by {BASELINE_SOLVER} (the paper's formulation) in "
-                "the same run. The paper's rows give its published times (PuLP with CPLEX, and greedy) on "
-                "its own rigs.",
-                timing_table(records),
-            ],
-        ),
-        _solver_section(run, records),
-        Section(
-            "Agreement of chosen shapes (paper Table 3, its 'overlap')",
-            [
-                "a/b (shared): distinct shapes chosen by solver a and by solver b in their first 5, 10 "
-                "and 20 expressions, and how many both chose; [x/y expr.] when a sequence is shorter.",
-                agreement_table(agreement_counts(records)),
-            ],
-        ),
-        Section(
-            "Coverage",
-            [
-                Image(
-                    _slug("coverage", labels[rig]),
-                    png_bytes(coverage_figure(records, rig)),
-                    f"Shapes covered against the number of expressions on {labels[rig]}.",
-                )
-                for rig in rigs_shown
-            ],
-        ),
         Section("The paper's claims", _claims_blocks(records)),
+        _solver_section(run, records),
         Section(
             "Transfer error (paper Figs. 9 and 10)",
             [
@@ -288,12 +263,44 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
         Section("Transfer error against the references", _reference_blocks(records)),
         Section("Does the evaluation tell packings apart?", _separation_blocks(records)),
         Section(
+            "Agreement of chosen shapes (paper Table 3, its 'overlap')",
+            [
+                "a/b (shared): distinct shapes chosen by solver a and by solver b in their first 5, 10 "
+                "and 20 expressions, and how many both chose; [x/y expr.] when a sequence is shorter.",
+                agreement_table(agreement_counts(records)),
+            ],
+        ),
+        Section(
+            "Coverage",
+            [
+                Image(
+                    _slug("coverage", labels[rig]),
+                    png_bytes(coverage_figure(records, rig)),
+                    f"Shapes covered against the number of expressions on {labels[rig]}.",
+                )
+                for rig in rigs_shown
+            ],
+        ),
+        Section(
+            "Timings per rig and solver (paper Table 2)",
+            [
+                "Seconds on this machine, median over repetitions; spread = max - min over repetitions. "
+                "First expression = presolve + model build + solve of expression 1; sequence = all "
+                f"expressions. The column first / {BASELINE_SOLVER} divides by {BASELINE_SOLVER} (the "
+                "paper's formulation) in the same run. The paper's rows give its published times (PuLP "
+                "with CPLEX, and greedy) on its own rigs.",
+                timing_table(records),
+            ],
+            folded=True,
+        ),
+        Section(
             "Worst transferred shapes",
             [
                 "Per solver, the shapes with the largest per-vertex RMS error after transfer with all J "
                 "training expressions of its sequence (rig length units).",
                 worst_shapes_table(records),
             ],
+            folded=True,
         ),
         Section(
             "Expression counts",
@@ -303,8 +310,13 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
                 "exact minimum when recorded.",
                 expression_count_table(records),
             ],
+            folded=True,
         ),
-        Section("Contact sheets", _contact_sheets(records, expressions) or ["No finished expressions."]),
+        Section(
+            "Contact sheets",
+            _contact_sheets(records, expressions) or ["No finished expressions."],
+            folded=True,
+        ),
     ]
     problems = problem_table(records)
     if not problems.empty:

@@ -67,7 +67,7 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     directory = reported_run / "report"
     markdown = (directory / "report.md").read_text()
     for heading in (
-        "Timings (paper Table 2)",
+        "Timings per rig and solver (paper Table 2)",
         "Solvers across instances",
         "Agreement of chosen shapes (paper Table 3, its 'overlap')",
         "Coverage",
@@ -93,8 +93,8 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     assert "Training expressions: not recorded" in markdown  # the fabricated run.json has no config
     figures = sorted(path.name for path in (directory / "figures").iterdir())
     assert figures == [
-        "contact-face-alien-importance-off.png",
-        "contact-face-alien-importance-on.png",
+        "contact-face-alien-importance-off.jpg",
+        "contact-face-alien-importance-on.jpg",
         "coverage-face.png",
         "performance-profile.png",
         "rms-face.png",
@@ -108,8 +108,9 @@ def test_report_html_is_self_contained_and_deterministic(reported_run):
     run = reported_run
     page = (run / "report" / "index.html").read_text()
     assert CONTENT_SECURITY_POLICY in page
-    assert not re.search(r"<script|<link|src=\"(?!data:image/png;base64,)", page)
-    assert page.count('src="data:image/png;base64,') == 6
+    assert not re.search(r"<script|<link|src=\"(?!data:image/(png|jpeg);base64,)", page)
+    assert page.count('src="data:image/png;base64,') == 4  # plots as PNG
+    assert page.count('src="data:image/jpeg;base64,') == 2  # the contact sheets' renders as JPEG
     first = {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
     build_report(run)
     assert first == {path.name: path.read_bytes() for path in (run / "report").rglob("*") if path.is_file()}
@@ -253,3 +254,36 @@ def test_a_report_of_a_run_going_on_says_its_cells_are_still_to_come(make_run):
     assert not harness.in_progress(run)
     assert f"; 3 of the grid's {recorded + 3} still to come (running)" in text.read_text()
     assert "not finished yet." in text.read_text()
+
+
+def test_the_report_opens_with_its_verdicts_and_folds_the_detail(reported_run):
+    page = (reported_run / "report" / "index.html").read_text()
+    headings = ("The paper&#x27;s claims", "Solvers across instances", "Coverage")
+    order = [page.index(heading) for heading in headings]
+    assert order == sorted(order) and order[0] < page.index("Timings per rig and solver")
+    for folded in ("Timings per rig and solver", "Worst transferred shapes", "Contact sheets"):
+        assert f"<details><summary>{folded}" in page
+
+
+def test_the_report_prints_on_a4_without_losing_columns(reported_run, tmp_path):
+    """Printed (A4, 12 mm margins: 186 mm of width), no table is wider than the page."""
+    from tests.chromium import Browser
+
+    browser = Browser(tmp_path / "profile")
+    try:
+        browser.call("Emulation.setEmulatedMedia", media="print")
+        browser.call(
+            "Emulation.setDeviceMetricsOverride", width=703, height=1000, deviceScaleFactor=1, mobile=False
+        )
+        browser.open((reported_run / "report" / "index.html").as_uri())
+        widest = browser.evaluate(
+            "Math.max(...Array.from(document.querySelectorAll('table')).map(t => t.scrollWidth))"
+        )
+        assert widest <= 703
+        shown = browser.evaluate(
+            "Array.from(document.querySelectorAll('details figure img'))"
+            ".every(i => i.getBoundingClientRect().height > 0)"
+        )
+        assert shown  # folded on screen, printed whole
+    finally:
+        browser.close()
