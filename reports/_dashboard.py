@@ -139,14 +139,14 @@ def _steps_table(steps: list[Step], names: dict[str, str]) -> str:
     rows = "".join(_step_row(step, names) for step in steps)
     return (
         "<h2>Steps</h2><table><tr><th>case</th><th>first commit</th><th>ratio</th><th>interval</th>"
-        f"<th>commit</th></tr>{rows}</table>"
+        f"<th>first commit named</th></tr>{rows}</table>"
     )
 
 
 def _step_row(step: Step, names: dict[str, str]) -> str:
     direction = "step-up" if step.ratio > 1 else "step-down"
     name = html.escape(names.get(step.commit, step.commit))
-    where = "named" if step.exact else f"between {html.escape(step.previous[:10])} and it"
+    where = "yes" if step.exact else f"no: between {html.escape(step.previous[:10])} and it"
     return (
         f'<tr class="{direction}"><td class="text">{html.escape(step.case)}</td>'
         f'<td class="text"><a href="{commit_page(step.commit)}">{name}</a></td>'
