@@ -36,6 +36,8 @@ from render import (
     Frame,
     Motion,
     active_vertices,
+    coincident,
+    edge_fade,
     triangle_colours,
     vertex_normals,
 )
@@ -150,23 +152,31 @@ def session_pictures(
 
 @dataclass(frozen=True)
 class Scene:
-    """What every picture of a rig shares whatever its expressions: the neutral's `vertex_normals`, the
-    active vertices (eq. 2, `active_vertices` at the threshold ``mu`` the expressions are packed with)
-    and the front camera (`rigs.frontal_camera`)."""
+    """What every picture of a rig shares whatever its expressions: the neutral's twin vertices along
+    seams (`coincident`) and `vertex_normals`, the active vertices (eq. 2, `active_vertices` at the
+    threshold ``mu`` the expressions are packed with), the front camera (`rigs.frontal_camera`) and the
+    opacity that fades a face cut out of a larger mesh out towards the cut (`edge_fade`, None for none)."""
 
     rig: Rig
     mu: float
+    twins: np.ndarray
     normals: np.ndarray
     active: np.ndarray
     front: np.ndarray
+    fade: np.ndarray | None
 
     @classmethod
     def of(cls, rig: Rig, mu: float) -> Scene:
         """The scene of ``rig`` at the threshold ``mu``."""
         import rigs
 
-        normals = vertex_normals(rig.neutral, rig.triangles)
-        return cls(rig, mu, normals, active_vertices(rig, mu), rigs.frontal_camera(rig))
+        twins = coincident(rig.neutral)
+        normals = vertex_normals(rig.neutral, rig.triangles, twins)
+        motion = np.zeros(rig.n_vertices)
+        for delta in rig.deltas:
+            np.maximum(motion, np.linalg.norm(delta, axis=1), out=motion)
+        fade = edge_fade(rig.neutral, rig.triangles, motion)
+        return cls(rig, mu, twins, normals, active_vertices(rig, mu), rigs.frontal_camera(rig), fade)
 
 
 def prepare_scene(rig: Rig, mu: float) -> Future[Scene]:
@@ -198,7 +208,9 @@ class _Stage:
         if shared.rig is not rig or shared.mu != mu:
             raise ValueError("the pictures' scene was prepared for another rig or threshold mu")
         self.rig = shared.rig
+        self.twins = shared.twins
         self.normals = shared.normals
+        self.fade = shared.fade
         self.poses = shared.rig.neutral + expression_poses(shared.rig, expressions)
         self.active = shared.active
         self.front = shared.front
@@ -213,7 +225,7 @@ def _backdrop(stage: Future[_Stage], degrees: float) -> Backdrop:
     camera = rigs.three_quarter_camera(shared.front, degrees) if degrees else shared.front
     width, height = face_size()
     frame = Frame.fitted(camera, [neutral, *shared.poses], width=width, height=height)
-    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals)
+    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals, shared.fade)
 
 
 def _render(
@@ -227,7 +239,7 @@ def _render(
         rig.triangles, shared.active[rig.indices([entry[1] for entry in legend])], colours
     )
     words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
-    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals)
+    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals, shared.twins)
     rasters = {key: view.result().pose(posed, motion) for key, view in views.items()}
     painted = _legend_picture(rasters["front_pose"].over(fills, BACKGROUND), words, colours)
     return [(PAINTED, painted), *((key, _png(raster.over(CLAY, 1.0))) for key, raster in rasters.items())]
