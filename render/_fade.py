@@ -35,7 +35,7 @@ def edge_fade(vertices: np.ndarray, triangles: np.ndarray, motion: np.ndarray) -
     """(N,) opacity of each vertex: 0 on the open edges where the mesh was cut (loops of open edges that no
     shape moves much and that span a good part of the mesh), rising smoothly (smoothstep) to 1 at
     `_WIDTH` median edge lengths of the cut from it; None when the mesh has no such cut (a closed head, or
-    a face whose every open edge moves).
+    a face whose every open edge moves). A seam (twin vertices, `render.coincident`) is no open edge.
 
     Parameters
     ----------
@@ -49,9 +49,11 @@ def edge_fade(vertices: np.ndarray, triangles: np.ndarray, motion: np.ndarray) -
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
+    from render._raster import coincident
+
     vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
     count = len(vertices)
-    edges = open_edges(triangles, count)
+    edges = open_edges(coincident(vertices)[np.asarray(triangles, dtype=np.intp)], count)  # (a seam is shut)
     motion = np.asarray(motion, dtype=np.float64)
     if not len(edges) or not count:
         return None

@@ -287,6 +287,9 @@ def test_a_seam_of_twin_vertices_shades_as_the_welded_surface() -> None:
     whole = render.render_mesh(vertices, triangles, camera, grey, width=120, height=120)
     seamed = render.render_mesh(split, split_triangles, camera, grey, width=120, height=120)
     assert np.abs(whole.astype(int) - seamed.astype(int)).max() <= 1
+    welded_fade = render.edge_fade(vertices, triangles, np.zeros(len(vertices)))
+    split_fade = render.edge_fade(split, split_triangles, np.zeros(len(split)))
+    assert np.array_equal(split_fade, welded_fade[twins])  # nor is a seam a cut the picture fades at
 
 
 def cropped_dome() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
