@@ -14,7 +14,15 @@ import packing
 import render
 import rigs
 from render._raster import Backdrop, Frame, Motion, rasterise, vertex_normals
-from session._pictures import SIZE, _legend_picture, face_size, prepare_scene, session_pictures
+from session._pictures import (
+    SIZE,
+    _legend_picture,
+    face_size,
+    legend_layout,
+    prepare_scene,
+    session_pictures,
+)
+from session._words import plain_words
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
 RED, BLUE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
@@ -244,7 +252,7 @@ def test_a_long_legend_shrinks_and_cuts_its_words_to_fit_the_picture() -> None:
     colours = render.shape_colours([1] * 40)
     words = [f"left upper eyelid squeeze and raise number {k}" for k in range(40)]
     face = np.full((SIZE[1], face_size()[0], 3), 255, dtype=np.uint8)
-    image = Image.open(io.BytesIO(_legend_picture(face, words, colours)))
+    image = Image.open(io.BytesIO(_legend_picture(face, words, colours, [])))
     pixels = np.asarray(image.convert("RGB")).astype(int)
     legend = pixels[:, face_size()[0] :]
     for colour in np.round(255 * colours).astype(int):  # all forty swatches fit the height
@@ -337,3 +345,19 @@ def test_open_edges_that_move_or_are_small_are_no_cut() -> None:
         + [[2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
     )
     assert render.edge_fade(box, closed, np.zeros(8)) is None  # a closed mesh has no cut
+
+
+@pytest.mark.parametrize("count", [1, 9, 24])
+def test_the_longest_plain_words_labels_fit_the_legend_whole(count) -> None:
+    """``mouth to the actor's right (again)`` is wider than the legend's column: it wraps, in the space
+    the legend has, rather than being cut."""
+    names = sorted(rigs.generate("arkit52").names, key=lambda name: -len(plain_words(name)))
+    words = [plain_words(name) + " (again)" for name in ["mouthRight", *names][:count]]
+    left = face_size()[0]
+    _, entries = legend_layout(words, left)
+    for (swatch, lines), said in zip(entries, words, strict=True):
+        assert " ".join(text for text, _ in lines) == said  # whole: no ellipsis
+        for _, (x0, y0, x1, y1) in [*lines, ("", swatch)]:
+            assert left <= x0 and x1 < SIZE[0] and 0 <= y0 and y1 < SIZE[1]  # inside the picture
+    tops = [box[1] for _, lines in entries for _, box in lines]
+    assert tops == sorted(tops)  # lines one below the other
