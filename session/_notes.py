@@ -101,7 +101,9 @@ def _rules(constraints: Mapping[str, Any] | None) -> list[str]:
     held = [
         f"joined {_count(kinds['together'], 'pair')} of shapes" if kinds["together"] else "",
         f"kept {_count(kinds['apart'], 'pair')} apart" if kinds["apart"] else "",
-        f"scan {_count(kinds['only_with'], 'shape')} only with another" if kinds["only_with"] else "",
+        f"kept {_count(kinds['only_with'], 'shape')} for scanning with another only"
+        if kinds["only_with"]
+        else "",
     ]
     why = list(dict.fromkeys(_RULES[entry["rule"]] for entry in rules if entry["rule"] in _RULES))
     sentence = "The face rules " + _listed([part for part in held if part])
