@@ -315,8 +315,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
         if config.minimum:
             notes.append(result.message())
         if missing:
-            shapes = "blendshape" if len(missing) == 1 else "blendshapes"
-            notes.append(f"{len(missing)} {shapes} in no expression ({reason}): {', '.join(missing)}")
+            notes.append(f"{len(missing)} blendshapes in no expression ({reason}): {', '.join(missing)}")
         first = expressions[0].solution if expressions else None
         expressions = [expression for expression in expressions if expression.shapes]  # nothing to scan
         if timed_out and not expressions:
@@ -485,7 +484,7 @@ def _symmetry_note(analysis: Analysis) -> str:
     if not analysis.params.symmetry:
         return "symmetry off: no pairs"
     return (
-        f"{len(symmetry.pairs)} symmetry {'pair' if len(symmetry.pairs) == 1 else 'pairs'} kept together "
+        f"{len(symmetry.pairs)} symmetry pairs kept together "
         f"({len(symmetry.shape_pairs)} mirror, {len(symmetry.motion_pairs)} motion)"
     )
 

@@ -279,3 +279,10 @@ def test_a_take_with_many_steps_takes_a_whole_page_with_larger_poses() -> None:
         take_layout(["Smile with both corners"] * 30, 0.65),
     )
     assert not half.whole and whole.whole and 60 <= half.pose < whole.pose
+
+
+def test_one_shape_left_out_is_said_in_the_singular() -> None:
+    from session._constraints import session_constraints
+
+    notes = session_constraints(rigs.generate("arkit52"), {}).notes
+    assert any(note.startswith("1 shape left out of the session: mouthClose") for note in notes), notes
