@@ -177,7 +177,8 @@ class Frame:
 @dataclass(frozen=True)
 class Raster:
     """A mesh seen in a `Frame`, before colour: at every sample the nearest triangle (``nearest``, -1
-    where none) and the light on it there (``light``).
+    where none), the light on it there (``light``) and, for a mesh that fades out, its opacity there
+    (``opacity``, in [0, 1]; None for an opaque mesh).
 
     One raster gives any number of pictures of the same pose and view (`paint`): the shapes coloured, or
     the bare skin.
@@ -186,6 +187,7 @@ class Raster:
     nearest: np.ndarray
     light: np.ndarray
     supersample: int
+    opacity: np.ndarray | None = None
 
     def paint(self, colours: np.ndarray) -> np.ndarray:
         """The (height, width, 4) uint8 RGBA image of the raster with ``colours``: (T, 3) RGB in [0, 1]
@@ -208,11 +210,15 @@ class Raster:
     def _sums(self, colours: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Per pixel, the sum of its samples' shaded colour and the number of them covered (float32)."""
         colours = np.asarray(colours, dtype=np.float32)
-        coverage = _blocks((self.nearest >= 0).astype(np.float32), self.supersample)
+        covered = (self.nearest >= 0).astype(np.float32)
+        light = self.light
+        if self.opacity is not None:  # (0 where no triangle is)
+            covered, light = self.opacity.astype(np.float32), light * self.opacity
+        coverage = _blocks(covered, self.supersample)
         if colours.ndim <= 1:  # one colour (or grey level) for every triangle
-            return np.multiply.outer(_blocks(self.light, self.supersample), colours), coverage
+            return np.multiply.outer(_blocks(light, self.supersample), colours), coverage
         table = np.vstack([colours.reshape(-1, 3), np.zeros((1, 3), dtype=np.float32)])  # -1: none
-        channels = [np.take(table[:, c], self.nearest) * self.light for c in range(3)]
+        channels = [np.take(table[:, c], self.nearest) * light for c in range(3)]
         return np.stack([_blocks(channel, self.supersample) for channel in channels], axis=2), coverage
 
 
@@ -269,40 +275,71 @@ def render_mesh(
     return rasterise(vertices, triangles, frame).paint(colours)
 
 
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(N, 3) unit area-weighted normal of each vertex (0 for a vertex in no triangle of any area).
+def coincident(vertices: np.ndarray) -> np.ndarray:
+    """(N,) for each vertex the first vertex at exactly its position: itself when it has no twin.
 
-    Each vertex sums its triangles' normals in the order of ``triangles``, so the normals of the
-    vertices all of whose triangles are in a subset come out bit for bit the same from that subset.
+    Exporters split a vertex along UV and material seams (glTF always does): the copies are twins at one
+    position, and a surface that is smooth across the seam needs one normal for all of them
+    (`vertex_normals`). O(N log N).
+    """
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    order = np.lexsort(vertices.T[::-1])
+    ranked = vertices[order]
+    starts = np.ones(len(order), dtype=bool)
+    starts[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    first = np.minimum.reduceat(order, np.flatnonzero(starts)) if len(order) else order
+    twins = np.empty(len(order), dtype=np.intp)
+    twins[order] = first[np.cumsum(starts) - 1]
+    return twins
+
+
+def vertex_normals(
+    vertices: np.ndarray, triangles: np.ndarray, twins: np.ndarray | None = None
+) -> np.ndarray:
+    """(N, 3) unit area-weighted normal of each vertex (0 for a vertex in no triangle of any area), one
+    normal for the twins of a seam (``twins``: `coincident` of ``vertices``, found here when not given),
+    so that shading does not break along it.
+
+    Each vertex sums its triangles' normals (and its twins') in the order of ``triangles``, so the
+    normals of the vertices all of whose (and whose twins') triangles are in a subset come out bit for
+    bit the same from that subset.
     """
     triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    if twins is None:
+        twins = coincident(vertices)
     corners = np.asarray(vertices, dtype=np.float64)[triangles.T]  # (3 corners, T, 3)
     normals = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+    owners = twins[triangles].ravel(order="F")
     summed = np.stack(
-        [
-            np.bincount(triangles.ravel(order="F"), np.tile(normals[:, axis], 3), minlength=len(vertices))
-            for axis in range(3)
-        ],
+        [np.bincount(owners, np.tile(normals[:, axis], 3), minlength=len(twins)) for axis in range(3)],
         axis=1,
-    ).astype(np.float64)  # (float even without triangles)
+    ).astype(np.float64)[twins]  # (float even without triangles)
     lengths = np.linalg.norm(summed, axis=1, keepdims=True)
     return np.divide(summed, lengths, out=np.zeros_like(summed), where=lengths > 0)
 
 
 def rasterise(
-    vertices: np.ndarray, triangles: np.ndarray, frame: Frame, normals: np.ndarray | None = None
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    frame: Frame,
+    normals: np.ndarray | None = None,
+    opacity: np.ndarray | None = None,
 ) -> Raster:
     """The `Raster` of a mesh in ``frame``; ``normals`` (`vertex_normals` of ``vertices``) spare their
-    computation when one pose is seen in several frames."""
+    computation when one pose is seen in several frames; ``opacity`` (N,) in [0, 1] per vertex
+    (`render.edge_fade`) fades the mesh into the background where it is below 1."""
     triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
     if normals is None:
         normals = vertex_normals(vertices, triangles)
     corners = frame.project(vertices).T[:, triangles.T]  # (3 coordinates, 3 corners, T)
-    depth_plane, shade_plane = _planes(corners, frame.brightness(normals)[triangles.T])
+    values = [frame.brightness(normals)[triangles.T]]
+    if opacity is not None:
+        values.append(np.asarray(opacity, dtype=np.float64)[triangles.T])
+    depth_plane, shade_plane, *opacity_plane = _planes(corners, *values)
     nearest, depth = _buffers(frame)
     for pixel, owner, near in _scan(corners, depth_plane, frame.samples):
         _keep_nearest(nearest, depth, pixel, owner, near)
-    return _raster(nearest, shade_plane, frame)
+    return _raster(nearest, shade_plane, frame, *opacity_plane)
 
 
 def _dot(vectors: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -323,10 +360,13 @@ def _buffers(frame: Frame) -> tuple[np.ndarray, np.ndarray]:
     return np.full(count, -1, dtype=np.int32), np.full(count, -np.inf)
 
 
-def _raster(nearest: np.ndarray, shade_plane: np.ndarray, frame: Frame) -> Raster:
+def _raster(
+    nearest: np.ndarray, shade_plane: np.ndarray, frame: Frame, opacity_plane: np.ndarray | None = None
+) -> Raster:
     columns, rows = frame.samples
     image = nearest.reshape(rows, columns)
-    return Raster(image, _light(image, shade_plane), frame.supersample)
+    opacity = None if opacity_plane is None else np.clip(_light(image, opacity_plane), 0.0, 1.0)
+    return Raster(image, _light(image, shade_plane), frame.supersample, opacity)
 
 
 class Backdrop:
@@ -345,13 +385,26 @@ class Backdrop:
     frame : Frame
     normals : (N, 3) array
         `vertex_normals` of the neutral.
+    opacity : (N,) array, optional
+        Opacity of each vertex (`render.edge_fade`), the same in every pose.
     """
 
-    def __init__(self, neutral: np.ndarray, triangles: np.ndarray, frame: Frame, normals: np.ndarray) -> None:
+    def __init__(
+        self,
+        neutral: np.ndarray,
+        triangles: np.ndarray,
+        frame: Frame,
+        normals: np.ndarray,
+        opacity: np.ndarray | None = None,
+    ) -> None:
         self.triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
         self.frame = frame
+        self.opacity = None if opacity is None else np.asarray(opacity, dtype=np.float64)
         corners = frame.project(neutral).T[:, self.triangles.T]
-        self.depth_plane, self.shade_plane = _planes(corners, frame.brightness(normals)[self.triangles.T])
+        self.depth_plane, self.shade_plane, *opacity_plane = _planes(
+            corners, frame.brightness(normals)[self.triangles.T], *self._opacity(self.triangles)
+        )
+        self.opacity_plane = opacity_plane[0] if opacity_plane else None
         self.nearest, self.depth = _buffers(frame)
         pieces = list(_scan(corners, self.depth_plane, frame.samples))
         for pixel, owner, near in pieces:
@@ -372,14 +425,25 @@ class Backdrop:
         lit = np.flatnonzero(motion.changed)  # every moved triangle is among them
         corners = self.frame.project(vertices).T[:, self.triangles[lit].T]
         brightness = self.frame.brightness(motion.normals)[self.triangles[lit].T]
-        depth_plane, lit_shade = _planes(corners, brightness)
+        depth_plane, lit_shade, *lit_opacity = _planes(
+            corners, brightness, *self._opacity(self.triangles[lit])
+        )
         scanned = motion.moved[lit]
         moving = lit[scanned]
         for pixel, owner, near in _scan(corners[:, :, scanned], depth_plane[scanned], self.frame.samples):
             _keep_nearest(nearest, depth, pixel, moving[owner].astype(np.int32), near)
         shade_plane = self.shade_plane.copy()
         shade_plane[lit] = lit_shade
-        return _raster(nearest, shade_plane, self.frame)
+        opacity_plane = None
+        if self.opacity_plane is not None:
+            opacity_plane = self.opacity_plane.copy()
+            opacity_plane[lit] = lit_opacity[0]
+        return _raster(nearest, shade_plane, self.frame, opacity_plane)
+
+    def _opacity(self, triangles: np.ndarray) -> list[np.ndarray]:
+        """The opacity at the corners of ``triangles`` ((3, T)), as the one item of a list; none without
+        an opacity."""
+        return [] if self.opacity is None else [self.opacity[triangles.T]]
 
 
 @dataclass(frozen=True)
@@ -394,24 +458,33 @@ class Motion:
 
     @classmethod
     def of(
-        cls, vertices: np.ndarray, neutral: np.ndarray, triangles: np.ndarray, neutral_normals: np.ndarray
+        cls,
+        vertices: np.ndarray,
+        neutral: np.ndarray,
+        triangles: np.ndarray,
+        neutral_normals: np.ndarray,
+        twins: np.ndarray | None = None,
     ) -> Motion:
-        """The motion from ``neutral`` (of normals ``neutral_normals``) to the pose ``vertices``."""
+        """The motion from ``neutral`` (of normals ``neutral_normals``, made with the twins ``twins``:
+        `coincident` of the neutral, found here when not given) to the pose ``vertices``."""
         triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+        if twins is None:
+            twins = coincident(neutral)
         shifted = (np.asarray(vertices) != np.asarray(neutral)).any(axis=1)
         moved = shifted[triangles].any(axis=1)
-        bent = np.zeros(len(shifted), dtype=bool)  # corners of a triangle that moved: their normals change
-        bent[triangles[moved].ravel()] = True
+        touched = np.zeros(len(shifted), dtype=bool)  # corners of a triangle that moved, and their twins:
+        touched[twins[triangles[moved].ravel()]] = True  # their normals change
+        bent = touched[twins]
         changed = bent[triangles].any(axis=1)  # every triangle of a bent vertex: its own normals are exact
         normals = np.array(neutral_normals, dtype=np.float64)
-        normals[bent] = vertex_normals(vertices, triangles[changed])[bent]
+        normals[bent] = vertex_normals(vertices, triangles[changed], twins)[bent]
         return cls(moved, changed, normals)
 
 
-def _planes(corners: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per triangle, depth and brightness (``values`` at its corners, (3, T)) as planes ``a x + b y + c``
-    over the image, (T, 3) rows ``a, b, c`` (orthographic projection keeps both affine across a
-    triangle); NaN rows for triangles of no area in the image."""
+def _planes(corners: np.ndarray, *values: np.ndarray) -> list[np.ndarray]:
+    """Per triangle, depth and each of ``values`` (at its corners, (3, T): brightness, opacity) as planes
+    ``a x + b y + c`` over the image, (T, 3) rows ``a, b, c`` (orthographic projection keeps them affine
+    across a triangle); NaN rows for triangles of no area in the image."""
     x, y = corners[0], corners[1]
     following, last = (1, 2, 0), (2, 0, 1)
     a = y[following, :] - y[last, :]  # barycentric coordinate i = (a_i x + b_i y + c_i) / area
@@ -425,8 +498,7 @@ def _planes(corners: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.nda
         sums = [k[0] * at_corners[0] + k[1] * at_corners[1] + k[2] * at_corners[2] for k in (a, b, c)]
         return np.stack(sums, axis=1) * scale[:, None]
 
-    depth, shade = plane(corners[2]), plane(values)
-    return depth, shade
+    return [plane(corners[2]), *(plane(at_corners) for at_corners in values)]
 
 
 def _scan(

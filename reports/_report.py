@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 import harness
+from registry import claim
 from reports._agreement import agreement_counts
 from reports._claims import claims_table
 from reports._contact import contact_sheet
@@ -324,7 +325,9 @@ def report_sections(run_dir: Path, *, expressions: int = 5) -> list[Section]:
     return sections
 
 
-def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[Path, Path]:
+def build_report(
+    run_dir: str | os.PathLike, *, expressions: int = 5, force: bool = True
+) -> tuple[Path, Path]:
     """Write the report of a run to ``RUN_DIR/report/index.html`` and ``RUN_DIR/report/report.md``.
 
     Parameters
@@ -333,6 +336,10 @@ def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[P
         A run directory written by ``harness run`` (``run.json``, ``records/``).
     expressions : int
         How many leading expressions each contact-sheet row shows.
+    force : bool
+        Replace an earlier report (``harness report`` passes its ``--force``); the ``report`` folder is
+        claimed by `registry.claim` (kind ``report``) before the report is made, so an earlier one
+        without ``force``, or a folder holding anything else, is refused first.
 
     Returns
     -------
@@ -343,8 +350,13 @@ def build_report(run_dir: str | os.PathLike, *, expressions: int = 5) -> tuple[P
     ------
     FileNotFoundError
         When ``run_dir`` holds no run or no records.
+    registry.OutputFolderError
+        When ``RUN_DIR/report`` may not be written (see ``force``).
     """
     run_dir = Path(run_dir)
+    harness.read_run(run_dir)  # (no run: FileNotFoundError before any folder is made)
+    with claim(run_dir / REPORT_DIR, kind="report", force=force):
+        pass
     sections = report_sections(run_dir, expressions=expressions)
     return write_documents(
         f"Expression packing report: {run_dir.resolve().name}", sections, run_dir / REPORT_DIR

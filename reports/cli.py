@@ -36,7 +36,8 @@ def show(out: Path) -> None:
 
 @click.command(
     "report",
-    help=f"Write the report of the run in OUT to OUT/{REPORT_DIR}/index.html (self-contained) and report.md.",
+    help=f"Write the report of the run in OUT to OUT/{REPORT_DIR}/index.html (self-contained) and report.md. "
+    "An earlier report there is replaced with --force only; a folder holding anything else is refused.",
 )
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
 @click.option(
@@ -46,12 +47,19 @@ def show(out: Path) -> None:
     show_default=True,
     help="Leading expressions drawn per solver on the contact sheets.",
 )
-def report(out: Path, expressions: int) -> None:
+@click.option("--force", is_flag=True, help=f"Replace an earlier report in OUT/{REPORT_DIR}.")
+def report(out: Path, expressions: int, force: bool) -> None:
     from reports._report import build_report
+    from session import EXPRESSIONS_FILE, SHEET_FILE
 
     try:
-        page, text = build_report(out, expressions=expressions)
+        page, text = build_report(out, expressions=expressions, force=force)
     except FileNotFoundError as error:
+        if (out / EXPRESSIONS_FILE).is_file() or (out / SHEET_FILE).is_file():
+            raise InputError(
+                f"{out}: is a session folder of `harness pack` ({EXPRESSIONS_FILE}, {SHEET_FILE}), not a run "
+                "folder; `harness report` reports a run folder that `harness run` wrote"
+            ) from None
         raise InputError(f"{error}. Run `harness run --out {out}` first.") from None
     click.echo(f"report: {page}")
     click.echo(f"markdown: {text}")

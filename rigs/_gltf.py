@@ -90,6 +90,7 @@ def load_gltf(
     Returns
     -------
     Rig whose ``provenance`` (`rigs.Provenance`) says ``units = "m"`` (glTF's unit), ``format = "gltf"``,
+    ``single`` (float32 coordinates),
     the ``mesh`` and the ``primitives`` read, the ``transform`` applied and, after welding, the ``weld``
     (`rigs.Weld`: the count merged and the rig vertex of each glTF vertex); its ``surface`` holds a
     `GltfSurface` when a primitive has texture coordinates, normals or a material.
@@ -165,6 +166,7 @@ def load_gltf(
         units="m",
         mesh=str(chosen_mesh.get("name") or mesh_index),
         primitives=tuple(members),
+        single=True,
     )
     surface = surface_of(
         document,

@@ -189,6 +189,10 @@ class Provenance:
     decimal_step : float
         The coarsest rounding step of the file's coordinates (OBJ written with a fixed number of
         decimals), 0 when they are not rounded; the noise floor respects it.
+    single : bool
+        The file holds its coordinates as 32-bit floats (glTF): the rig's float64 values (a node's
+        transform applied to them, say) carry no more than a float32's digits, and files written from
+        them need no more.
     base : BaseMesh or None
         The base mesh of a ``.target`` rig.
     crop_rings : int or None
@@ -211,6 +215,7 @@ class Provenance:
     transform: str | None = None
     weld: Weld | None = None
     decimal_step: float = 0.0
+    single: bool = False
     base: BaseMesh | None = None
     crop_rings: int | None = None
     generator: GeneratorSettings | None = None

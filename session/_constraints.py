@@ -120,5 +120,6 @@ def _notes(document: Mapping[str, Any], excluded: Mapping[str, str]) -> list[str
     notes += document["notes"]
     if excluded:
         listed = "; ".join(f"{name} ({why})" for name, why in excluded.items())
-        notes.append(f"{len(excluded)} shapes left out of the session: {listed}")
+        shapes = "shape" if len(excluded) == 1 else "shapes"
+        notes.append(f"{len(excluded)} {shapes} left out of the session: {listed}")
     return notes

@@ -59,7 +59,7 @@ def session_files(
     glb : bool
         Also write ``expressions.glb``.
     notes : sequence of str
-        Footer lines of the scan sheet.
+        What packing noted and warned: the scan sheet's page for the TD (`session._notes.td_notes`).
     scene : Future of Scene, optional
         The pictures' `Scene` of ``rig`` at the document's ``mu``, prepared ahead
         (`session._pictures.prepare_scene`).

@@ -11,7 +11,8 @@ the neutral's ``NORMAL`` as ``vn`` lines, and a ``usemtl`` line per primitive ma
 ``materials.mtl`` beside them (each material's name and base colour); faces are ``f v/vt/vn``. Otherwise
 the files hold what the rig has: vertices and its polygons (or triangles).
 
-Coordinates are written at the source's precision (`precision`). On a target character (``--target``), an
+Coordinates are written at the source's precision (`precision`; a glTF rig's as float32, whatever its node's
+transform made of them). On a target character (``--target``), an
 expression is the target's neutral plus the template's deltas, roughly what the actor's scan should look
 like; a target OBJ lends its own lines to those files.
 """
@@ -137,6 +138,8 @@ def session_meshes(
     if surface is None:
         surface, library = gltf_surface(rig) or (rigs.plain_surface(rig), None)
     exact = precision(rig.neutral, rig.deltas)
+    if rig.provenance.single and not exact.step:  # (float32 in the file, float64 after a node's transform)
+        exact = Precision(single=True)
     source = rig.provenance.label
     yield NEUTRAL_FILE, _obj(surface, rig.neutral, exact, f"neutral of {source}")
     if library is not None:

@@ -112,7 +112,7 @@ class PackResult:
         without a mirror, no target), the symmetry pairs, and shapes left out of every expression.
     warnings : list of str
         The document's ``warnings`` (cancelling pairs, a ``timeout`` that cut the sequence short, a minimum
-        that was not proved).
+        that was not proved) but those the rig's reader gave, which were shown as they came.
     """
 
     document: dict[str, Any]
@@ -378,7 +378,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
             scene=scene,
         )
         files = _write(folder, document, session)
-    return PackResult(document, files, notes, found)
+    return PackResult(document, files, notes, found[len(read_notes) :])
 
 
 class Deadline:

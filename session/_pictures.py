@@ -2,10 +2,15 @@
 
 * ``expression_XX_front.png``: the template posed in the expression, seen from the front found from the
   face (`rigs.frontal_camera`), each active shape coloured (`render._raster.triangle_colours`)
-  and named on the right in plain words with its colour;
+  and named on the right in plain words with its colour (`legend_layout`: words wrap rather than being
+  cut);
 * ``expression_XX_front_pose.png`` and ``expression_XX_three_quarter_pose.png``: the same pose bare, in
   grey, from the front and turned 35 degrees towards the character's left (`rigs.three_quarter_camera`),
   so that the form of the pose shows, which the colours cover.
+
+A gaze shape puts an arrow on each of its pictures where the eye turns (`session._gaze`). Twin vertices
+along seams shade as one surface, and a face cut out of a larger mesh fades out towards the cut (the
+`Scene`'s ``fade``, `render.edge_fade`), rather than showing the cut's staircase of polygons.
 
 All the pictures of one view share one `Frame`, fitted to every expression, so they compare at one scale
 and place, and the part of the face an expression does not move is rasterised once for all of them
@@ -35,10 +40,14 @@ from render import (
     Backdrop,
     Frame,
     Motion,
+    Raster,
     active_vertices,
+    coincident,
+    edge_fade,
     triangle_colours,
     vertex_normals,
 )
+from session._gaze import Arrow, draw_arrows, gaze_arrows
 from session._mesh import expression_name, expression_poses
 
 if TYPE_CHECKING:
@@ -150,23 +159,31 @@ def session_pictures(
 
 @dataclass(frozen=True)
 class Scene:
-    """What every picture of a rig shares whatever its expressions: the neutral's `vertex_normals`, the
-    active vertices (eq. 2, `active_vertices` at the threshold ``mu`` the expressions are packed with)
-    and the front camera (`rigs.frontal_camera`)."""
+    """What every picture of a rig shares whatever its expressions: the neutral's twin vertices along
+    seams (`coincident`) and `vertex_normals`, the active vertices (eq. 2, `active_vertices` at the
+    threshold ``mu`` the expressions are packed with), the front camera (`rigs.frontal_camera`) and the
+    opacity that fades a face cut out of a larger mesh out towards the cut (`edge_fade`, None for none)."""
 
     rig: Rig
     mu: float
+    twins: np.ndarray
     normals: np.ndarray
     active: np.ndarray
     front: np.ndarray
+    fade: np.ndarray | None
 
     @classmethod
     def of(cls, rig: Rig, mu: float) -> Scene:
         """The scene of ``rig`` at the threshold ``mu``."""
         import rigs
 
-        normals = vertex_normals(rig.neutral, rig.triangles)
-        return cls(rig, mu, normals, active_vertices(rig, mu), rigs.frontal_camera(rig))
+        twins = coincident(rig.neutral)
+        normals = vertex_normals(rig.neutral, rig.triangles, twins)
+        motion = np.zeros(rig.n_vertices)
+        for delta in rig.deltas:
+            np.maximum(motion, np.linalg.norm(delta, axis=1), out=motion)
+        fade = edge_fade(rig.neutral, rig.triangles, motion)
+        return cls(rig, mu, twins, normals, active_vertices(rig, mu), rigs.frontal_camera(rig), fade)
 
 
 def prepare_scene(rig: Rig, mu: float) -> Future[Scene]:
@@ -198,7 +215,9 @@ class _Stage:
         if shared.rig is not rig or shared.mu != mu:
             raise ValueError("the pictures' scene was prepared for another rig or threshold mu")
         self.rig = shared.rig
+        self.twins = shared.twins
         self.normals = shared.normals
+        self.fade = shared.fade
         self.poses = shared.rig.neutral + expression_poses(shared.rig, expressions)
         self.active = shared.active
         self.front = shared.front
@@ -213,7 +232,7 @@ def _backdrop(stage: Future[_Stage], degrees: float) -> Backdrop:
     camera = rigs.three_quarter_camera(shared.front, degrees) if degrees else shared.front
     width, height = face_size()
     frame = Frame.fitted(camera, [neutral, *shared.poses], width=width, height=height)
-    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals)
+    return Backdrop(neutral, shared.rig.triangles, frame, shared.normals, shared.fade)
 
 
 def _render(
@@ -227,10 +246,33 @@ def _render(
         rig.triangles, shared.active[rig.indices([entry[1] for entry in legend])], colours
     )
     words = [entry[0] + (" (again)" if entry[3] else "") for entry in legend]
-    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals)
-    rasters = {key: view.result().pose(posed, motion) for key, view in views.items()}
-    painted = _legend_picture(rasters["front_pose"].over(fills, BACKGROUND), words, colours)
-    return [(PAINTED, painted), *((key, _png(raster.over(CLAY, 1.0))) for key, raster in rasters.items())]
+    motion = Motion.of(posed, rig.neutral, rig.triangles, shared.normals, shared.twins)
+    names = [entry[1] for entry in legend]
+    backdrops = {key: view.result() for key, view in views.items()}
+    rasters = {key: backdrop.pose(posed, motion) for key, backdrop in backdrops.items()}
+    arrows = {
+        key: gaze_arrows(rig, names, shared.active, shared.normals, posed, backdrop.frame)
+        for key, backdrop in backdrops.items()
+    }
+    painted = _legend_picture(
+        rasters["front_pose"].over(fills, BACKGROUND), words, colours, arrows["front_pose"]
+    )
+    return [
+        (PAINTED, painted),
+        *((key, _pose_picture(raster, arrows[key])) for key, raster in rasters.items()),
+    ]
+
+
+def _pose_picture(raster: Raster, arrows: Sequence[Arrow]) -> bytes:
+    """The PNG of a bare pose in grey, with its gaze ``arrows``."""
+    image = raster.over(CLAY, 1.0)
+    if not arrows:
+        return _png(image)
+    from PIL import Image, ImageDraw
+
+    picture = Image.fromarray(image)
+    draw_arrows(ImageDraw.Draw(picture), arrows, 0, 255)
+    return _png(picture)
 
 
 def _processors() -> int:
@@ -239,9 +281,11 @@ def _processors() -> int:
     return min(found, _MOST_THREADS)
 
 
-def _legend_picture(face: np.ndarray, legend: Sequence[str], colours: np.ndarray) -> bytes:
-    """The PNG of `SIZE`: the RGB ``face`` on the left, the legend (a swatch and the words per line) on
-    its right, centred vertically, its text shrunk to fit the height and cut to fit the width."""
+def _legend_picture(
+    face: np.ndarray, legend: Sequence[str], colours: np.ndarray, arrows: Sequence[Arrow]
+) -> bytes:
+    """The PNG of `SIZE`: the RGB ``face`` (with its gaze ``arrows``) on the left, the legend (a swatch and
+    the words per entry, `legend_layout`) on its right."""
     from PIL import Image, ImageDraw
 
     width, height = SIZE
@@ -250,33 +294,75 @@ def _legend_picture(face: np.ndarray, legend: Sequence[str], colours: np.ndarray
     canvas[:] = np.round(255 * BACKGROUND).astype(np.uint8)
     canvas[:, :left] = face
     image = Image.fromarray(canvas)
-    if len(legend):
-        _draw_legend(ImageDraw.Draw(image), legend, np.asarray(colours, dtype=np.float64), left, SIZE)
+    draw = ImageDraw.Draw(image)
+    draw_arrows(draw, arrows, (0, 0, 0), (255, 255, 255))
+    pixels, entries = legend_layout(legend, left)
+    font = _font(pixels, threading.get_ident())
+    for (swatch, lines), colour in zip(
+        entries, np.asarray(colours, dtype=np.float64).reshape(-1, 3), strict=True
+    ):
+        draw.rectangle(swatch, fill=tuple(int(round(255 * value)) for value in colour))
+        for text, (x, y, _, _) in lines:
+            draw.text((x, y), text, fill=(0, 0, 0), font=font)
     return _png(image)
 
 
-def _draw_legend(
-    draw: ImageDraw.ImageDraw, legend: Sequence[str], colours: np.ndarray, left: int, size: tuple[int, int]
-) -> None:
-    width, height = size
-    pixels = _LEGEND_PX
-    while pixels > _SMALLEST_PX and len(legend) * round(1.3 * pixels) > 0.96 * height:
-        pixels -= 1
-    font, line = _font(pixels, threading.get_ident()), round(1.3 * pixels)
-    swatch = round(0.8 * pixels)
-    x, y = left + 4, round((height - len(legend) * line) / 2)
-    room = width - (x + swatch + 4) - 2
-    for words, colour in zip(legend, colours.reshape(-1, 3), strict=True):
-        fill = tuple(int(round(255 * value)) for value in colour)
-        draw.rectangle((x, y + (line - swatch) // 2, x + swatch - 1, y + (line + swatch) // 2 - 1), fill=fill)
-        draw.text(
-            (x + swatch + 4, y + line // 2),
-            _fitted(draw, words, font, room),
-            fill=(0, 0, 0),
-            font=font,
-            anchor="lm",
-        )
-        y += line
+#: A legend entry as drawn: its swatch (x0, y0, x1, y1) and its lines, each with its text's box.
+LegendEntry = tuple[tuple[int, int, int, int], list[tuple[str, tuple[int, int, int, int]]]]
+
+
+def legend_layout(legend: Sequence[str], left: int) -> tuple[int, list[LegendEntry]]:
+    """Where the legend of a coloured picture goes, right of ``left`` in `SIZE`: the text size in pixels and
+    per entry its swatch and lines (with the box of each line's text), centred vertically.
+
+    The largest text (`_LEGEND_PX` down to `_SMALLEST_PX`) whose entries, wrapped at word breaks onto at
+    most three lines, fit the picture; when none does, each entry on one line, cut with an ellipsis, at the
+    largest size whose lines fit (the smallest at worst).
+    """
+    from PIL import Image, ImageDraw
+
+    draw = ImageDraw.Draw(Image.new("L", (1, 1)))
+    width, height = SIZE
+    sizes = range(_LEGEND_PX, _SMALLEST_PX - 1, -1)
+    for most, pixels in [(3, size) for size in sizes] + [(1, size) for size in sizes]:
+        font = _font(pixels, threading.get_ident())
+        line, swatch = round(1.3 * pixels), round(0.8 * pixels)
+        x = left + 4
+        room = width - (x + swatch + 4) - 3
+        wrapped = [_wrapped(draw, words, font, room, most) for words in legend]
+        gap = round(0.35 * pixels)
+        total = sum(len(lines) for lines in wrapped) * line + gap * max(len(legend) - 1, 0)
+        if total <= 0.96 * height or (most == 1 and pixels == _SMALLEST_PX):
+            break
+    entries: list[LegendEntry] = []
+    y = round((height - total) / 2)
+    for lines in wrapped:
+        swatch_box = (x, y + (line - swatch) // 2, x + swatch - 1, y + (line + swatch) // 2 - 1)
+        placed = []
+        for text in lines:
+            top = y + line // 2
+            box = draw.textbbox((x + swatch + 4, top), text, font=font, anchor="lm")
+            placed.append((text, tuple(int(v) for v in box)))
+            y += line
+        entries.append((swatch_box, placed))
+        y += gap
+    return pixels, entries
+
+
+def _wrapped(
+    draw: ImageDraw.ImageDraw, words: str, font: ImageFont.FreeTypeFont, room: int, most: int
+) -> list[str]:
+    """``words`` in lines of at most ``room`` pixels, broken between words: at most ``most`` lines, the
+    last cut with an ellipsis when they do not hold them all."""
+    lines: list[str] = []
+    for word in words.split():
+        if lines and draw.textlength(f"{lines[-1]} {word}", font=font) <= room:
+            lines[-1] += f" {word}"
+        else:
+            lines.append(word)
+    if len(lines) > most:
+        lines = [*lines[: most - 1], " ".join(lines[most - 1 :])]
+    return [*lines[:-1], _fitted(draw, lines[-1], font, room)] if lines else [""]
 
 
 def _png(image: np.ndarray | Image.Image) -> bytes:

@@ -14,7 +14,15 @@ import packing
 import render
 import rigs
 from render._raster import Backdrop, Frame, Motion, rasterise, vertex_normals
-from session._pictures import SIZE, _legend_picture, face_size, prepare_scene, session_pictures
+from session._pictures import (
+    SIZE,
+    _legend_picture,
+    face_size,
+    legend_layout,
+    prepare_scene,
+    session_pictures,
+)
+from session._words import plain_words
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer
 RED, BLUE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
@@ -147,12 +155,38 @@ def test_a_backdrop_rasters_a_pose_exactly_as_the_whole_pose() -> None:
     poses = rig.neutral + np.tensordot(weights, rig.deltas, axes=1)
     frame = Frame.fitted(camera, [rig.neutral, *poses], width=90, height=120)
     normals = vertex_normals(rig.neutral, rig.triangles)
-    backdrop = Backdrop(rig.neutral, rig.triangles, frame, normals)
+    opacity = np.random.default_rng(5).uniform(0.0, 1.0, rig.n_vertices)
+    backdrop = Backdrop(rig.neutral, rig.triangles, frame, normals, opacity)
     for pose in poses:
         motion = Motion.of(pose, rig.neutral, rig.triangles, normals)
         assert 0 < motion.changed.sum() < rig.n_triangles  # a part moves, the rest comes from the backdrop
         assert np.array_equal(motion.normals, vertex_normals(pose, rig.triangles))
-        fast, whole = backdrop.pose(pose, motion), rasterise(pose, rig.triangles, frame)
+        fast, whole = backdrop.pose(pose, motion), rasterise(pose, rig.triangles, frame, opacity=opacity)
+        assert np.array_equal(fast.nearest, whole.nearest) and np.array_equal(fast.light, whole.light)
+        assert np.array_equal(fast.opacity, whole.opacity)
+
+
+def test_a_backdrop_with_seams_rasters_a_pose_exactly_as_the_whole_pose() -> None:
+    """Twin vertices along a seam share a normal: a pose that moves one side of the seam bends the
+    normals of the other side's twins too."""
+    rig = rigs.generate("tiny")
+    seam = np.flatnonzero(rig.triangles[:, 0] % 2 == 0)  # triangles given copies of their corners
+    used = np.unique(rig.triangles[seam])
+    copies = np.full(rig.n_vertices, -1)
+    copies[used] = rig.n_vertices + np.arange(len(used))
+    triangles = rig.triangles.copy()
+    triangles[seam] = copies[rig.triangles[seam]]
+    neutral = np.vstack([rig.neutral, rig.neutral[used]])
+    deltas = np.concatenate([rig.deltas, rig.deltas[:, used]], axis=1)
+    frame = Frame.fitted(FRONT, [neutral], width=60, height=60)
+    twins = render.coincident(neutral)
+    normals = vertex_normals(neutral, triangles, twins)
+    backdrop = Backdrop(neutral, triangles, frame, normals)
+    for k in range(3):
+        pose = neutral + deltas[k]
+        motion = Motion.of(pose, neutral, triangles, normals, twins)
+        assert np.array_equal(motion.normals, vertex_normals(pose, triangles))
+        fast, whole = backdrop.pose(pose, motion), rasterise(pose, triangles, frame)
         assert np.array_equal(fast.nearest, whole.nearest) and np.array_equal(fast.light, whole.light)
 
 
@@ -218,9 +252,112 @@ def test_a_long_legend_shrinks_and_cuts_its_words_to_fit_the_picture() -> None:
     colours = render.shape_colours([1] * 40)
     words = [f"left upper eyelid squeeze and raise number {k}" for k in range(40)]
     face = np.full((SIZE[1], face_size()[0], 3), 255, dtype=np.uint8)
-    image = Image.open(io.BytesIO(_legend_picture(face, words, colours)))
+    image = Image.open(io.BytesIO(_legend_picture(face, words, colours, [])))
     pixels = np.asarray(image.convert("RGB")).astype(int)
     legend = pixels[:, face_size()[0] :]
     for colour in np.round(255 * colours).astype(int):  # all forty swatches fit the height
         assert (np.abs(legend - colour).sum(axis=2) <= 3).sum() >= 9
     assert (pixels[:, -2:] == 255).all()  # no word runs off the right edge
+
+
+def dome(rows: int = 24, columns: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth cap of a sphere over a grid, seen from the front (+z)."""
+    u, v = np.meshgrid(np.linspace(-0.8, 0.8, columns), np.linspace(-0.8, 0.8, rows))
+    vertices = np.stack([u.ravel(), v.ravel(), np.sqrt(2.0 - u.ravel() ** 2 - v.ravel() ** 2)], axis=1)
+    corner = (np.arange(rows - 1)[:, None] * columns + np.arange(columns - 1)[None, :]).ravel()
+    triangles = np.concatenate(
+        [np.stack([corner, corner + 1, corner + columns + 1], axis=1)]
+        + [np.stack([corner, corner + columns + 1, corner + columns], axis=1)]
+    )
+    return vertices, triangles
+
+
+def test_a_seam_of_twin_vertices_shades_as_the_welded_surface() -> None:
+    """glTF splits vertices along UV and material seams: each side's normals alone would draw a band
+    across the face (as across a forehead in a three-quarter view)."""
+    vertices, triangles = dome()
+    centres = vertices[triangles].mean(axis=1)
+    upper = centres[:, 1] > 0.1  # the seam runs across the dome
+    used = np.unique(triangles[upper])
+    copies = np.full(len(vertices), -1)
+    copies[used] = len(vertices) + np.arange(len(used))
+    split_triangles = triangles.copy()
+    split_triangles[upper] = copies[triangles[upper]]
+    split = np.vstack([vertices, vertices[used]])
+    twins = render.coincident(split)
+    assert np.array_equal(twins[len(vertices) :], used)
+    assert np.array_equal(twins[: len(vertices)], np.arange(len(vertices)))
+    assert np.allclose(
+        vertex_normals(split, split_triangles)[used], vertex_normals(vertices, triangles)[used]
+    )
+    camera = rigs.three_quarter_camera(FRONT, 35.0)
+    grey = np.full((len(triangles), 3), 0.8)
+    whole = render.render_mesh(vertices, triangles, camera, grey, width=120, height=120)
+    seamed = render.render_mesh(split, split_triangles, camera, grey, width=120, height=120)
+    assert np.abs(whole.astype(int) - seamed.astype(int)).max() <= 1
+    welded_fade = render.edge_fade(vertices, triangles, np.zeros(len(vertices)))
+    split_fade = render.edge_fade(split, split_triangles, np.zeros(len(split)))
+    assert np.array_equal(split_fade, welded_fade[twins])  # nor is a seam a cut the picture fades at
+
+
+def cropped_dome() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The dome cut with a staircase along its top (whole cells removed, as a crop of a larger mesh
+    does), and how far each vertex moves: a blob in the middle."""
+    vertices, triangles = dome(30, 30)
+    cells = (triangles.min(axis=1) // 30, triangles.min(axis=1) % 30)
+    notch = (cells[0] >= 26) & ((cells[1] // 4) % 2 == 0)  # teeth along the top edge
+    kept = triangles[~notch]
+    motion = np.exp(-20.0 * (vertices[:, 0] ** 2 + vertices[:, 1] ** 2))
+    return vertices, kept, motion
+
+
+def test_a_face_cut_out_of_a_larger_mesh_fades_out_towards_the_cut() -> None:
+    vertices, triangles, motion = cropped_dome()
+    fade = render.edge_fade(vertices, triangles, motion)
+    from render._fade import open_edges
+
+    cut = np.unique(open_edges(triangles, len(vertices)))
+    used = np.unique(triangles)
+    assert np.all(fade[cut] == 0.0) and fade[motion > 0.5].min() == 1.0  # the moving middle is opaque
+    assert 0 < fade[used].mean() < 1
+    frame = Frame.fitted(FRONT, [vertices[used]], width=90, height=90)
+    plain = rasterise(vertices, triangles, frame).over(0.8, 1.0)
+    faded = rasterise(vertices, triangles, frame, opacity=fade).over(0.8, 1.0)
+    edge = plain < 250  # the mesh's pixels
+    rows = np.flatnonzero(edge.any(axis=1))
+    top = slice(rows.min(), rows.min() + 3)  # the teeth of the staircase
+    assert plain[top][edge[top]].mean() < 225 and faded[top][edge[top]].mean() > 248  # gone, into white
+    centre = slice(40, 50)
+    assert np.array_equal(faded[centre, centre], plain[centre, centre])
+
+
+def test_open_edges_that_move_or_are_small_are_no_cut() -> None:
+    vertices, triangles, motion = cropped_dome()
+    assert render.edge_fade(vertices, triangles, np.ones(len(vertices))) is None  # every edge moves
+    hole = np.flatnonzero(np.linalg.norm(vertices[triangles].mean(axis=1)[:, :2], axis=1) < 0.1)
+    closed_ring = np.delete(triangles, hole, axis=0)  # a small still hole (inside of a mouth)
+    fade = render.edge_fade(vertices, closed_ring, np.zeros(len(vertices)))
+    around = np.linalg.norm(vertices[:, :2], axis=1) < 0.15
+    assert fade is not None and fade[around].min() == 1.0  # only the outline is a cut
+    box = np.array([[x, y, z] for x in (0.0, 1.0) for y in (0.0, 1.0) for z in (0.0, 1.0)])
+    closed = np.array(
+        [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1]]
+        + [[2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    )
+    assert render.edge_fade(box, closed, np.zeros(8)) is None  # a closed mesh has no cut
+
+
+@pytest.mark.parametrize("count", [1, 9, 24])
+def test_the_longest_plain_words_labels_fit_the_legend_whole(count) -> None:
+    """``mouth to the actor's right (again)`` is wider than the legend's column: it wraps, in the space
+    the legend has, rather than being cut."""
+    names = sorted(rigs.generate("arkit52").names, key=lambda name: -len(plain_words(name)))
+    words = [plain_words(name) + " (again)" for name in ["mouthRight", *names][:count]]
+    left = face_size()[0]
+    _, entries = legend_layout(words, left)
+    for (swatch, lines), said in zip(entries, words, strict=True):
+        assert " ".join(text for text, _ in lines) == said  # whole: no ellipsis
+        for _, (x0, y0, x1, y1) in [*lines, ("", swatch)]:
+            assert left <= x0 and x1 < SIZE[0] and 0 <= y0 and y1 < SIZE[1]  # inside the picture
+    tops = [box[1] for _, lines in entries for _, box in lines]
+    assert tops == sorted(tops)  # lines one below the other

@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -71,12 +72,24 @@ def _contents(folder: Path) -> dict[str, bytes]:
     }
 
 
+@pytest.fixture
+def pythons_sigint_handler() -> Iterator[None]:
+    """Python's own SIGINT handler (`signal.default_int_handler`) for the test, restored after it: a test
+    suite started with SIGINT ignored (``cmd &``, ``nohup``, many CI wrappers) begins without it."""
+    earlier = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, earlier)
+
+
 def _tiny_problem() -> packing.PackingProblem:
     incidence = np.array([[1, 1, 0, 0], [0, 1, 1, 0], [0, 0, 1, 1], [1, 0, 0, 1]])
     return packing.problem_from_incidence(incidence, [0.5, 0.9, 0.4, 0.7])
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="needs /proc/self/status (Linux)")
+@pytest.mark.usefixtures("pythons_sigint_handler")
 def test_cp_sat_solves_leave_pythons_sigint_handler_in_place() -> None:
     pytest.importorskip("ortools")
     handler = signal.getsignal(signal.SIGINT)
@@ -89,6 +102,7 @@ def test_cp_sat_solves_leave_pythons_sigint_handler_in_place() -> None:
     assert signal.getsignal(signal.SIGINT) is handler
 
 
+@pytest.mark.usefixtures("pythons_sigint_handler")
 def test_ctrl_c_during_a_solve_stops_the_search_and_is_raised_once_it_ended() -> None:
     stopped = threading.Event()
 
@@ -252,6 +266,7 @@ class SelfInterruptingSolver(GreedySolver):
         raise KeyboardInterrupt
 
 
+@pytest.mark.usefixtures("pythons_sigint_handler")
 def test_a_plugins_own_keyboard_interrupt_is_a_failed_solve_not_a_ctrl_c() -> None:
     with handle_stop_signals():
         solution = solvers.load(SelfInterruptingSolver).solve(_tiny_problem())
