@@ -1,5 +1,5 @@
 """The cross-solver certificate of a run: exact solvers that claim optimality on one instance agree, and no
-solver's packing beats a bound another one proved (DESIGN.md, "Benchmark verdicts": certificates).
+solver's packing beats a bound another one proved (docs/architecture.md: tolerances).
 
 An *instance* is one expression's packing problem within one group of cells (`GROUP_COLUMNS`: the cells that
 solve the same problems with different solvers, one repetition each) among the solvers of one overlap

@@ -164,8 +164,8 @@ class Analysis:
     ) -> PackingProblem:
         """The problem of the expression after ``problem``, once its items ``chosen`` are used.
 
-        One step of Algorithm 1 on the shrinking problem (DESIGN.md): the chosen items are dropped
-        from ``problem``'s presolved conflict sets (`PackingProblem.restrict`), no vertex is visited,
+        One step of Algorithm 1 on the shrinking problem (docs/architecture.md): the chosen items are
+        dropped from ``problem``'s presolved conflict sets (`PackingProblem.restrict`), no vertex is visited,
         and the weights are recomputed only when the uniqueness term (eq. 8) changes them
         (``beta > 0``).
 

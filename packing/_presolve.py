@@ -1,4 +1,4 @@
-"""Presolve eq. 3b: from one row per vertex to the distinct maximal conflict sets (DESIGN.md).
+"""Presolve eq. 3b: from one row per vertex to the distinct maximal conflict sets (docs/architecture.md).
 
 Sets of items are handled as rows of bits (item 0 is the highest bit of the first 64-bit word), so that
 equality, containment and the canonical order of sets are word operations. Two entry points: the presolve of

@@ -42,7 +42,7 @@ def sequence(
     uniqueness term of eq. 8 when ``beta > 0``), and removes the chosen items. The loop stops when
     every non-empty shape is used *or* ``jmax`` expressions exist (the paper's "or" in the loop
     condition is a typo for "and" of the negations), or when the solver returns nothing. Each problem
-    is derived from the previous one's presolved conflict sets (`Analysis.next_problem`, DESIGN.md:
+    is derived from the previous one's presolved conflict sets (`Analysis.next_problem`, docs/architecture.md:
     the sequence re-solves a shrinking problem); only the analysis visits the vertices.
 
     Parameters

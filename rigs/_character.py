@@ -1,4 +1,4 @@
-"""Character-specific targets: blendshapes that move unlike the warped template (issue 13).
+"""Character-specific targets: blendshapes that move unlike the warped template.
 
 A warp (`rigs._warp`) makes the target from the template by one smooth map of space, so every target shape
 is what deformation transfer predicts from the two neutrals, up to its own approximation error: training

@@ -1,4 +1,4 @@
-"""The solver plugin contract: capabilities, availability, the `Solver` protocol (DESIGN.md, "Plugin").
+"""The solver plugin contract: capabilities, availability, the `Solver` protocol (docs/architecture.md).
 
 A solver plugin is a class with a ``name``, typed ``capabilities``, a cheap ``availability()`` that never
 imports the backend library, and ``solve(problem, *, time_limit, seed) -> Result``: the items it chose, why

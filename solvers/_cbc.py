@@ -1,8 +1,8 @@
 """The CBC executables PuLP can drive, and CBC's own log (shared by ``cbc-pulp`` and ``naive-pulp-cbc``).
 
-DESIGN.md, "Pitfalls": PuLP's bundled CBC is 2.10.3 (2019) and several times slower than the CBC of the
-``cbcbox`` wheel (``pip install pulp[cbc]``), so the newer one is preferred where installed, and the binary
-that ran is recorded.
+PuLP's bundled CBC is 2.10.3 (2019) and several times slower than the CBC of the ``cbcbox`` wheel (``pip
+install pulp[cbc]``; docs/architecture.md), so the newer one is preferred where installed, and the binary that
+ran is recorded.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ CBC_CHOICES = ("auto", "cbcbox", "bundled")
 #: by this much, and prunes every node whose bound is not, yet still reports the incumbent as *optimal*.
 #: Its default is absolute: 1e-4 in the cbcbox CBC and 1e-5 in PuLP's CBC 2.10.3, and the MIP gaps do
 #: not override it. cbc-mip answered OPTIMAL 3.8e-5 below the optimum on a 655-item K=2000 problem
-#: (DESIGN.md, "Pitfalls"). Two packings' objectives that matter differ by much less: by the tie-break
+#: (docs/architecture.md). Two packings' objectives that matter differ by much less: by the tie-break
 #: alone (`packing.tie_break_perturbation`), an exchange of up to three items moves the objective by at
 #: least ``1e-5 / (4 (I + 1))`` (1.2e-9 at I = 2000 items), so any increment must be far below 1e-9; 0
 #: (a new incumbent must merely be better) makes the gap-0 proof the only stopping rule.

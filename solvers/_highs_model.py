@@ -2,7 +2,7 @@
 
 Shared by the ``highs`` plugin (eq. 3), the colouring model of the fewest expressions (`solvers._minimum`),
 MPS export (`solvers._mps`) and the LP relaxation of reduced-cost fixing (`solvers._fixing`). highspy must
-be the HiGHS that OR-Tools bundles to share a process with it (DESIGN.md, "Pitfalls"; `solvers.highs`).
+be the HiGHS that OR-Tools bundles to share a process with it (docs/architecture.md; `solvers.highs`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The one place a plugin's answer becomes a `packing.Solution` (DESIGN.md, "Plugin interface").
+"""The one place a plugin's answer becomes a `packing.Solution` (docs/architecture.md, "The plugin contract").
 
 A plugin's ``solve`` returns a `Result`: its items, why it stopped and any bound. `load` wraps the plugin in
 a `LoadedSolver`, whose ``solve`` checks the arguments before the plugin sees them, times the call, turns

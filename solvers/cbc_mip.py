@@ -1,7 +1,7 @@
 """CBC through python-mip's in-memory API (plugin ``cbc-mip``), in its own worker process.
 
-DESIGN.md, "Pitfalls": python-mip's CBC library fails to load beside OR-Tools in one process (in either
-import order), so this plugin never imports ``mip`` in the caller: `solve_clique_model` runs in a
+python-mip's CBC library fails to load beside OR-Tools in one process, in either import order
+(docs/architecture.md), so this plugin never imports ``mip`` in the caller: `solve_clique_model` runs in a
 persistent worker (`solvers._worker`), which measures the build and solve times itself.
 """
 

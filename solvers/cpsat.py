@@ -152,7 +152,7 @@ class CpSatSolver(ExactSolver):
     def solve_model(
         self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
     ) -> Result:
-        """Solve the model, with ``start`` as a complete solution hint (DESIGN.md, "Pitfalls": cut short
+        """Solve the model, with ``start`` as a complete solution hint (docs/architecture.md: cut short
         by a time limit, CP-SAT may otherwise have no incumbent on film-sized problems). The hint is only
         a hint: ``repair_hint`` and ``fix_variables_to_their_hinted_value`` stay off, so optima are
         unchanged."""

@@ -1,7 +1,7 @@
 """HiGHS through highspy's native arrays (plugin ``highs``): the presolved model of eq. 3 as one row-wise LP.
 
-DESIGN.md, "Pitfalls": OR-Tools bundles its own HiGHS, and only the highspy wheel of that same HiGHS
-version loads beside it in one process, so availability checks the pair.
+OR-Tools bundles its own HiGHS, and only the highspy wheel of that same HiGHS version loads beside it in one
+process (docs/architecture.md), so availability checks the pair.
 """
 
 from __future__ import annotations

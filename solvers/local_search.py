@@ -1,7 +1,7 @@
 """Greedy packing improved by (1,2)-swap local search (plugin ``greedy-swap``; beyond the paper).
 
 Algorithm 2 (sec. 4.5.2) is fast but its first expression falls 0-23% short of the optimum on synthetic
-paper-sized rigs (DESIGN.md). This heuristic starts from two greedy packings (Algorithm 2's order and
+paper-sized rigs. This heuristic starts from two greedy packings (Algorithm 2's order and
 decreasing weight), then repeatedly applies the best improving move on the item conflict graph:
 
 * *add* an item none of whose conflicting items is chosen;

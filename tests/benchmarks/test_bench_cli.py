@@ -1,4 +1,4 @@
-"""Start-up of the ``harness`` command (issue 14): ``harness --help`` and ``harness list`` <= 0.3 s for the
+"""Start-up of the ``harness`` command: ``harness --help`` and ``harness list`` <= 0.3 s for the
 whole process. ``--help`` lists the built-in commands from their summaries without importing them; the
 summaries are checked here against the commands themselves. Targets are checked on the best of a few runs of
 the installed project (bytecode compiled, see ``conftest.compiled_project``; see ``conftest.speed_target``).

@@ -1,4 +1,4 @@
-"""Film-scale speed (issue 14): the ``film`` preset (N = 20k, K = 1,000) and the ``dense`` preset
+"""Film-scale speed: the ``film`` preset (N = 20k, K = 1,000) and the ``dense`` preset
 (N = 100k, K = 265), both on the procedural Female layout, against the alien target.
 
 Targets: on ``film`` the analysis <= 1 s, the whole optimal sequence (``cpsat``, Algorithm 1 until every shape

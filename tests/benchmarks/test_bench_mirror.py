@@ -1,6 +1,6 @@
 """Speed of the vertex mirror map (sec. 4.4.1) on a 100k-vertex face mesh.
 
-Target (issue 10): under a second for the whole map, plane fit included, matched to the surface (closest
+Target: under a second for the whole map, plane fit included, matched to the surface (closest
 points on the triangles) on an exactly symmetric neutral and on a captured one (every vertex jittered by 0.3
 of the mean edge length); the nearest-vertex map of the jittered neutral is timed alongside. Targets are
 checked on the best of a few repetitions (see ``conftest.speed_target``). Run with

@@ -1,4 +1,4 @@
-"""Film-scale speed of ``harness pack`` (issue 14): the whole process of
+"""Film-scale speed of ``harness pack``: the whole process of
 ``harness pack RIG --out DIR --no-pictures`` on a production-sized rig (N ~ 26.7k vertices, K = 57 shapes,
 the generator's Female-like layout) <= 1 s from its ``.npz`` and <= 1.5 s from its folder of OBJs (written
 by ``harness rigs convert``); with its pictures, at most 1.5 times as long as without them, both measured

@@ -1,5 +1,5 @@
-"""Exact backends prove the optimum itself, not one within a default tolerance (DESIGN.md, "Pitfalls": cbc-mip
-answered OPTIMAL 3.8e-5 below the optimum of a 655-item K=2000 problem).
+"""Exact backends prove the optimum itself, not one within a default tolerance (docs/architecture.md:
+cbc-mip answered OPTIMAL 3.8e-5 below the optimum of a 655-item K=2000 problem).
 
 CBC's cutoff increment (1e-4 absolute in the cbcbox CBC, 1e-5 in PuLP's 2.10.3) let it stop on an incumbent
 up to that far below the optimum and still report it optimal; its absolute LP tolerances do the same when
