@@ -14,7 +14,6 @@ from transfer._base import Transfer, check_positive
 from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
 from transfer._gcv import BetaChoice, Spectra, choose_beta, ridge_spectra
 from transfer._inputs import TransferInputs, check_inputs
-from transfer._reconstruct import displacement_lengths
 from transfer._setup import TransferSetup, transfer_setup
 
 #: Fitted expressions a set-up keeps (the free-vertex displacements of each of its shapes).
@@ -47,8 +46,8 @@ class Regularisation:
     Notes
     -----
     Weights lie between ``(2 / (kappa + 1))^theta`` and ``kappa^-theta`` for ``"peak"``; empty shapes get
-    ``kappa^-theta`` everywhere. The peaks cost O(P) for the P (triangle, shape) pairs around moving
-    vertices (see `motion_peaks`).
+    ``kappa^-theta`` everywhere. The peaks cost O(P) for the P (triangle, shape) pairs the shapes move
+    (see `motion_peaks`).
     """
 
     def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
@@ -71,31 +70,24 @@ def edge_motion(prior: TransferredEdges, faces: np.ndarray, shapes: np.ndarray) 
     ``shapes`` on every triangle in the sorted ``faces`` (zero where a shape moves no corner)."""
     motion = np.zeros((faces.size, shapes.size))
     for column, shape in enumerate(shapes):
-        rows = prior.within(faces, shape)
-        motion[rows, column] = np.sqrt(np.sum(prior.moved(faces[rows], shape) ** 2, axis=(1, 2)))
+        rows, found = prior.within(faces, shape)
+        motion[rows, column] = prior.on_moving(shape)[1][found]
     return motion
 
 
 def motion_peaks(setup: TransferSetup) -> np.ndarray:
     """Largest ``|M_i^A|`` over all triangles of each template shape; 1 where a shape does not move.
 
-    A triangle away from every free vertex of shape i has all three corners held, and each held corner
-    moves at most ``h_i``, the largest held displacement, so its edge motion is at most ``2 sqrt(2) h_i``.
-    When the triangles around the free vertices (`TransferSetup.faces`) move more than that, the peak is
-    theirs; otherwise (a shape that barely moves, or a held anchor that moves) every triangle is measured.
+    Away from the triangles it moves (`TransferredEdges.moving`) a shape's edge motion is zero, so the
+    peak is the largest of the motions `TransferredEdges.on_moving` keeps.
 
     Returns
     -------
     (K,) array of positive scales.
     """
-    lengths = displacement_lengths(setup.template_deltas)
-    bound = 2.0 * np.sqrt(2.0) * np.where(setup.fixed, lengths, 0.0).max(axis=1, initial=0.0)
-    peaks = np.zeros(setup.fixed.shape[0])
-    for members in setup.groups:
-        peaks[members] = edge_motion(setup.prior, setup.faces(members), members).max(axis=0, initial=0.0)
-    for shape in np.flatnonzero(peaks <= bound * (1.0 + 1e-9)):
-        everywhere = setup.prior.moving(shape)
-        peaks[shape] = edge_motion(setup.prior, everywhere, np.array([shape])).max(initial=0.0)
+    peaks = np.array(
+        [setup.prior.on_moving(shape)[1].max(initial=0.0) for shape in range(setup.fixed.shape[0])]
+    )
     return np.where(peaks > 0, peaks, 1.0)
 
 
