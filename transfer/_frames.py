@@ -98,8 +98,10 @@ class TransferredEdges:
 
     Notes
     -----
-    O(T) to build; a block costs O(F + P) for F triangles and the P (triangle, shape) pairs of them that
-    the shapes move. Triangles degenerate in the template get zero.
+    O(T) to build. Each shape's targets and motion are evaluated once, on all the triangles it moves
+    (`on_moving`), and kept: O(P) memory for the P (triangle, shape) pairs a shape moves, less than the
+    template's deltas take when shapes are local. A block then costs O(F + P) to gather for F triangles
+    and the P pairs of them. Triangles degenerate in the template get zero.
     """
 
     def __init__(
@@ -121,6 +123,7 @@ class TransferredEdges:
         self.neutral_edges = edge_vectors(template_neutral, triangles)
         self.neutral_normals = scaled_normals(self.neutral_edges)
         self._moving: dict[int, np.ndarray] = {}
+        self._on_moving: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def moving(self, shape: int) -> np.ndarray:
         """Sorted triangles with a corner that template shape ``shape`` displaces, kept once computed.
@@ -133,9 +136,21 @@ class TransferredEdges:
             found = self._moving[shape] = np.flatnonzero(displaced[self.triangles].any(axis=1))
         return found
 
-    def within(self, faces: np.ndarray, shape: int) -> np.ndarray:
-        """Positions in the sorted ``faces`` of the triangles that ``shape`` moves (see `moving`)."""
-        return np.intersect1d(faces, self.moving(shape), assume_unique=True, return_indices=True)[1]
+    def within(self, faces: np.ndarray, shape: int) -> tuple[np.ndarray, np.ndarray]:
+        """Positions in the sorted ``faces`` of the triangles that ``shape`` moves, and their positions
+        in `moving`."""
+        _, rows, found = np.intersect1d(faces, self.moving(shape), assume_unique=True, return_indices=True)
+        return rows, found
+
+    def on_moving(self, shape: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(F, 2, 3)`` targets (`edges`) of ``shape`` on the F triangles it moves (`moving`) and the
+        ``(F,)`` Frobenius norms of its edge displacements there (`moved`), kept once computed."""
+        found = self._on_moving.get(shape)
+        if found is None:
+            faces = self.moving(shape)
+            motion = np.sqrt(np.sum(self.moved(faces, shape) ** 2, axis=(1, 2)))
+            found = self._on_moving[shape] = (self.edges(faces, shape), motion)
+        return found
 
     def moved(self, faces: np.ndarray, shape: int) -> np.ndarray:
         """``(F, 2, 3)`` edge displacements of template shape ``shape`` on the triangles ``faces``."""
@@ -152,12 +167,12 @@ class TransferredEdges:
     def block(self, faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
         """``(F, 2, 3, S)`` targets of every shape in ``shapes`` on every triangle in the sorted ``faces``.
 
-        Only the triangles each shape moves are evaluated (`within`); the others are exactly zero.
+        Only the triangles each shape moves hold targets (`on_moving`); the others are exactly zero.
         """
         result = np.zeros((faces.size, 2, 3, shapes.size))
         for column, shape in enumerate(shapes):
-            rows = self.within(faces, shape)
-            result[rows, :, :, column] = self.edges(faces[rows], shape)
+            rows, found = self.within(faces, shape)
+            result[rows, :, :, column] = self.on_moving(shape)[0][found]
         return result
 
 

@@ -9,7 +9,7 @@ and Wahba (1979), pooled over all the per-triangle systems.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,10 +36,15 @@ class Spectra:
         ``g >= 0`` of every (triangle, eigenvector) pair.
     energies : (P,) array
         ``z``, the matching squared residual of the prior, summed over 6 coordinates.
+    parts : tuple of Spectra
+        The sets of systems these pool (`join`), empty for one set.
     """
 
     eigenvalues: np.ndarray
     energies: np.ndarray
+    parts: tuple[Spectra, ...] = ()
+    #: `grid_sums` of the last grid asked for, by the grid's bytes.
+    _kept: dict[bytes, np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
     def join(cls, parts: list[Spectra]) -> Spectra:
@@ -49,7 +54,35 @@ class Spectra:
         return cls(
             np.concatenate([part.eigenvalues for part in parts]),
             np.concatenate([part.energies for part in parts]),
+            tuple(parts),
         )
+
+    def grid_sums(self, grid: np.ndarray) -> np.ndarray:
+        """``(2, B)`` sums over the pairs of ``s^2 z`` and of ``s``, ``s = beta / (g + beta)`` the diagonal
+        of ``I - H`` (see `gcv_scores`), at the ``beta`` values of ``grid``, kept for the last grid.
+
+        Pooled systems add the kept sums of their `parts`, so a part that joins several pools (an
+        expression in the first J expressions for every larger J) is scored on the grid once
+        (`_looped_sums`).
+        """
+        key = grid.tobytes()
+        found = self._kept.get(key)
+        if found is None:
+            if self.parts:
+                found = sum((part.grid_sums(grid) for part in self.parts), np.zeros((2, grid.size)))
+            else:
+                found = _looped_sums(self, grid)
+            self._kept.clear()
+            self._kept[key] = found
+        return found
+
+
+def _looped_sums(spectra: Spectra, betas: np.ndarray) -> np.ndarray:
+    """`Spectra.grid_sums` of one set of systems, the products summed by numpy's own loops rather than a
+    BLAS product, whose second thread waits for a core when two harness workers share two. The grid of
+    `choose_beta` only brackets the minimum, which the refinement finds with `gcv_scores`."""
+    shrink = betas[:, None] / (spectra.eigenvalues[None, :] + betas[:, None])  # (B, P)
+    return np.stack((np.einsum("bp,bp,p->b", shrink, shrink, spectra.energies), shrink.sum(axis=1)))
 
 
 def ridge_spectra(regularisation: np.ndarray, weights: np.ndarray, residual: np.ndarray) -> Spectra:
@@ -70,12 +103,9 @@ def ridge_spectra(regularisation: np.ndarray, weights: np.ndarray, residual: np.
 
     Notes
     -----
-    When no shape is in two expressions ``G_t`` is diagonal, ``g = sum_i W_ji^2 / w_ti``: O(T K J).
-    Otherwise one batched ``eigh`` per chunk of triangles: O(T (K J^2 + J^3)).
+    One batched ``eigh``: O(T (K J^2 + J^3)). The expressions of a packing (no shape in two) are
+    systems of one example each, ``g = sum_i W_i^2 / w_ti`` (`transfer._expression_fit`).
     """
-    squared = np.sum(residual**2, axis=1)  # (T, J)
-    if np.all(np.count_nonzero(weights, axis=0) <= 1):
-        return Spectra(((1.0 / regularisation) @ (weights**2).T).ravel(), squared.ravel())
     outer = (weights[:, None, :] * weights[None, :, :]).reshape(-1, weights.shape[1]).T  # (K, J*J)
     n_expressions = weights.shape[0]
     gram = ((1.0 / regularisation) @ outer).reshape(-1, n_expressions, n_expressions)
@@ -103,9 +133,14 @@ def gcv_scores(spectra: Spectra, betas: np.ndarray) -> np.ndarray:
     if spectra.eigenvalues.size == 0:
         return np.zeros(betas.shape)
     shrink = betas[:, None] / (spectra.eigenvalues[None, :] + betas[:, None])  # (B, P): diag of I - H
-    count = 6.0 * spectra.eigenvalues.size
-    residual = (shrink**2) @ spectra.energies / count
-    trace = 6.0 * shrink.sum(axis=1) / count
+    return _scores((shrink**2) @ spectra.energies, shrink.sum(axis=1), spectra.eigenvalues.size)
+
+
+def _scores(products: np.ndarray, shrinkage: np.ndarray, n_pairs: int) -> np.ndarray:
+    """GCV scores from the sums of ``s^2 z`` and of ``s`` over ``n_pairs`` pairs (`gcv_scores`)."""
+    count = 6.0 * n_pairs
+    residual = products / count
+    trace = 6.0 * shrinkage / count
     return residual / trace**2
 
 
@@ -152,17 +187,19 @@ def choose_beta(spectra: Spectra, low: float, high: float) -> BetaChoice:
     Notes
     -----
     O(B P) for the grid plus O(P) per refinement step, for P (triangle, eigenvector) pairs; no fit is
-    computed. GCV estimates the prediction error of the fitted examples without a noise level and is
-    invariant to the units of the rig. With exact examples (the linear sum of the true shapes) every
-    residual of the prior is signal, and the score falls towards ``low``; scanner noise and correctives
-    that the shapes cannot explain are residuals no ``beta`` removes, and the score rises again as
-    ``beta -> 0`` once fitting them costs more than it gains.
+    computed. Pooled spectra add the grid sums their parts keep (`Spectra.grid_sums`), so the grid
+    costs O(B P') for the P' pairs of parts not scored before. GCV estimates the prediction error of
+    the fitted examples without a noise level and is invariant to the units of the rig. With exact
+    examples (the linear sum of the true shapes) every residual of the prior is signal, and the score
+    falls towards ``low``; scanner noise and correctives that the shapes cannot explain are residuals no
+    ``beta`` removes, and the score rises again as ``beta -> 0`` once fitting them costs more than it
+    gains.
     """
     steps = max(2, int(np.ceil(_PER_DECADE * np.log10(high / low))) + 1) if high > low else 1
     grid = np.geomspace(low, high, steps)
-    scores = gcv_scores(spectra, grid)
     if spectra.eigenvalues.size == 0:
-        return BetaChoice(float("nan"), grid, scores, float("nan"))
+        return BetaChoice(float("nan"), grid, np.zeros(steps), float("nan"))
+    scores = _scores(*spectra.grid_sums(grid), spectra.eigenvalues.size)
     from scipy.optimize import minimize_scalar  # importing transfer must not load scipy
 
     best = int(np.argmin(scores))

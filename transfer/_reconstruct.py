@@ -100,6 +100,23 @@ class FreeBlock:
         rhs = self.operator @ edges.reshape(-1, columns) - self.coupling @ held.reshape(-1, columns)
         return self.factor.solve(rhs).reshape(self.free.size, 3, -1)
 
+    def respond(self, edges: np.ndarray) -> np.ndarray:
+        """`solve` with every near vertex held at rest: the free vertices' response to ``edges`` alone.
+
+        The solve is linear, so ``solve(e + d, h) = solve(e, h) + respond(d)`` up to rounding.
+
+        Parameters
+        ----------
+        edges : (S, 2, 3, M) array
+            Edge displacements on ``faces`` for M right-hand sides.
+
+        Returns
+        -------
+        (F, 3, M) array.
+        """
+        rhs = self.operator @ edges.reshape(-1, 3 * edges.shape[-1])
+        return self.factor.solve(rhs).reshape(self.free.size, 3, -1)
+
 
 class FrameReconstruction:
     """Least-squares vertex solve on one target neutral, factorised once per constraint set.

@@ -115,14 +115,28 @@ class TransferSetup:
         values : (V, 3, len(members)) array
             Their displacements there; every other vertex keeps the template's displacement.
         """
+        for members, columns, block, rows in self.blocks(shapes, faces):
+            yield members, block.free, block.solve(edges[rows][..., columns], self._held(block, members))
+
+    def blocks(
+        self, shapes: np.ndarray, faces: np.ndarray
+    ) -> Iterator[tuple[np.ndarray, np.ndarray, FreeBlock, np.ndarray]]:
+        """Per constraint set of ``shapes`` with a free vertex: its members, their columns in ``shapes``,
+        its factorised block and the rows of the block's triangles in the sorted ``faces``."""
         for group in np.unique(self.group_of[shapes]):
             columns = np.flatnonzero(self.group_of[shapes] == group)
             members = shapes[columns]
-            block = self.reconstruction.block(self.fixed[members[0]])
-            if block is None:
-                continue
-            rows = np.searchsorted(faces, block.faces)
-            yield members, block.free, block.solve(edges[rows][..., columns], self._held(block, members))
+            block = self.block_of(members[0])
+            if block is not None:
+                yield members, columns, block, np.searchsorted(faces, block.faces)
+
+    def block_of(self, shape: int) -> FreeBlock | None:
+        """The factorised block of the constraint set of ``shape`` (`FrameReconstruction.block`)."""
+        return self.reconstruction.block(self.fixed[shape])
+
+    def transferred_on(self, members: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """``(V, 3, M)`` deformation transfer of shapes ``members`` at vertices ``free`` (`transferred`)."""
+        return np.moveaxis(self.transferred[np.ix_(members, free)], 0, -1)
 
     def _held(self, block: FreeBlock, members: np.ndarray) -> np.ndarray:
         """``(H, 3, M)`` template displacements of the block's near held vertices in shapes ``members``."""
@@ -144,7 +158,7 @@ class TransferSetup:
         """(K, N, 3) deformation transfer of every shape, a new array (see `transferred`)."""
         result = np.array(self.template_deltas)
         for members in self.groups:
-            block = self.reconstruction.block(self.fixed[members[0]])
+            block = self.block_of(members[0])
             if block is None:
                 continue
             solved = block.solve(self.prior.block(block.faces, members), self._held(block, members))

@@ -11,17 +11,14 @@ import numpy as np
 
 from registry import BoundedMemo
 from transfer._base import Transfer, check_positive
+from transfer._expression_fit import ExpressionFit, ExpressionSystem, Fitted
 from transfer._frames import TransferredEdges, edge_vectors, triangle_chunks, vertex_major
 from transfer._gcv import BetaChoice, Spectra, choose_beta, ridge_spectra
 from transfer._inputs import TransferInputs, check_inputs
-from transfer._reconstruct import displacement_lengths
 from transfer._setup import TransferSetup, transfer_setup
 
-#: Fitted expressions a set-up keeps (the free-vertex displacements of each of its shapes).
+#: Expressions a set-up keeps, by weights, by weights and example, and fitted at one ``beta``.
 _EXPRESSION_CACHE_SIZE = 512
-#: Fitted shapes of one expression: (shapes, free vertices, (V, 3, len(shapes)) displacements) per
-#: constraint set, as `TransferSetup.solve` yields them.
-Fitted = list[tuple[np.ndarray, np.ndarray, np.ndarray]]
 
 
 class Regularisation:
@@ -47,8 +44,8 @@ class Regularisation:
     Notes
     -----
     Weights lie between ``(2 / (kappa + 1))^theta`` and ``kappa^-theta`` for ``"peak"``; empty shapes get
-    ``kappa^-theta`` everywhere. The peaks cost O(P) for the P (triangle, shape) pairs around moving
-    vertices (see `motion_peaks`).
+    ``kappa^-theta`` everywhere. The peaks cost O(P) for the P (triangle, shape) pairs the shapes move
+    (see `motion_peaks`).
     """
 
     def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
@@ -71,31 +68,24 @@ def edge_motion(prior: TransferredEdges, faces: np.ndarray, shapes: np.ndarray) 
     ``shapes`` on every triangle in the sorted ``faces`` (zero where a shape moves no corner)."""
     motion = np.zeros((faces.size, shapes.size))
     for column, shape in enumerate(shapes):
-        rows = prior.within(faces, shape)
-        motion[rows, column] = np.sqrt(np.sum(prior.moved(faces[rows], shape) ** 2, axis=(1, 2)))
+        rows, found = prior.within(faces, shape)
+        motion[rows, column] = prior.on_moving(shape)[1][found]
     return motion
 
 
 def motion_peaks(setup: TransferSetup) -> np.ndarray:
     """Largest ``|M_i^A|`` over all triangles of each template shape; 1 where a shape does not move.
 
-    A triangle away from every free vertex of shape i has all three corners held, and each held corner
-    moves at most ``h_i``, the largest held displacement, so its edge motion is at most ``2 sqrt(2) h_i``.
-    When the triangles around the free vertices (`TransferSetup.faces`) move more than that, the peak is
-    theirs; otherwise (a shape that barely moves, or a held anchor that moves) every triangle is measured.
+    Away from the triangles it moves (`TransferredEdges.moving`) a shape's edge motion is zero, so the
+    peak is the largest of the motions `TransferredEdges.on_moving` keeps.
 
     Returns
     -------
     (K,) array of positive scales.
     """
-    lengths = displacement_lengths(setup.template_deltas)
-    bound = 2.0 * np.sqrt(2.0) * np.where(setup.fixed, lengths, 0.0).max(axis=1, initial=0.0)
-    peaks = np.zeros(setup.fixed.shape[0])
-    for members in setup.groups:
-        peaks[members] = edge_motion(setup.prior, setup.faces(members), members).max(axis=0, initial=0.0)
-    for shape in np.flatnonzero(peaks <= bound * (1.0 + 1e-9)):
-        everywhere = setup.prior.moving(shape)
-        peaks[shape] = edge_motion(setup.prior, everywhere, np.array([shape])).max(initial=0.0)
+    peaks = np.array(
+        [setup.prior.on_moving(shape)[1].max(initial=0.0) for shape in range(setup.fixed.shape[0])]
+    )
     return np.where(peaks > 0, peaks, 1.0)
 
 
@@ -139,9 +129,9 @@ def fit_edge_frames(
     Notes
     -----
     O(T (K J^2 + J^3)) time, in chunks of triangles so temporaries stay O(chunk K). A shape in no
-    expression has a zero column in W, hence a zero update: it keeps the prior exactly. When every shape
-    is in at most one expression (a packing without extra examples), ``W D_t^-1 W^T`` is diagonal and the
-    solve is a division: O(T K J).
+    expression has a zero column in W, hence a zero update: it keeps the prior exactly. The expressions
+    of a packing (no shape in two) are fitted one at a time in closed form instead
+    (`transfer._expression_fit`).
     """
     n_triangles, n_shapes = prior.shape[0], prior.shape[-1]
     n_expressions = weights.shape[0]
@@ -150,14 +140,6 @@ def fit_edge_frames(
         return result.reshape(prior.shape)
     predicted = (result.reshape(-1, n_shapes) @ weights.T).reshape(n_triangles, 6, n_expressions)
     residual = observed.reshape(n_triangles, 6, n_expressions) - predicted  # (T, 6, J)
-    if np.all(np.count_nonzero(weights, axis=0) <= 1):
-        squared = (weights**2).T  # (K, J): W D^-1 W^T = diag(D^-1 squared) when no shape is shared
-        for part in triangle_chunks(n_triangles, 2 * n_shapes):
-            inverse_diagonal = 1.0 / (beta * regularisation[part])  # (c, K)
-            mixed = residual[part] / (1.0 + inverse_diagonal @ squared)[:, None, :]  # (c, 6, J)
-            update = (mixed.reshape(-1, n_expressions) @ weights).reshape(-1, 6, n_shapes)
-            result[part] += update * inverse_diagonal[:, None, :]
-        return result.reshape(prior.shape)
     outer = (weights[:, None, :] * weights[None, :, :]).reshape(n_expressions**2, n_shapes).T  # (K, J*J)
     identity = np.eye(n_expressions)
     for part in triangle_chunks(n_triangles, 2 * max(n_shapes, n_expressions**2)):
@@ -181,10 +163,13 @@ class RiggingState:
 
     def __init__(self, setup: TransferSetup, kappa: float, theta: float, motion_scale: str) -> None:
         self.regularisation = Regularisation(setup, kappa, theta, motion_scale)
+        #: Single expressions by weights, and with their example, at any ``beta`` (`ExpressionSystem`,
+        #: `ExpressionFit`: fits and GCV spectra).
+        self.systems: BoundedMemo[ExpressionSystem] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
+        self.fits: BoundedMemo[ExpressionFit] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
         #: Fitted shapes of single expressions (`GradientSpaceRigging.blendshapes`).
         self.expressions: BoundedMemo[Fitted] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
-        #: GCV spectra of single expressions and choices of ``beta`` (`GradientSpaceRigging.choose_beta`).
-        self.expression_spectra: BoundedMemo[Spectra] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
+        #: Choices of ``beta`` (`GradientSpaceRigging.choose_beta`).
         self.choices: BoundedMemo[BetaChoice] = BoundedMemo(_EXPRESSION_CACHE_SIZE)
 
 
@@ -232,6 +217,7 @@ class GradientSpaceRigging:
         )
         self.examples = inputs.examples
         self.offsets = vertex_major(inputs.examples - target)
+        self._example_digests: dict[int, bytes] = {}
 
     def blendshapes(self, weights: np.ndarray, beta: float) -> np.ndarray:
         """Target deltas ``(K, N, 3)`` for expression ``weights (J, K)`` and balance ``beta``.
@@ -263,37 +249,36 @@ class GradientSpaceRigging:
         all covered shapes jointly. The choice is memoised per weights and examples.
         """
         digest = hashlib.blake2b(weights.tobytes(), digest_size=16)
-        digest.update(np.ascontiguousarray(self.examples[: weights.shape[0]]).data)
+        for j in range(weights.shape[0]):
+            digest.update(self._example_digest(j))
         key = (digest.hexdigest(), float(low), float(high))
         return self.state.choices.get_or_build(key, lambda: choose_beta(self.spectra(weights), low, high))
 
     def spectra(self, weights: np.ndarray) -> Spectra:
         """GCV spectra of the systems `blendshapes` solves for ``weights`` (see `choose_beta`)."""
         if _disjoint(weights):
-            parts = []
-            for j, row in enumerate(weights):
-                shapes = np.flatnonzero(row)
-                if shapes.size:
-                    parts.append(self._expression_spectra(j, row, shapes))
+            parts = [self._fit(j, row).spectra for j, row in enumerate(weights) if row.any()]
             return Spectra.join(parts)
         covered = np.flatnonzero(np.any(weights != 0, axis=0))
-        return self._system_spectra(weights[:, covered], covered, np.arange(weights.shape[0]))
+        setup, joint = self.setup, weights[:, covered]
+        faces = setup.faces(covered)
+        observed = edge_vectors(self.offsets[..., : weights.shape[0]], setup.triangles[faces])
+        prior = setup.prior.block(faces, covered).reshape(faces.size, 6, covered.size)
+        residual = observed.reshape(faces.size, 6, -1) - prior @ joint.T
+        return ridge_spectra(self.state.regularisation.block(faces, covered), joint, residual)
 
-    def _expression_spectra(self, j: int, row: np.ndarray, shapes: np.ndarray) -> Spectra:
-        """Spectra of expression ``j`` alone (no other expression holds its shapes), memoised."""
-        return self.state.expression_spectra.get_or_build(
+    def _fit(self, j: int, row: np.ndarray) -> ExpressionFit:
+        """Expression ``j`` alone (no other expression holds its shapes) with its example, memoised."""
+        return self.state.fits.get_or_build(
             self._expression_key(j, row),
-            lambda: self._system_spectra(row[None, shapes], shapes, np.array([j])),
+            lambda: self._system(row).fit(self.setup, self.offsets[..., [j]]),
         )
 
-    def _system_spectra(self, weights: np.ndarray, shapes: np.ndarray, expressions: np.ndarray) -> Spectra:
-        """Spectra of the systems of `_fitted` with the same arguments, without fitting."""
-        setup = self.setup
-        faces = setup.faces(shapes)
-        observed = edge_vectors(self.offsets[..., expressions], setup.triangles[faces])
-        prior = setup.prior.block(faces, shapes).reshape(faces.size, 6, shapes.size)
-        residual = observed.reshape(faces.size, 6, -1) - prior @ weights.T
-        return ridge_spectra(self.state.regularisation.block(faces, shapes), weights, residual)
+    def _system(self, row: np.ndarray) -> ExpressionSystem:
+        """An expression of weights ``row`` alone, for any example, memoised."""
+        return self.state.systems.get_or_build(
+            row.tobytes(), lambda: ExpressionSystem.build(self.setup, self.state.regularisation, row)
+        )
 
     def apply(self, result: np.ndarray, weights: np.ndarray, beta: float, start: int = 0) -> None:
         """Write the fitted shapes of expressions ``start`` onward of ``weights`` into ``result``.
@@ -304,9 +289,8 @@ class GradientSpaceRigging:
         """
         if _disjoint(weights):
             for j in range(start, weights.shape[0]):
-                shapes = np.flatnonzero(weights[j])
-                if shapes.size:
-                    _write(result, self._expression(j, weights[j], shapes, beta))
+                if weights[j].any():
+                    _write(result, self._expression(j, weights[j], beta))
         else:
             covered = np.flatnonzero(np.any(weights != 0, axis=0))
             expressions = np.arange(weights.shape[0])
@@ -329,18 +313,25 @@ class GradientSpaceRigging:
         )
         return list(setup.solve(shapes, faces, edges))
 
-    def _expression(self, j: int, row: np.ndarray, shapes: np.ndarray, beta: float) -> Fitted:
+    def _expression(self, j: int, row: np.ndarray, beta: float) -> Fitted:
         """The shapes of expression ``j`` alone (no other expression holds them), memoised."""
         return self.state.expressions.get_or_build(
-            (self._expression_key(j, row), float(beta)),
-            lambda: self._fitted(row[None, shapes], shapes, np.array([j]), beta),
+            (self._expression_key(j, row), float(beta)), lambda: self._fit(j, row).fitted(self.setup, beta)
         )
 
     def _expression_key(self, j: int, row: np.ndarray) -> str:
         """Digest of expression ``j``'s weights and example."""
         digest = hashlib.blake2b(row.tobytes(), digest_size=16)
-        digest.update(np.ascontiguousarray(self.examples[j]).data)
+        digest.update(self._example_digest(j))
         return digest.hexdigest()
+
+    def _example_digest(self, j: int) -> bytes:
+        """Digest of example ``j``, computed once per instance (every J and ``beta`` asks again)."""
+        found = self._example_digests.get(j)
+        if found is None:
+            example = np.ascontiguousarray(self.examples[j])
+            found = self._example_digests[j] = hashlib.blake2b(example.data, digest_size=16).digest()
+        return found
 
 
 class RisingPrefixes:
@@ -348,16 +339,18 @@ class RisingPrefixes:
 
     For a packing the estimate of J + 1 expressions is the estimate of J with the shapes of expression
     J + 1 replaced (they are in no other expression), so a rising sequence of J values costs one fit per
-    expression and one copy per J. A falling j starts again from deformation transfer; expressions
-    that share shapes are fitted jointly (`GradientSpaceRigging.blendshapes`).
+    expression and one copy per J. A falling j puts the shapes of the expressions it drops back to
+    deformation transfer; expressions that share shapes are fitted jointly
+    (`GradientSpaceRigging.blendshapes`).
 
     Parameters
     ----------
     rigging : GradientSpaceRigging
     weights : (J, K) array
     beta : callable
-        ``beta`` for the first j expressions, as a function of j; when it changes between calls the
-        estimate starts again from deformation transfer (fits already made at that ``beta`` are reused).
+        ``beta`` for the first j expressions, as a function of j; when it changes between calls every
+        expression is fitted again in place at the new ``beta`` (`transfer._expression_fit`: a scaling
+        and a vertex solve each; fits already made at that ``beta`` are reused).
     """
 
     def __init__(
@@ -376,9 +369,14 @@ class RisingPrefixes:
         beta = self.beta(count)
         if not _disjoint(head):
             return self.rigging.blendshapes(head, beta)
-        if self._result is None or count < self._applied or beta != self._beta:
-            self._result, self._applied = self.rigging.setup.transferred.copy(), 0
-        self.rigging.apply(self._result, head, beta, self._applied)
+        transferred = self.rigging.setup.transferred
+        if self._result is None:
+            self._result, self._applied = transferred.copy(), 0
+        if count < self._applied:
+            dropped = np.flatnonzero(np.any(self.weights[count : self._applied] != 0, axis=0))
+            self._result[dropped] = transferred[dropped]
+        start = min(count, self._applied) if beta == self._beta else 0
+        self.rigging.apply(self._result, head, beta, start)
         self._applied, self._beta = count, beta
         return self._result.copy()
 
@@ -474,11 +472,14 @@ class ExampleBasedRigging(RiggingSettings, Transfer):
     -----
     The data term ``W^T W`` is the same for every triangle and has rank <= J, so the per-triangle systems
     are solved in one batched Woodbury step, O(T (K J^2 + J^3)) (see `fit_edge_frames`), and only on the
-    triangles around the vertices the fitted shapes move. The vertex solve costs one sparse factorisation
+    triangles around the vertices the fitted shapes move. For a packing (no shape in two expressions)
+    each expression is a system of one example, solved in closed form for any ``beta`` from what is kept
+    per weights and per example (`transfer._expression_fit`): GCV's ``beta`` for every J refits the
+    expressions without evaluating a prior again. The vertex solve costs one sparse factorisation
     per distinct set of static vertices, shared with `transfer.deformation` and kept for every later
     J and call on the same rig pair (`transfer._setup.transfer_setup`). Shapes in no training expression
     come out as deformation transfer; with J = 0 the method is deformation transfer. `prefixes` fits each
-    expression of a packing once for all J (`RisingPrefixes`).
+    expression of a packing once for all J at one ``beta`` (`RisingPrefixes`).
 
     Why GCV for ``beta="gcv"``: a TD has the template, the target neutral and the J examples, not the
     target's shapes, so ``beta`` must be judged on the examples. Hold-out validation fails there: when

@@ -7,6 +7,7 @@ import pytest
 
 import rigs
 import transfer
+from transfer import _gcv
 from transfer._gcv import Spectra, choose_beta, gcv_scores, ridge_spectra
 
 
@@ -58,6 +59,31 @@ def test_gcv_choice_is_deterministic_and_empty_data_has_no_beta():
     first, second = choose_beta(_random_effects(0.2), 1e-4, 1.0), choose_beta(_random_effects(0.2), 1e-4, 1.0)
     assert first.beta == second.beta and np.array_equal(first.scores, second.scores)
     assert np.isnan(choose_beta(Spectra.join([]), 1e-4, 1.0).beta)
+
+
+def test_pooled_spectra_score_the_grid_once_per_part(monkeypatch):
+    """The first J expressions for a rising J: each part is scored on the grid once, for every pool."""
+    parts = [_random_effects(noise, seed) for seed, noise in enumerate((0.1, 0.3, 0.05))]
+    fresh = [Spectra.join([Spectra(p.eigenvalues, p.energies) for p in parts[:count]]) for count in (1, 2, 3)]
+    plain = [choose_beta(pool, 1e-4, 1.0) for pool in fresh]  # every pool's parts scored anew
+    scored: list[int] = []
+    looped = _gcv._looped_sums
+
+    def counted(spectra: Spectra, betas: np.ndarray) -> np.ndarray:
+        scored.append(spectra.eigenvalues.size)
+        return looped(spectra, betas)
+
+    monkeypatch.setattr(_gcv, "_looped_sums", counted)
+    kept = [choose_beta(Spectra.join(parts[:count]), 1e-4, 1.0) for count in (1, 2, 3)]
+    assert scored == [part.eigenvalues.size for part in parts]
+    pooled = Spectra(
+        np.concatenate([p.eigenvalues for p in parts]), np.concatenate([p.energies for p in parts])
+    )
+    whole = choose_beta(pooled, 1e-4, 1.0)
+    for first, second in zip(kept, plain, strict=True):
+        assert first.beta == second.beta and np.array_equal(first.scores, second.scores)
+    assert kept[-1].beta == pytest.approx(whole.beta, rel=1e-9)
+    np.testing.assert_allclose(kept[-1].scores, whole.scores, rtol=1e-12)
 
 
 @pytest.fixture(scope="module")

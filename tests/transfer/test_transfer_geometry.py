@@ -142,6 +142,34 @@ def test_transferred_edges_apply_each_deformation_gradient_to_the_target(
         )
 
 
+def test_each_shapes_targets_are_evaluated_once_for_every_block(sheet, bulge, monkeypatch):
+    """Blocks of any triangles gather what each shape's targets and motion on all its triangles keep."""
+    rig = sheet(9, 10, 4, 3)
+    prior = TransferredEdges(rig.neutral, rig.deltas, bulge(rig.neutral), rig.triangles)
+    plain = TransferredEdges(rig.neutral, rig.deltas, bulge(rig.neutral), rig.triangles)
+    evaluated: list[int] = []
+    edges = prior.edges
+
+    def counted(faces: np.ndarray, shape: int) -> np.ndarray:
+        evaluated.append(shape)
+        return edges(faces, shape)
+
+    monkeypatch.setattr(prior, "edges", counted)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        faces = np.sort(rng.choice(rig.triangles.shape[0], 60, replace=False))
+        shapes = rng.permutation(4)[:3]
+        found = prior.block(faces, shapes)
+        for column, k in enumerate(shapes):
+            rows = np.isin(faces, plain.moving(k))
+            assert np.array_equal(found[rows, ..., column], plain.edges(faces[rows], k))
+            assert not found[~rows, ..., column].any()
+    assert sorted(evaluated) == sorted(set(evaluated))
+    for k in range(4):
+        moved = plain.moved(plain.moving(k), k)
+        assert np.array_equal(prior.on_moving(k)[1], np.sqrt(np.sum(moved**2, axis=(1, 2))))
+
+
 def test_degenerate_triangles_do_not_break_the_transfer(sheet):
     rig = sheet(8, 9, 3)
     neutral = np.r_[rig.neutral, rig.neutral[:1]]  # a duplicated vertex makes a zero-area triangle

@@ -187,16 +187,17 @@ def test_dt_and_ebfr_share_one_setup_kept_by_content(case):
 
 
 @pytest.fixture
-def fits(monkeypatch) -> list[tuple[int, int]]:
-    """Every step-A fit (`ebfr.fit_edge_frames`) from now on, as its (expressions, shapes) counts."""
-    real = ebfr.fit_edge_frames
-    found: list[tuple[int, int]] = []
+def fits(monkeypatch) -> list[int]:
+    """Every step-A fit of one expression alone (`ebfr.ExpressionFit.fitted`) from now on, as its number
+    of shapes."""
+    real = ebfr.ExpressionFit.fitted
+    found: list[int] = []
 
-    def counted(prior, regularisation, weights, observed, beta):
-        found.append(weights.shape)
-        return real(prior, regularisation, weights, observed, beta)
+    def counted(self, setup, beta):
+        found.append(self.system.shapes.size)
+        return real(self, setup, beta)
 
-    monkeypatch.setattr(ebfr, "fit_edge_frames", counted)
+    monkeypatch.setattr(ebfr.ExpressionFit, "fitted", counted)
     return found
 
 
@@ -206,7 +207,7 @@ def test_each_expression_is_fitted_once_across_j_values(case, fits):
         check_inputs(template, target.neutral, weights, examples, method="ebfr")
     )
     rigging.state.expressions.clear()  # earlier tests may have fitted these expressions already
-    once = sorted((1, int(np.count_nonzero(row))) for row in weights)  # one fit of each expression alone
+    once = sorted(int(np.count_nonzero(row)) for row in weights)  # one fit of each expression alone
     first = transfer.get("ebfr").prefixes(template, target.neutral, weights, examples)
     for j in range(weights.shape[0] + 1):
         first(j)
@@ -217,6 +218,37 @@ def test_each_expression_is_fitted_once_across_j_values(case, fits):
     transfer.get("ebfr").prefixes(template, target.neutral, weights, examples)(3)
     assert sorted(fits) == once
     assert len(rigging.state.expressions) == weights.shape[0]
+
+
+def test_a_new_beta_or_example_refits_each_expression_from_what_it_kept(sheet, reference_step_a, monkeypatch):
+    """GCV picks another beta for every J, and every capture session brings other examples of the same
+    expressions: the prior of each expression is evaluated once for all of them."""
+    template, target, weights, examples = make_case(sheet, 8, 9, 6, 4, seed=7)
+    rigging = ebfr.GradientSpaceRigging(
+        check_inputs(template, target.neutral, weights, examples, method="ebfr")
+    )
+    for memo in (rigging.state.systems, rigging.state.fits, rigging.state.expressions):
+        memo.clear()  # earlier tests may have prepared these expressions already
+    assert rigging.setup.transferred is not None  # deformation transfer evaluates every prior once
+    evaluated: list[int] = []
+    block = rigging.setup.prior.block
+
+    def counted(faces: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+        evaluated.append(shapes.size)
+        return block(faces, shapes)
+
+    monkeypatch.setattr(rigging.setup.prior, "block", counted)
+    other = noisy_examples(target, weights, np.random.default_rng(8))
+    for session in (examples, other):
+        first = (
+            transfer.get("ebfr", beta=0.1)
+            .rigging(check_inputs(template, target.neutral, weights, session, method="ebfr"))
+            .prefixes(weights, lambda count: 0.5**count)
+        )
+        for j in (1, 2, 4, 3, 4, 1, 0):
+            expected = reference_step_a(template, target.neutral, weights[:j], session[:j], beta=0.5**j)
+            assert_close(first(j), expected)
+    assert sorted(evaluated) == sorted(int(np.count_nonzero(row)) for row in weights if row.any())
 
 
 def test_motion_peaks_measure_every_triangle_where_the_moving_ones_do_not_decide(sheet):
