@@ -133,7 +133,10 @@ def gcv_scores(spectra: Spectra, betas: np.ndarray) -> np.ndarray:
     if spectra.eigenvalues.size == 0:
         return np.zeros(betas.shape)
     shrink = betas[:, None] / (spectra.eigenvalues[None, :] + betas[:, None])  # (B, P): diag of I - H
-    return _scores((shrink**2) @ spectra.energies, shrink.sum(axis=1), spectra.eigenvalues.size)
+    # numpy's own loop, not a BLAS product: a threaded BLAS sums in an order that depends on its thread
+    # count, which moved a chosen beta by 1e-9 between one thread and two
+    products = np.einsum("bp,p->b", shrink**2, spectra.energies)
+    return _scores(products, shrink.sum(axis=1), spectra.eigenvalues.size)
 
 
 def _scores(products: np.ndarray, shrinkage: np.ndarray, n_pairs: int) -> np.ndarray:

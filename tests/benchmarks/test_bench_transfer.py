@@ -1,9 +1,9 @@
 """Speed and memory of blendshape transfer on paper-sized generated rigs with the ``alien`` warp.
 
-Targets (issue 5): `ebfr` with J=20 expressions <= 10 s on `toon` (N~11.7k, K=65) and on `female`
+Targets: `ebfr` with J=20 expressions <= 10 s on `toon` (N~11.7k, K=65) and on `female`
 (N~5k, K=265); `dt` of every `toon` shape <= 5 s; peak memory <= 4 GiB.
 
-Targets (issue 14, film scale): a ``harness run`` cell with `ebfr` at every J value (1 to 25, capped by
+Targets (film scale): a ``harness run`` cell with `ebfr` at every J value (1 to 25, capped by
 the sequence) on a 26.7k-vertex, 57-shape rig (`FILM57`, the Female layout) <= 10 s of cell time, measured
 by the harness itself in a fresh process; the transfer alone evaluates all J values
 (`transfer.Transfer.prefixes`) in at most 2.5 times one plain transfer at the largest J; the paper
@@ -44,7 +44,7 @@ FILM57 = rigs.PresetSpec(
     "film57",
     26700,
     57,
-    "Female layout with 57 shapes on 26.7k vertices (issue 14's transfer cell).",
+    "Female layout with 57 shapes on 26.7k vertices (a film-sized transfer cell).",
     layout=rigs.PRESETS["female"].layout,
 )
 #: Seconds of the issue: one harness cell with ebfr at every J value, and the paper preset.
