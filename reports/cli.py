@@ -19,6 +19,54 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 
+def measuring_options(prefix: str = ""):
+    """The options of a timing session (`harness.measure`): the suite, its solvers, rounds, samples and
+    their least CPU time; ``prefix`` begins each help text (``With --commits: ``)."""
+
+    def say(text: str) -> str:
+        return prefix + text if prefix else text[0].upper() + text[1:]
+
+    def add(command):
+        options = [
+            click.option(
+                "--suite",
+                default="quick",
+                show_default=True,
+                help=say(
+                    "the timing suite: quick (tiny and arkit52, every solver), large (film's first "
+                    "expressions), transfer (female: ebfr and dt), ci (what the CI gate times)."
+                ),
+            ),
+            click.option("--solvers", default=None, help=say("only these solver labels (comma list).")),
+            click.option(
+                "--rounds",
+                type=click.IntRange(min=2, max=100),
+                default=3,
+                show_default=True,
+                help=say("rounds of fresh processes, at most."),
+            ),
+            click.option(
+                "--repeat",
+                type=click.IntRange(min=1, max=100),
+                default=3,
+                show_default=True,
+                help=say("samples per job, commit and round (two commits' taken alternately)."),
+            ),
+            click.option(
+                "--sample-time",
+                type=DURATION,
+                default="10ms",
+                show_default=True,
+                help=say("least CPU time of one sample; a faster solve is repeated within it."),
+            ),
+        ]
+        for option in reversed(options):
+            command = option(command)
+        return command
+
+    return add
+
+
 class InputError(UserError):
     """Unusable input: exit code 2, so that CI tells it apart from a regression (exit code 1), printed as
     every command prints bad input (``error: ...``)."""
@@ -83,34 +131,7 @@ def report(out: Path, expressions: int, force: bool) -> None:
     help="Measure these two commits (any git refs) of the repository holding the current folder, each from "
     "a worktree of its own, instead of comparing two folders.",
 )
-@click.option(
-    "--suite",
-    default="quick",
-    show_default=True,
-    help="With --commits: the timing suite (quick, large, transfer, ci; see `harness track --help`).",
-)
-@click.option("--solvers", default=None, help="With --commits: only these solver labels (comma list).")
-@click.option(
-    "--rounds",
-    type=click.IntRange(min=1, max=100),
-    default=3,
-    show_default=True,
-    help="With --commits: rounds of fresh processes, at most (the --budget may end it sooner, after 2).",
-)
-@click.option(
-    "--repeat",
-    type=click.IntRange(min=1, max=100),
-    default=3,
-    show_default=True,
-    help="With --commits: samples per job, commit and round, the two commits' taken alternately.",
-)
-@click.option(
-    "--sample-time",
-    type=DURATION,
-    default="10ms",
-    show_default=True,
-    help="With --commits: least CPU time of one sample; a faster solve is repeated within it.",
-)
+@measuring_options("With --commits: ")
 @click.option(
     "--budget",
     type=DURATION,

@@ -17,8 +17,7 @@ from typing import TYPE_CHECKING
 import click
 from rich.markup import escape
 
-from harness import DURATION
-from reports.cli import InputError
+from reports.cli import InputError, measuring_options
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -88,14 +87,7 @@ def track() -> None:
 
 @track.command("run")
 @click.argument("commits")
-@click.option(
-    "--suite",
-    default="quick",
-    show_default=True,
-    help="Timing suite: quick (tiny and arkit52, every solver), large (film's first expressions), transfer "
-    "(female: ebfr and dt), ci (what the CI gate times).",
-)
-@click.option("--solvers", default=None, help="Only these solver labels (comma list).")
+@measuring_options()
 @click.option(
     "--every",
     type=click.IntRange(min=1),
@@ -105,27 +97,6 @@ def track() -> None:
 )
 @click.option("--bisect", is_flag=True, help="Then measure the commits inside each step until it is named.")
 @click.option("--again", is_flag=True, help="Measure commits the store already holds for this machine too.")
-@click.option(
-    "--rounds",
-    type=click.IntRange(min=2, max=100),
-    default=3,
-    show_default=True,
-    help="Rounds of fresh processes per commit.",
-)
-@click.option(
-    "--repeat",
-    type=click.IntRange(min=1, max=100),
-    default=3,
-    show_default=True,
-    help="Samples per job and round.",
-)
-@click.option(
-    "--sample-time",
-    type=DURATION,
-    default="10ms",
-    show_default=True,
-    help="Least CPU time of one sample; a faster solve is repeated within it.",
-)
 @_store_option
 @_judging_options
 def run(

@@ -18,15 +18,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 from rich.console import Console
 
 import harness
 from reports._commits_compare import run
-
-ROOT = Path(__file__).resolve().parents[2]
+from tests.scratch_repository import clone, commit_all, git, replace_entry_point
 
 SLOWED = '''"""CP-SAT spending a share of its own CPU time again, for the timing gate's benchmark."""
 
@@ -48,33 +46,20 @@ class SlowedCpSat(CpSatSolver):
 '''
 
 
-def _git(folder: Path, *arguments: str) -> str:
-    return subprocess.run(
-        ["git", "-C", str(folder), *arguments], check=True, capture_output=True, text=True
-    ).stdout.strip()
-
-
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     """The clone and its commits: ``base``, ``unchanged``, ``1.25x`` and ``2x`` (each on ``base``)."""
-    folder = tmp_path_factory.mktemp("gate") / "repo"
-    subprocess.run(["git", "clone", "--quiet", "--local", str(ROOT), str(folder)], check=True)
-    _git(folder, "config", "user.email", "t@t")
-    _git(folder, "config", "user.name", "t")
-    commits = {"base": _git(folder, "rev-parse", "HEAD")}
+    folder = clone(tmp_path_factory.mktemp("gate") / "repo")
+    commits = {"base": git(folder, "rev-parse", "HEAD")}
     (folder / "README.md").write_text((folder / "README.md").read_text() + "\nA line that no solve reads.\n")
-    _git(folder, "commit", "-qam", "README only")
-    commits["unchanged"] = _git(folder, "rev-parse", "HEAD")
-    pyproject = (folder / "pyproject.toml").read_text()
+    commits["unchanged"] = commit_all(folder, "README only")
     for name, share in (("1.25x", 0.25), ("2x", 1.0)):
-        _git(folder, "checkout", "-q", commits["base"])
+        git(folder, "checkout", "-q", commits["base"])
         (folder / "solvers" / "_slowed.py").write_text(SLOWED.format(share=share))
-        (folder / "pyproject.toml").write_text(
-            pyproject.replace('cpsat = "solvers.cpsat:CpSatSolver"', 'cpsat = "solvers._slowed:SlowedCpSat"')
+        replace_entry_point(
+            folder, 'cpsat = "solvers.cpsat:CpSatSolver"', 'cpsat = "solvers._slowed:SlowedCpSat"'
         )
-        _git(folder, "add", "-A")
-        _git(folder, "commit", "-qm", f"cpsat {name} slower")
-        commits[name] = _git(folder, "rev-parse", "HEAD")
+        commits[name] = commit_all(folder, f"cpsat {name} slower")
     return {"folder": folder, **commits}
 
 

@@ -4,7 +4,6 @@ store, and its dashboard leads from a point to that commit's per-instance table 
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -15,8 +14,7 @@ from harness import Group, Suite
 from harness._bench_suites import SUITES
 from harness.cli import cli
 from tests.chromium import Browser
-
-ROOT = Path(__file__).resolve().parents[2]
+from tests.scratch_repository import clone, commit_all, git, replace_entry_point
 
 #: greedy made three times slower: the CPU time of its solve, spent twice more
 SLOWED = '''"""Greedy spending twice its CPU time again, for the timing gate's test."""
@@ -37,28 +35,15 @@ class SlowedGreedy(GreedySolver):
 '''
 
 
-def _git(folder: Path, *arguments: str) -> str:
-    return subprocess.run(
-        ["git", "-C", str(folder), *arguments], check=True, capture_output=True, text=True
-    ).stdout.strip()
-
-
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A clone of this repository's HEAD with one more commit: greedy three times slower."""
-    folder = tmp_path_factory.mktemp("scratch") / "repo"
-    subprocess.run(["git", "clone", "--quiet", "--local", str(ROOT), str(folder)], check=True)
-    _git(folder, "config", "user.email", "t@t")
-    _git(folder, "config", "user.name", "t")
+    folder = clone(tmp_path_factory.mktemp("scratch") / "repo")
     (folder / "solvers" / "_slowed.py").write_text(SLOWED)
-    pyproject = folder / "pyproject.toml"
-    text = pyproject.read_text()
-    assert 'greedy = "solvers.greedy:GreedySolver"' in text
-    pyproject.write_text(
-        text.replace('greedy = "solvers.greedy:GreedySolver"', 'greedy = "solvers._slowed:SlowedGreedy"')
+    replace_entry_point(
+        folder, 'greedy = "solvers.greedy:GreedySolver"', 'greedy = "solvers._slowed:SlowedGreedy"'
     )
-    _git(folder, "add", "-A")
-    _git(folder, "commit", "-qm", "greedy three times slower")
+    commit_all(folder, "greedy three times slower")
     return folder
 
 
@@ -87,8 +72,8 @@ def test_the_gate_fails_a_slower_commit_unless_the_slow_down_is_accepted(scratch
     (scratch / "benchmarks" / "accepted-slowdowns.toml").write_text(
         f'[[slowdown]]\nafter = "{base[:10]}"\ncase = "*/greedy"\nreason = "greedy checks every answer now"\n'
     )
-    _git(scratch, "add", "-A")
-    _git(scratch, "commit", "-q", "--amend", "--no-edit")
+    git(scratch, "add", "-A")
+    git(scratch, "commit", "-q", "--amend", "--no-edit")
     result = _harness(*gate)
     assert result.exit_code == 0
     assert (
