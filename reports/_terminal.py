@@ -37,8 +37,11 @@ def print_summary(out: Path) -> None:
     )
     terminal().print(_sequence_table(records))
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
+    if transfers["rms"].notna().any():
+        terminal().print(_transfer_table(transfers[transfers["rms"].notna()]))
+    if transfers["frames_l2"].notna().any():
+        terminal().print(_frames_table(records))
     if len(transfers):
-        terminal().print(_transfer_table(transfers))
         terminal().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
@@ -123,6 +126,20 @@ def _transfer_table(transfers: pd.DataFrame) -> Table:
             else:
                 cells.append(f"{values[j]:.4g}")
         table.add_row(*map(escape, (rig, warp, setting or "-", method, solver)), *cells)
+    return table
+
+
+def _frames_table(records: pd.DataFrame) -> Table:
+    """Wagner et al.'s Fig. 10 error per rig, transfer and choice of examples at each J
+    (`reports._animation.shown_errors`)."""
+    from reports._animation import shown_errors
+
+    shown = shown_errors(records)
+    table = Table(title="retargeted frames: mean vertex L2 error (rig units; mean over seeds [95% interval])")
+    for column in shown.columns:
+        table.add_column(str(column), justify="right" if str(column).startswith("J=") else "left")
+    for row in shown.itertuples(index=False):
+        table.add_row(*(escape("-" if pd.isna(value) else str(value)) for value in row))
     return table
 
 
