@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -18,6 +18,8 @@ from transfer.plbs import patch_blendshapes
 #: Vertices of the paper's skin (Table 2): the data term of eq. 2 counts each rig vertex as this many over
 #: the rig's vertex count, so that Table 3's ``lambda_reg`` means the same on a coarser or finer rig.
 PAPER_SKIN_VERTICES = 29_826
+#: Goals retargeted at once (bounds the few ``(chunk, N, 3)`` arrays of a call beside its result).
+_GOAL_CHUNK = 64
 #: The transfers of the missing blendshape (sec. 4.5's ablation: ``dt`` instead of ``adt``).
 MISSING_TRANSFERS = ("adt", "dt")
 
@@ -171,10 +173,9 @@ class AnaConDaR(Transfer):
 
     def _retarget(self, inputs: TransferInputs, goals: np.ndarray, *, frames: bool) -> np.ndarray:
         """Eq. 6 for ``(B, N, 3)`` source displacements ``goals``: the template's shapes (whose
-        `transfer._adt.SourceTerms` the anatomy keeps), or ``frames`` of an animation."""
+        `transfer._adt.SourceTerms` the anatomy keeps), or ``frames`` of an animation; `_GOAL_CHUNK` goals
+        at a time, so that memory stays a few ``(chunk, N, 3)`` arrays beside the result."""
         from transfer._embedding import embed_examples
-        from transfer._partition import metis_partition
-        from transfer._patches import blend_weights
 
         needed = self.anacon or self.embed or (self.missing and self.adt == "adt")
         anatomy = self.anatomy(inputs) if needed else None
@@ -185,47 +186,96 @@ class AnaConDaR(Transfer):
         offsets = inputs.examples - inputs.target_neutral
         if self.embed and len(offsets):
             weights = embed_examples(anatomy, offsets, self.lambda_reg, scale)
-        data_driven = np.zeros_like(goals, dtype=np.float64)
-        missing, explained = goals, None
-        if len(weights):
-            labels = metis_partition(template.neutral, template.triangles, self.n_patches, seed=self.seed)
-            blend = blend_weights(labels, template.triangles, self.blend_rings)
-            sources = np.tensordot(weights, template.deltas, axes=1)
-            shapes = vertex_major(goals)
+        terms = None
+        if self.anacon:
+            terms = anatomy.source_terms(goals @ anatomy.rotation.T) if frames else anatomy.source_shapes()
+        examples = _Examples(self, anatomy, template, weights, offsets, scale) if len(weights) else None
+        result = np.empty(goals.shape)
+        for start in range(0, len(goals), _GOAL_CHUNK):
+            rows = slice(start, start + _GOAL_CHUNK)
+            goal = goals[rows]
+            data_driven, missing, explained = np.zeros_like(result[rows]), goal, None
+            if examples is not None:
+                data_driven, missing, explained = examples.explain(goal)
+            combined = data_driven
+            if self.missing:
+                if self.adt == "adt":
+                    transferred = anatomy.adt(missing @ anatomy.rotation.T)
+                else:
+                    transferred = deformation_transfer(
+                        template.neutral,
+                        missing,
+                        inputs.target_neutral,
+                        template.triangles,
+                        static_tolerance=self.static_tolerance,
+                    )
+                combined = combined + transferred
+            result[rows] = anatomy.anacon(combined, terms.part(rows), explained) if self.anacon else combined
+        return result
 
-            def patchwise(fields: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                """Eqs. 1-3: the goals from the source examples, the weights applied to ``fields``."""
-                return patch_blendshapes(
-                    _major(sources), _major(fields), shapes, blend, self.lambda_reg, scale
-                )
 
-            source, data_driven = patchwise(offsets)
-            missing = goals - source
-            if self.anacon:
-                rotation = anatomy.rotation.T
-                explained = Explained(
-                    source @ rotation,
-                    data_driven,
-                    patchwise(anatomy.rejected(sources @ rotation))[1],
-                    patchwise(anatomy.rejected(offsets, on_target=True))[1],
-                )
-        combined = data_driven
-        if self.missing:
-            if self.adt == "adt":
-                transferred = anatomy.adt(missing @ anatomy.rotation.T)
-            else:
-                transferred = deformation_transfer(
-                    template.neutral,
-                    missing,
-                    inputs.target_neutral,
-                    template.triangles,
-                    static_tolerance=self.static_tolerance,
-                )
-            combined = combined + transferred
-        if not self.anacon:
-            return combined
-        terms = anatomy.source_terms(goals @ anatomy.rotation.T) if frames else None
-        return anatomy.anacon(combined, terms, explained)
+class _Examples:
+    """The data-driven part of eq. 6 for any goals: patchwise blendshapes of the training examples
+    (eqs. 1-3), with what the anatomy rejects of the examples blended alike for ``anacon``.
+
+    Parameters
+    ----------
+    method : AnaConDaR
+    anatomy : transfer._adt.Anatomy or None
+        Needed when ``method.anacon``.
+    template : Rig
+    weights : (J, K) array
+        The examples' template weights (the source examples are the template at them).
+    offsets : (J, N, 3) array
+        The target examples' displacements.
+    scale : float
+        Length unit of eq. 2's data term.
+    """
+
+    def __init__(
+        self,
+        method: AnaConDaR,
+        anatomy: Any,
+        template: Any,
+        weights: np.ndarray,
+        offsets: np.ndarray,
+        scale: float,
+    ) -> None:
+        from transfer._partition import metis_partition
+        from transfer._patches import blend_weights
+
+        labels = metis_partition(template.neutral, template.triangles, method.n_patches, seed=method.seed)
+        self.blend = blend_weights(labels, template.triangles, method.blend_rings)
+        self.lambda_reg, self.scale, self.anatomy = method.lambda_reg, scale, anatomy
+        self.sources = np.tensordot(weights, template.deltas, axes=1)
+        self.fields = [offsets]
+        if method.anacon:
+            rotation = anatomy.rotation.T
+            self.fields += [
+                anatomy.rejected(self.sources @ rotation),
+                anatomy.rejected(offsets, on_target=True),
+            ]
+
+    def explain(self, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray, Explained | None]:
+        """``T_i^P - T`` (eq. 3), the missing blendshapes ``S_i - S_i^P`` (eq. 4) and, with ``anacon``,
+        what the examples explain of ``(B, N, 3)`` goals."""
+        found = [
+            patch_blendshapes(
+                _major(self.sources),
+                _major(field),
+                vertex_major(goals),
+                self.blend,
+                self.lambda_reg,
+                self.scale,
+            )
+            for field in self.fields
+        ]
+        source, data_driven = found[0]
+        if len(found) == 1:
+            return data_driven, goals - source, None
+        rotation = self.anatomy.rotation.T
+        explained = Explained(source @ rotation, data_driven, found[1][1], found[2][1])
+        return data_driven, goals - source, explained
 
 
 def _major(fields: np.ndarray) -> np.ndarray:
