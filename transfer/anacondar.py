@@ -7,11 +7,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from transfer._adt import Explained
 from transfer._base import Transfer, check_positive
 from transfer._frames import vertex_major
 from transfer._inputs import TransferInputs, check_inputs, check_weights
-from transfer._projective import FACE_DIAGONAL, Weights
 from transfer.deformation import deformation_transfer
 from transfer.plbs import patch_blendshapes
 
@@ -133,6 +131,7 @@ class AnaConDaR(Transfer):
     def anatomy(self, inputs: TransferInputs):
         """The memoised `transfer._adt.Anatomy` of the inputs' template and target neutral."""
         from transfer._adt import Settings, anatomy
+        from transfer._projective import Weights
 
         weights = Weights() if self.characteristics else Weights(characteristics=0.0)
         settings = Settings(int(self.resolution), int(self.iterations), weights, int(self.seed))
@@ -176,6 +175,7 @@ class AnaConDaR(Transfer):
         `transfer._adt.SourceTerms` the anatomy keeps), or ``frames`` of an animation; `_GOAL_CHUNK` goals
         at a time, so that memory stays a few ``(chunk, N, 3)`` arrays beside the result."""
         from transfer._embedding import embed_examples
+        from transfer._projective import FACE_DIAGONAL
 
         needed = self.anacon or self.embed or (self.missing and self.adt == "adt")
         anatomy = self.anatomy(inputs) if needed else None
@@ -256,9 +256,11 @@ class _Examples:
                 anatomy.rejected(offsets, on_target=True),
             ]
 
-    def explain(self, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray, Explained | None]:
+    def explain(self, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
         """``T_i^P - T`` (eq. 3), the missing blendshapes ``S_i - S_i^P`` (eq. 4) and, with ``anacon``,
-        what the examples explain of ``(B, N, 3)`` goals."""
+        what the examples explain of ``(B, N, 3)`` goals (a `transfer._adt.Explained`, else None)."""
+        from transfer._adt import Explained
+
         found = [
             patch_blendshapes(
                 _major(self.sources),

@@ -69,3 +69,10 @@ def test_the_figure_has_a_fig10_row_and_one_per_packed_transfer():
     assert len(figure.axes) == 2
     with pytest.raises(ValueError, match="frames_l2"):
         animation_figure(records().assign(frames_l2=np.nan))
+
+
+def test_harness_show_prints_the_errors_beside_the_claims():
+    from reports._terminal import _frames_table
+
+    table = _frames_table(records())
+    assert table.row_count == 3 and [column.header for column in table.columns][-1] == "J=5"
