@@ -117,7 +117,7 @@ def shown_errors(records: pd.DataFrame) -> pd.DataFrame:
 def shown_paired(records: pd.DataFrame, first: tuple[str, str], second: tuple[str, str]) -> pd.DataFrame:
     """`paired_table` for reading, the verdict naming the lower of the two."""
     table = paired_table(records, first, second)
-    names = {"first lower": " ".join(first), "second lower": " ".join(second), "unclear": "unclear"}
+    names = {"first lower": _name(*first), "second lower": _name(*second), "unclear": "unclear"}
     return table.assign(
         difference=[
             f"{mean:+.4g} [{low:+.4g}, {high:+.4g}]"
@@ -126,6 +126,24 @@ def shown_paired(records: pd.DataFrame, first: tuple[str, str], second: tuple[st
         relative=[f"{value:+.1%}" for value in table["relative"]],
         verdict=table["verdict"].map(names),
     ).drop(columns=["low", "high"])
+
+
+def _name(choice: str, transfer: str) -> str:
+    """``AnaConDaR (random)``: a transfer's display name and its choice of examples, lower."""
+    return f"{NAMES.get(transfer, transfer)} ({choice}) lower"
+
+
+#: Fixed colours, so that a transfer or a choice of examples looks the same in every panel.
+_COLOURS = {
+    ANACONDAR: "C0",
+    ALM: "C3",
+    STIFF_ANACONDAR: "C2",
+    STIFF_ALM: "C1",
+    "ebfr": "C4",
+    RANDOM: "C7",
+    "cpsat": "C0",
+    "greedy": "C1",
+}
 
 
 def animation_figure(records: pd.DataFrame) -> Figure:
@@ -144,7 +162,10 @@ def animation_figure(records: pd.DataFrame) -> Figure:
     if table.empty:
         raise ValueError("animation_figure: the run has no frames_l2 records (harness run --frames F)")
     columns = sorted(table[["rig", "warp"]].drop_duplicates().itertuples(index=False, name=None))
-    transfers = sorted(table["transfer"].unique(), key=lambda name: (name not in NAMES, name))
+    order = list(NAMES)
+    transfers = sorted(
+        table["transfer"].unique(), key=lambda name: (order.index(name) if name in NAMES else 99, name)
+    )
     packed = [name for name in transfers if set(table[table["transfer"] == name]["choice"]) - {RANDOM}]
     labels = table["rig"].unique()
     with report_style():
@@ -159,11 +180,12 @@ def animation_figure(records: pd.DataFrame) -> Figure:
                 else f"{rig_label(rig, labels)}, {warp}"
             )
             random = shown[shown["choice"] == RANDOM]
-            _lines(axes[0, column], random, "transfer", {name: NAMES.get(name, name) for name in transfers})
+            _lines(axes[0, column], random, "transfer", transfers, NAMES)
             axes[0, column].set_title(f"{title}: random examples (Fig. 10)", fontsize=8)
             for row, name in enumerate(packed, start=1):
                 own = shown[shown["transfer"] == name]
-                _lines(axes[row, column], own, "choice", {})
+                choices = sorted(own["choice"].unique(), key=lambda choice: (choice == RANDOM, choice))
+                _lines(axes[row, column], own, "choice", choices, {})
                 axes[row, column].set_title(f"{title}: {NAMES.get(name, name)}, random or packed", fontsize=8)
         for ax in axes.ravel():
             ax.set_xlabel("target examples J (count)")
@@ -174,10 +196,12 @@ def animation_figure(records: pd.DataFrame) -> Figure:
     return figure
 
 
-def _lines(ax, rows: pd.DataFrame, by: str, names: dict[str, str]) -> None:
-    """One line with interval bars per value of ``by``, against J."""
-    for index, (value, block) in enumerate(rows.groupby(by, sort=True)):
-        block = block.sort_values("j")
+def _lines(ax, rows: pd.DataFrame, by: str, values: list[str], names: dict[str, str]) -> None:
+    """One line with interval bars per value of ``by`` (in the order of ``values``), against J."""
+    for index, value in enumerate(values):
+        block = rows[rows[by] == value].sort_values("j")
+        if block.empty:
+            continue
         j = block["j"].to_numpy(dtype=float)
         mean = block["mean"].to_numpy()
         spread = np.vstack([mean - block["low"].to_numpy(), block["high"].to_numpy() - mean])
@@ -186,6 +210,7 @@ def _lines(ax, rows: pd.DataFrame, by: str, names: dict[str, str]) -> None:
             mean,
             yerr=np.nan_to_num(spread),
             label=names.get(value, value),
+            color=_COLOURS.get(value),
             marker="os^Dv"[index % 5],
             markersize=3,
             capsize=2,
