@@ -8,8 +8,9 @@ Everything numerical is delegated: `rigs` builds and warps the rig, `packing.seq
 the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
 rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
 (`harness._grid.EXAMPLES`: scan-like captures of the target, seeded by the cell's seed, or its ideal
-linear sums). This module only times the calls and turns their results into rows of the records table
-(see `harness._records`).
+linear sums; or random expressions instead of the sequence), or retarget random source frames with them
+(``--frames``, `harness._animation`). This module only times the calls and turns their results into rows
+of the records table (see `harness._records`).
 
 The check trusts nothing the solver says about itself beyond its declared capabilities: the symmetry pairs
 are the harness's own analysis, the overlap allowance is ``solver.capabilities.max_overlap``, a bound below
@@ -566,8 +567,9 @@ def _frames(
 
 
 def _examples(spec: CellSpec, target: Rig, weights: np.ndarray) -> np.ndarray:
-    """The training expressions of a cell's whole sequence (`harness._grid.EXAMPLES`): scan-like ones are
-    seeded by the cell's scan seed, so repetitions are independent capture sessions."""
+    """The training expressions of all of a cell's training weights (`harness._grid.EXAMPLES`): scan-like
+    ones are seeded by the cell's scan seed, so repetitions are independent capture sessions; random ones,
+    like ideal ones, are the exact sums."""
     import transfer
 
     if spec.examples in ("ideal", "random"):
@@ -587,7 +589,8 @@ def _transfer_metrics(
     """Errors of one transfer (``estimate_first`` computes it from the first J expressions), memoised per
     process: on (rig, warp, method, examples mode and seed, weights), so that solvers that agree on a
     sequence share one computation, and for a method that ignores the training expressions
-    (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
+    (``uses_examples`` False) its estimate on (rig, warp, method) alone. With ``spec.frames`` the estimate
+    is the retargeted frames stacked on their truth (`_frames`) and the row records ``frames_l2``."""
     clock = time.perf_counter()
     method = plugins.transfer_method(name)
     rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name, spec.frames)
