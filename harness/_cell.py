@@ -8,8 +8,9 @@ Everything numerical is delegated: `rigs` builds and warps the rig, `packing.seq
 the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
 rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
 (`harness._grid.EXAMPLES`: scan-like captures of the target, seeded by the cell's seed, or its ideal
-linear sums). This module only times the calls and turns their results into rows of the records table
-(see `harness._records`).
+linear sums; or random expressions instead of the sequence), or retarget random source frames with them
+(``--frames``, `harness._animation`). This module only times the calls and turns their results into rows
+of the records table (see `harness._records`).
 
 The check trusts nothing the solver says about itself beyond its declared capabilities: the symmetry pairs
 are the harness's own analysis, the overlap allowance is ``solver.capabilities.max_overlap``, a bound below
@@ -37,8 +38,8 @@ import numpy as np
 import packing
 import rigs
 import solvers
+from harness import _animation, _replay
 from harness import _plugins as plugins
-from harness import _replay
 from harness._grid import NO_WARP, CellSpec, rig_digest
 from harness._journal import SEQUENCE_END, append_row
 from harness._permute import permuted_solver
@@ -490,10 +491,14 @@ def _transfer_rows(
     import transfer
 
     rows = []
-    j_values = sorted({min(j, len(expressions)) for j in spec.j_values if expressions})
+    if spec.examples == "random":
+        whole = _animation.random_examples(template, max(spec.j_values), spec.rig_seed, spec.scan_seed)
+    else:
+        whole = _training_weights(template, expressions)
+    j_values = sorted({min(j, len(whole)) for j in spec.j_values if len(whole)})
     examples: list[np.ndarray] = []
     for name in spec.transfers:
-        first = _FirstExpressions(transfer, name, template, target, expressions, examples)
+        first = _FirstExpressions(name, template, target, whole, examples)
         for j in j_values:
             row: Row = {
                 **base,
@@ -505,10 +510,13 @@ def _transfer_rows(
             }
             clock = time.perf_counter()
             try:
-                weights = _training_weights(template, expressions[:j])
+                weights = whole[:j]
                 if not examples:  # every J trains on the first J of the same expressions
-                    examples.append(_examples(spec, target, _training_weights(template, expressions)))
+                    examples.append(_examples(spec, target, whole))
                 estimate = functools.partial(first, j)
+                if spec.frames:
+                    train = (weights, examples[0][:j])
+                    estimate = functools.partial(_frames, name, spec, template, target, train, estimate)
                 row.update(_transfer_metrics(transfer, name, spec, template, target, weights, estimate))
                 row["transfer_beta"] = _balance(name, template, target, weights, examples[0][:j])
             except Exception as error:  # noqa: BLE001 - recorded, the other J values still run
@@ -520,39 +528,51 @@ def _transfer_rows(
 
 
 class _FirstExpressions:
-    """A transfer method's estimates from the first J expressions of a cell's sequence, for any J.
+    """A transfer method's estimates from the first J training expressions of a cell, for any J.
 
     One `transfer.Transfer.prefixes` is made on first use (after the cell's examples exist), so the method
     reuses its work across the J values instead of starting over for each.
     """
 
     def __init__(
-        self,
-        transfer: types.ModuleType,
-        name: str,
-        template: Rig,
-        target: Rig,
-        expressions: list[Expression],
-        examples: list[np.ndarray],
+        self, name: str, template: Rig, target: Rig, weights: np.ndarray, examples: list[np.ndarray]
     ) -> None:
-        self.transfer, self.name, self.template, self.target = transfer, name, template, target
-        self.expressions, self.examples = expressions, examples
+        self.name, self.template, self.target = name, template, target
+        self.weights, self.examples = weights, examples
         self.prefixes: Callable[[int], np.ndarray] | None = None
 
     def __call__(self, j: int) -> np.ndarray:
         if self.prefixes is None:
-            whole = _training_weights(self.template, self.expressions)
             method = plugins.transfer_method(self.name)
-            self.prefixes = method.prefixes(self.template, self.target.neutral, whole, self.examples[0])
+            self.prefixes = method.prefixes(
+                self.template, self.target.neutral, self.weights, self.examples[0]
+            )
         return self.prefixes(j)
 
 
+def _frames(
+    name: str,
+    spec: CellSpec,
+    template: Rig,
+    target: Rig,
+    train: tuple[np.ndarray, np.ndarray],
+    rig_estimate: Callable[[], np.ndarray],
+) -> np.ndarray:
+    """The cell's source frames (`harness._animation`) retargeted by a method trained on ``train``
+    (weights and examples), stacked on their truth: ``(2, F, N, 3)``."""
+    frames = _animation.source_frames(template, spec.frames, spec.rig_seed)
+    method = plugins.transfer_method(name)
+    found = _animation.retargeted_frames(method, template, target.neutral, *train, frames, rig_estimate)
+    return np.stack([found, np.tensordot(frames, target.deltas, axes=1)])
+
+
 def _examples(spec: CellSpec, target: Rig, weights: np.ndarray) -> np.ndarray:
-    """The training expressions of a cell's whole sequence (`harness._grid.EXAMPLES`): scan-like ones are
-    seeded by the cell's scan seed, so repetitions are independent capture sessions."""
+    """The training expressions of all of a cell's training weights (`harness._grid.EXAMPLES`): scan-like
+    ones are seeded by the cell's scan seed, so repetitions are independent capture sessions; random ones,
+    like ideal ones, are the exact sums."""
     import transfer
 
-    if spec.examples == "ideal":
+    if spec.examples in ("ideal", "random"):
         return transfer.training_expressions(target, weights)
     return transfer.scan_expressions(target, weights, seed=spec.scan_seed)
 
@@ -569,10 +589,11 @@ def _transfer_metrics(
     """Errors of one transfer (``estimate_first`` computes it from the first J expressions), memoised per
     process: on (rig, warp, method, examples mode and seed, weights), so that solvers that agree on a
     sequence share one computation, and for a method that ignores the training expressions
-    (``uses_examples`` False) its estimate on (rig, warp, method) alone."""
+    (``uses_examples`` False) its estimate on (rig, warp, method) alone. With ``spec.frames`` the estimate
+    is the retargeted frames stacked on their truth (`_frames`) and the row records ``frames_l2``."""
     clock = time.perf_counter()
     method = plugins.transfer_method(name)
-    rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name)
+    rig_key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, name, spec.frames)
     session = (spec.examples, spec.scan_seed if spec.examples == "scan" else None)
     key = (*rig_key, *session, weights.shape, weights.tobytes())
     known = _TRANSFERS.get(key)
@@ -585,6 +606,10 @@ def _transfer_metrics(
         estimate = estimate_first()
         if not uses_examples:
             _ESTIMATES.put(rig_key, estimate)
+    if spec.frames:
+        result: Row = {"frames_l2": _animation.mean_vertex_error(*estimate)}
+        _TRANSFERS.put(key, result)
+        return {**result, "transfer_reused": reused, "transfer_time": time.perf_counter() - clock}
     found = transfer.metrics(estimate, target.deltas, weights)
     worst = found.worst(_WORST_SHAPES)
     result = {

@@ -55,12 +55,15 @@ EXIT_INCOMPLETE = 1
 DEFAULT_JOBS = min(2, os.cpu_count() or 1)
 
 
-def _one_or_both(names: tuple[str, ...]) -> Callable[[str], tuple[str, ...]]:
-    """The parser of an axis given as one of ``names`` or ``both`` (every one of them)."""
+def _one_or_both(
+    names: tuple[str, ...], both: tuple[str, ...] | None = None
+) -> Callable[[str], tuple[str, ...]]:
+    """The parser of an axis given as one of ``names`` or ``both`` (the two of ``both``, by default every
+    one of them)."""
 
     def parse(text: str) -> tuple[str, ...]:
         if text == "both":
-            return names
+            return both or names
         if text not in names:
             raise HarnessError(text)
         return (text,)
@@ -69,7 +72,9 @@ def _one_or_both(names: tuple[str, ...]) -> Callable[[str], tuple[str, ...]]:
 
 
 DISTORTION_NAMES = CommaList(_one_or_both(DISTORTIONS), "distortions (paper, excess or both)")
-EXAMPLE_NAMES = CommaList(_one_or_both(EXAMPLES), "training expressions (scan, ideal or both)")
+EXAMPLE_NAMES = CommaList(
+    _one_or_both(EXAMPLES, ("scan", "ideal")), "training expressions (scan, ideal, random or both)"
+)
 
 
 def _preset_value(preset: str, key: str) -> Any:
@@ -127,7 +132,9 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     help="Named grid the other options start from. quick: CI smoke run (<= 60 s); paper: the paper's four "
     "rigs with one warp each and all J values; exact: the film rig's 40 largest problems, exact solvers "
     "only, 3 repetitions (where the backends differ); sanity: every shape scanned alone, ideal and "
-    "scan-like, ebfr's beta swept (the evaluation's own check); full: every preset, warp and setting.",
+    "scan-like, ebfr's beta swept (the evaluation's own check); fig10: Wagner et al.'s quantitative "
+    "comparison, anacondar against ALM on random or packed examples over five faces; full: every preset, "
+    "warp and setting.",
 )
 @click.option(
     "--rigs", type=NAMES, help=f"Rig presets or rig files, comma-separated. [default: {_preset_help('rigs')}]"
@@ -216,11 +223,20 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @click.option(
     "--examples",
     type=EXAMPLE_NAMES,
-    metavar="scan|ideal|both",
+    metavar="scan|ideal|random|both",
     help="Training expressions of the transfers: scan (the actor is not the linear sum: correctives where "
     "combined shapes meet, scanner noise, head motion removed by rigid alignment; seeded by --scan-seed "
     "plus the repetition, so repetitions are independent sessions), ideal (the exact sums of the "
-    "target's blendshapes, as in the paper) or both (a grid axis). [default: scan]",
+    "target's blendshapes, as in the paper), random (random 0/1 expressions of the target, exact sums, "
+    "instead of the sequence: Wagner et al.'s Fig. 10) or both (scan and ideal); a comma list is a grid "
+    "axis. [default: scan; fig10: random,ideal]",
+)
+@click.option(
+    "--frames",
+    type=click.IntRange(min=0),
+    help="Judge the transfers as Wagner et al.'s Fig. 10: the mean vertex L2 error of this many random "
+    "source frames retargeted (column frames_l2) instead of the RMS of the transferred rig; 0 = off. "
+    "[default: 0; fig10: 5]",
 )
 @click.option(
     "--replay",

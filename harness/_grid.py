@@ -28,13 +28,15 @@ DEFAULT_J_VALUES: tuple[int, ...] = (2, 4, 7, 10, 15, 20, 25)
 
 NO_WARP = "none"
 
-#: Training expressions of the transfers: ``scan`` (`transfer.scan_expressions`: correctives, scanner noise,
-#: head motion removed by rigid alignment; seeded by the cell's seed) or ``ideal`` (the linear sums of the
-#: target's ground truth, `transfer.training_expressions`, as the paper's evaluation).
-EXAMPLES: tuple[str, ...] = ("scan", "ideal")
+#: Training expressions of the transfers: the cell's sequence, ``scan`` (`transfer.scan_expressions`:
+#: correctives, scanner noise, head motion removed by rigid alignment; seeded by the cell's seed) or
+#: ``ideal`` (the linear sums of the target's ground truth, `transfer.training_expressions`, as the paper's
+#: evaluation); or ``random``: the first J of random 0/1 expressions of the target, exact sums, instead of
+#: the sequence (`harness._animation`, Wagner et al. 2024, sec. 4.4).
+EXAMPLES: tuple[str, ...] = ("scan", "ideal", "random")
 
 #: Cell fields that are the same for every cell of a run and so are no records column.
-RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions")
+RUN_LEVEL_FIELDS: tuple[str, ...] = ("transfers", "j_values", "together", "apart", "regions", "frames")
 
 #: Setting fields a variation may change (`RunConfig.variations`).
 VARIATION_FIELDS: tuple[str, ...] = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "distortion")
@@ -126,7 +128,7 @@ def regions_tuple(regions: Mapping[str, Iterable[int]] | Regions) -> Regions:
 MODES: tuple[str, ...] = ("sequence", "replay")
 
 #: Cell fields added after cell ids were first recorded, with their defaults: left out of the id there.
-_LATE_FIELDS: dict[str, Any] = {"mode": "sequence", "permutation": 0}
+_LATE_FIELDS: dict[str, Any] = {"mode": "sequence", "permutation": 0, "frames": 0}
 _MISSING = object()
 
 #: The two specs `_to_dict` and `_from_dict` convert.
@@ -202,6 +204,7 @@ class CellSpec:
     examples: str = "scan"
     mode: str = "sequence"
     permutation: int = 0
+    frames: int = 0
 
     @functools.cached_property
     def id(self) -> str:
@@ -260,6 +263,12 @@ class RunConfig:
     ``repetitions``: cell ``permutation`` p > 0 gives the solver each problem with its items shuffled
     (seeded by p, `harness._permute`), 0 in the given order.
 
+    Cells of ``random`` examples train on no sequence, so they run with the first solver only.
+
+    ``frames`` > 0 judges the transfers as Wagner et al.'s Fig. 10 does (`harness._animation`): each transfer
+    row records the mean vertex L2 error of that many random source frames retargeted (``frames_l2``)
+    instead of the RMS of the transferred rig.
+
     ``variations`` add cells off the grid: each is a set of ``(field, value)`` changes (`VARIATION_FIELDS`)
     applied to the first value of every axis, run on every rig, warp and repetition with those of
     ``variation_solvers`` the run has, evaluated with those of ``variation_transfers`` it has (the paper
@@ -295,6 +304,7 @@ class RunConfig:
     variation_transfers: tuple[str, ...] = CLAIM_TRANSFERS
     replay: bool = False
     permutations: int = 1
+    frames: int = 0
 
     def __post_init__(self) -> None:
         if (
@@ -303,6 +313,8 @@ class RunConfig:
             or self.permutations < 1
         ):
             raise HarnessError(f"--permutations must be a positive integer, got {self.permutations!r}")
+        if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 0:
+            raise HarnessError(f"--frames must be a non-negative integer, got {self.frames!r}")
         if not isinstance(self.examples, tuple) or not self.examples or set(self.examples) - set(EXAMPLES):
             raise HarnessError(f"--examples must be among {', '.join(EXAMPLES)}, got {self.examples!r}")
         if not isinstance(self.seed, tuple) or not self.seed:
@@ -351,6 +363,7 @@ class RunConfig:
                 range(self.permutations),
                 self.solvers,
             )
+            if examples != "random" or solver == self.solvers[0]  # random examples ignore the solver
         }
         if settings and self.variations:
             solvers = [solver for solver in self.variation_solvers if solver in self.solvers]
@@ -404,6 +417,7 @@ class RunConfig:
             apart=self.apart,
             regions=self.regions,
             examples=examples,
+            frames=self.frames,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -426,6 +440,17 @@ class RunConfig:
         return replace(self, **{key: value for key, value in overrides.items() if value is not None})
 
 
+#: Transfers of the ``fig10`` preset: AnaConDaR and ALM (the same patchwise blend alone) with Table 3's
+#: ridge read in millimetres, and again read in face diagonals (0.01 x 300^2 mm^2), where it keeps the blend
+#: from inflating unrelated examples; EBFR beside.
+FIG10_TRANSFERS: tuple[str, ...] = (
+    "anacondar",
+    "anacondar[missing=off,anacon=off]",
+    "anacondar[lambda_reg=900]",
+    "anacondar[lambda_reg=900,missing=off,anacon=off]",
+    "ebfr",
+)
+
 #: Named grids. ``quick`` is CI's smoke run (<= 60 s on 2 cores). ``paper`` is the paper's four test cases
 #: (sec. 5.1: each rig against one warped version of itself), made character-specific (``alien+character``,
 #: `rigs.warp`) so that training expressions matter, with the one-at-a-time variations its claims compare
@@ -435,8 +460,12 @@ class RunConfig:
 #: can test their times. ``sanity`` checks the evaluation itself: every shape in an expression of its own
 #: (cap 1, no symmetry) and every expression a training example, ideal and scan-like, so that example-based
 #: rigging has all it could ever have; it must come close to the truth (the claims table's sanity row),
-#: and ebfr's balance beta swept over five decades shows where fitting scan noise begins. ``full`` is every
-#: preset, warp and setting. Every other preset trains on scan-like expressions.
+#: and ebfr's balance beta swept over five decades shows where fitting scan noise begins; anacondar must
+#: come close too. ``fig10`` is Wagner et al.'s quantitative comparison (2024, sec. 4.4): the paper's four
+#: rigs over five faces, 5 random source frames retargeted by AnaConDaR and by ALM (its patchwise blend
+#: alone, `FIG10_TRANSFERS`) and EBFR, trained on J random examples or on the first J expressions packed by
+#: cpsat and greedy (exact sums both). ``full`` is every preset, warp and setting. Every other preset
+#: trains on scan-like expressions.
 PRESETS: dict[str, dict[str, Any]] = {
     "quick": {
         "rigs": ("tiny", "arkit52"),
@@ -472,13 +501,26 @@ PRESETS: dict[str, dict[str, Any]] = {
         "rigs": ("toon",),
         "warps": ("alien+character",),
         "solvers": ("greedy",),
-        "transfers": ("ebfr", *expand("ebfr[beta=0.0001,0.001,0.01,0.1,1]"), "dt"),
+        "transfers": ("ebfr", *expand("ebfr[beta=0.0001,0.001,0.01,0.1,1]"), "dt", "anacondar"),
         "cap": (1,),
         "symmetry": (False,),
         "examples": ("ideal", "scan"),
         "j_values": (10_000,),
         "time_limit": 10.0,
         "timeout": 600.0,
+    },
+    "fig10": {
+        "rigs": ("female", "male", "toon", "digidouble"),
+        "warps": ("alien+character",),
+        "seed": (0, 1, 2, 3, 4),
+        "solvers": ("cpsat", "greedy"),
+        "transfers": FIG10_TRANSFERS,
+        "examples": ("random", "ideal"),
+        "frames": 5,
+        "jmax": 30,
+        "j_values": (5, 10, 15, 20, 30),
+        "time_limit": 60.0,
+        "timeout": 3600.0,
     },
     "full": {
         "rigs": ("female", "male", "toon", "digidouble", "arkit52"),

@@ -136,13 +136,17 @@ scan_seed        int64          seed of the scan-like training expressions (run 
 solver_settings  string         the solver label's settings (``workers=2`` of ``cpsat[workers=2]``), or ""
 transfer_beta    float64, null  (transfer rows) the balance beta the method fitted with (Li et al. sec. 3A):
                                 its fixed value, or the one chosen from the data (``ebfr[beta=gcv]``)
-examples         string         training expressions of the transfers: ``scan`` or ``ideal``
+examples         string         training expressions of the transfers: ``scan`` or ``ideal`` (the cell's
+                                sequence), or ``random`` (random examples instead, `harness._animation`)
 mode             string         ``sequence`` (Algorithm 1 with the cell's solver, then transfers) or
                                 ``replay`` (``--replay``: the subproblems of one reference sequence, one
                                 ``expression`` row each, ``expression`` the instance's index; no transfers;
                                 `harness._replay`)
 permutation      int64          item order the solver saw (``--permutations``): 0 as built, p > 0 shuffled,
                                 seeded by p (`harness._permute`)
+frames_l2        float64, null  (transfer rows of runs with ``--frames F``) Wagner et al.'s Fig. 10 error: the
+                                mean over F random source frames and the vertices of the L2 distance between
+                                the retargeted frame and the target's (rig units); ``rms`` is null there
 ================ ============== ==============================================================================
 
 The columns in `TIMING_COLUMNS` (every ``*_time`` column, ``transfer_reused``, ``worker`` and ``finished``)
@@ -280,6 +284,7 @@ _GROWN_COLUMNS: dict[str, pa.DataType] = {
     "examples": pa.string(),
     "mode": pa.string(),
     "permutation": pa.int64(),
+    "frames_l2": pa.float64(),
 }
 
 

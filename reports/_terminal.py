@@ -39,9 +39,12 @@ def print_summary(out: Path) -> None:
     for table in _sequence_tables(records):
         terminal().print(table)
     transfers = records[(records["kind"] == "transfer") & (records["status"] == "ok")]
-    if len(transfers):
-        for table in _transfer_tables(transfers, terminal().width):
+    if transfers["rms"].notna().any():
+        for table in _transfer_tables(transfers[transfers["rms"].notna()], terminal().width):
             terminal().print(table)
+    if transfers["frames_l2"].notna().any():
+        terminal().print(_frames_table(records))
+    if len(transfers):
         terminal().print(_claims_table(records))
     problems = cells[cells["status"] != "ok"]
     if len(problems):
@@ -134,6 +137,20 @@ def _transfer_tables(transfers: pd.DataFrame, width: int) -> list[Table]:
                 cells = ["   ".join(f"{j}: {cell}" for j, cell in zip(j_values, cells, strict=True))]
             table.add_row(f"{escape(method)}, {escape(solver)}", *cells)
     return tables
+
+
+def _frames_table(records: pd.DataFrame) -> Table:
+    """Wagner et al.'s Fig. 10 error per rig, transfer and choice of examples at each J
+    (`reports._animation.shown_errors`)."""
+    from reports._animation import shown_errors
+
+    shown = shown_errors(records)
+    table = Table(title="retargeted frames: mean vertex L2 error (rig units; mean over seeds [95% interval])")
+    for column in shown.columns:
+        table.add_column(str(column), justify="right" if str(column).startswith("J=") else "left")
+    for row in shown.itertuples(index=False):
+        table.add_row(*(escape("-" if pd.isna(value) else str(value)) for value in row))
+    return table
 
 
 def _setting_labels(rows: pd.DataFrame) -> list[str]:

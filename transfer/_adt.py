@@ -16,12 +16,19 @@ where the paper's are by construction:
   shape, or the scaled shape.
 - ``anacon`` (eq. 19) runs ``invSim`` and ``fwdSim`` on ``H_T`` with the characteristics of the source
   expression. The detail of its input that the volume cannot express is kept; what the volume could
-  express but the anatomy rejects is replaced by what the anatomy rejects of the source expression itself
-  on ``H_S`` (transferred). So an input that is as plausible as the source expression is left as it is,
-  an implausible one is corrected, and the source expression on its own neutral comes back unchanged.
+  express but the anatomy rejects is replaced by what the anatomy rejects of a plausible expression of
+  the target: of the target's own examples where they explain the source expression (their rejections
+  blended by the same patch weights as the data-driven part, `Explained`), and of the source expression
+  itself, transferred, for the rest. So an input that is as plausible as the source expression is left as
+  it is, an implausible one is corrected, the source expression on its own neutral comes back unchanged,
+  and so does a target expression the examples determine.
 
 The facial characteristics ``fc`` (eqs. 15-17) are taken from the whole source expression, and are asked of
-the whole result: the forward simulation's surface is drawn to them less what is carried over after it.
+the whole result: the forward simulation's surface is drawn to them less what is carried over after it. In
+``anacon`` they constrain what the examples do not determine: the lip contour is the data-driven part's
+contour plus the similarity-mapped motion the examples do not explain, and each eye triangle's area is the
+data-driven part's area times the ratio of the source expression's area to its explained part's. Without
+examples this is the paper's ``fc`` (eqs. 15-16); with every shape its own example, the examples' shapes.
 """
 
 from __future__ import annotations
@@ -43,6 +50,8 @@ from transfer._reconstruct import FrameReconstruction
 #: Anatomies kept per process (each holds two heads, their factorisations and per-shape source results).
 _CACHE_SIZE = 2
 _anatomies: BoundedMemo[Anatomy] = BoundedMemo(_CACHE_SIZE)
+#: Rejections (`Anatomy.rejected`) an anatomy keeps: a few sessions' examples on both heads.
+_REJECTED_SIZE = 128
 
 
 @dataclass(frozen=True)
@@ -101,13 +110,55 @@ class FieldTransfer:
         return result + shift[:, self.component]
 
 
-@dataclass
-class _SourceShapes:
-    """The template shapes simulated on ``H_S`` once (eq. 19's source expressions)."""
+@dataclass(frozen=True)
+class SourceTerms:
+    """What ``anacon`` takes from B source expressions simulated on ``H_S`` (eq. 19).
 
-    fitted_residual: np.ndarray  # (K, N, 3) the part of its residual the volume could express
+    Attributes
+    ----------
+    displacements : (B, N, 3) array
+        The source expressions ``S_i - S``, the template turned to face like the target.
+    rejected : (B, N, 3) array
+        What the anatomy rejects of each (`Anatomy.rejected`).
+    ratios : (B, F) array or None
+        ``A(S_i, f) / A(S, f)`` of the eye triangles (eq. 15).
+    scale, rotation : (B,) and (B, 3, 3) arrays, or None
+        The similarity of eq. 17 that best maps each expression's lip contour onto its deformation
+        transfer.
+    """
+
+    displacements: np.ndarray
+    rejected: np.ndarray
     ratios: np.ndarray | None
-    contour: np.ndarray | None
+    scale: np.ndarray | None
+    rotation: np.ndarray | None
+
+    def part(self, rows: slice) -> SourceTerms:
+        """The terms of the expressions in ``rows``."""
+        return SourceTerms(*(None if value is None else value[rows] for value in vars(self).values()))
+
+
+@dataclass(frozen=True)
+class Explained:
+    """What the target examples determine of B source expressions (PLBS, eqs. 1-3), for ``anacon``.
+
+    Attributes
+    ----------
+    source, target : (B, N, 3) arrays
+        ``S_i^P - S`` (the template turned to face like the target) and ``T_i^P - T``.
+    source_rejected, target_rejected : (B, N, 3) arrays
+        The same patch weights applied to what the anatomy rejects of the examples on ``H_S`` and on
+        ``H_T`` (`Anatomy.rejected`).
+    """
+
+    source: np.ndarray
+    target: np.ndarray
+    source_rejected: np.ndarray
+    target_rejected: np.ndarray
+
+    def part(self, rows: slice) -> Explained:
+        """What is explained of the expressions in ``rows``."""
+        return Explained(*(value[rows] for value in vars(self).values()))
 
 
 class Anatomy:
@@ -163,7 +214,8 @@ class Anatomy:
         self.source = self._simulator(source_head)
         self.target = self._simulator(target_head)
         self._transfers: dict[bool, FieldTransfer] = {}
-        self._shapes: _SourceShapes | None = None
+        self._shapes: SourceTerms | None = None
+        self._rejected: BoundedMemo[np.ndarray] = BoundedMemo(_REJECTED_SIZE)
         self._lock = threading.RLock()
 
     def _simulator(self, head: Head) -> Simulator:
@@ -196,6 +248,20 @@ class Anatomy:
             np.stack([parts[0][0], parts[1][0]], axis=1), np.stack([parts[0][1], parts[1][1]], axis=1)
         )
 
+    def similarity(
+        self, simulator: Simulator, surface: np.ndarray, forward: bool
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Scale and rotation of eq. 17 for ``(B, N, 3)`` displacements on ``simulator``'s neutral: the
+        similarity that best maps their lip contour onto its deformation transfer to the other neutral
+        (None without characteristics or a contour)."""
+        contour = simulator.contour
+        if self.settings.weights.characteristics == 0 or contour.size == 0:
+            return None
+        other = self.target_neutral if forward else self.source_neutral
+        moved = self.transfer(forward)(surface)
+        neutral = simulator.head.neutral
+        return similarity(neutral[contour] + surface[:, contour], other[contour] + moved[:, contour])
+
     def characteristics(
         self, simulator: Simulator, surface: np.ndarray, forward: bool
     ) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -212,16 +278,11 @@ class Anatomy:
             return None, None
         neutral = simulator.head.neutral
         ratios = area_ratios(self.features, neutral, neutral + surface)
-        contour = simulator.contour
-        if contour.size == 0:
+        found = self.similarity(simulator, surface, forward)
+        if found is None:
             return ratios, None
         other = self.target_neutral if forward else self.source_neutral
-        moved = self.transfer(forward)(surface)
-        scale, rotation = similarity(
-            neutral[contour] + surface[:, contour], other[contour] + moved[:, contour]
-        )
-        motion = scale[:, None, None] * surface[:, contour] @ np.swapaxes(rotation, 1, 2)
-        return ratios, other[contour] + motion
+        return ratios, other[simulator.contour] + _mapped(found, surface[:, simulator.contour])
 
     def adt(self, displacements: np.ndarray, forward: bool = True) -> np.ndarray:
         """``adt(S_i^M, S, T)`` (eq. 5, Algorithm 1) of ``(B, N, 3)`` source displacements, batched.
@@ -271,36 +332,92 @@ class Anatomy:
             contour = contour - carried[:, self.source.contour]
         return ratios, contour
 
-    def source_shapes(self) -> _SourceShapes:
-        """The template's shapes simulated once on ``H_S`` (``invSim(S_i, H_S)`` and ``fc(S_i, S, T)``)."""
+    def rejected(self, displacements: np.ndarray, on_target: bool = False) -> np.ndarray:
+        """What the anatomy rejects of ``(B, N, 3)`` displacements on ``H_S`` (or ``H_T``).
+
+        The inverse simulation (eqs. 11-14) draws the head to each displacement field; of its residual on
+        the rig's vertices, the part the volume could express (`Simulator.linear_fit`) is what the
+        anatomy rejects (the rest is detail finer than the volume). Memoised per field's content, so the
+        examples of a rising J are simulated once.
+        """
+        simulator = self.target if on_target else self.source
+        result = np.empty_like(displacements)
+        keys = [(on_target, content_digest(field)) for field in displacements]
+        missing = []
+        for row, key in enumerate(keys):
+            found = self._rejected.get(key)
+            if found is None:
+                missing.append(row)
+            else:
+                result[row] = found
+        for start in range(0, len(missing), BATCH):
+            rows = missing[start : start + BATCH]
+            result[rows] = self._reject(simulator, displacements[rows])
+            for row in rows:
+                self._rejected.put(keys[row], result[row].copy())
+        return result
+
+    def _reject(self, simulator: Simulator, displacements: np.ndarray) -> np.ndarray:
+        """`rejected` of at most `BATCH` fields, not memoised."""
+        volume = simulator.inverse(displacements, self.bones(simulator.head, displacements))
+        return simulator.linear_fit(displacements - simulator.surface(volume))
+
+    def source_terms(self, displacements: np.ndarray) -> SourceTerms:
+        """`SourceTerms` of ``(B, N, 3)`` source expressions (turned like ``source_deltas``): ``invSim`` on
+        ``H_S`` and ``fc(S_i, S, T)``."""
+        ratios, scales, rotations = [], [], []
+        rejected = np.empty_like(displacements)
+        for start in range(0, len(displacements), BATCH):
+            part = displacements[start : start + BATCH]
+            rejected[start : start + BATCH] = self._reject(self.source, part)
+            if self.settings.weights.characteristics != 0:
+                neutral = self.source.head.neutral
+                ratios.append(area_ratios(self.features, neutral, neutral + part))
+                found = self.similarity(self.source, part, True)
+                if found is not None:
+                    scales.append(found[0])
+                    rotations.append(found[1])
+        return SourceTerms(
+            displacements,
+            rejected,
+            np.concatenate(ratios) if ratios else None,
+            np.concatenate(scales) if scales else None,
+            np.concatenate(rotations) if rotations else None,
+        )
+
+    def source_shapes(self) -> SourceTerms:
+        """The `SourceTerms` of the template's K shapes, computed once."""
         with self._lock:
             if self._shapes is None:
-                deltas = self.source_deltas
-                surface = np.empty_like(deltas)
-                fitted = np.empty_like(deltas)
-                ratios, contours = [], []
-                for start in range(0, len(deltas), BATCH):
-                    part = deltas[start : start + BATCH]
-                    volume = self.source.inverse(part, self.bones(self.source.head, part))
-                    surface[start : start + BATCH] = self.source.surface(volume)
-                    fitted[start : start + BATCH] = self.source.linear_fit(
-                        part - surface[start : start + BATCH]
-                    )
-                    found = self.characteristics(self.source, part, True)
-                    ratios.append(found[0])
-                    contours.append(found[1])
-                self._shapes = _SourceShapes(
-                    fitted,
-                    None if ratios[0] is None else np.concatenate(ratios),
-                    None if contours[0] is None else np.concatenate(contours),
-                )
+                self._shapes = self.source_terms(self.source_deltas)
             return self._shapes
 
-    def anacon(self, displacements: np.ndarray) -> np.ndarray:
-        """``anacon(T_i^P + T_i^M hat, S_i, S, T)`` (eqs. 6, 19) of the K shapes' ``(K, N, 3)`` target
-        displacements, with the characteristics of the template's K shapes."""
-        shapes = self.source_shapes()
-        transferred = self.transfer(True)(shapes.fitted_residual)
+    def anacon(
+        self,
+        displacements: np.ndarray,
+        terms: SourceTerms | None = None,
+        explained: Explained | None = None,
+    ) -> np.ndarray:
+        """``anacon(T_i^P + T_i^M hat, S_i, S, T)`` (eqs. 6, 19) of B target displacements.
+
+        Parameters
+        ----------
+        displacements : (B, N, 3) array
+            The retargeting to make plausible, ``T_i^P + T_i^M hat - T``.
+        terms : SourceTerms, optional
+            Of the B source expressions ``S_i``; by default the template's K shapes (`source_shapes`).
+        explained : Explained, optional
+            What the target examples determine of them; without, nothing (no examples).
+
+        Returns
+        -------
+        (B, N, 3) displacements on the target neutral.
+        """
+        terms = self.source_shapes() if terms is None else terms
+        rejected = terms.rejected if explained is None else terms.rejected - explained.source_rejected
+        expected = self.transfer(True)(rejected)
+        if explained is not None:
+            expected = expected + explained.target_rejected
         result = np.empty_like(displacements)
         for start in range(0, len(displacements), BATCH):
             part = slice(start, start + BATCH)
@@ -308,20 +425,49 @@ class Anatomy:
             volume = self.target.inverse(goal, self.bones(self.target.head, goal))
             surface = self.target.surface(volume)
             residual = goal - surface
-            carried = residual - self.target.linear_fit(residual) + transferred[part]
+            carried = residual - self.target.linear_fit(residual) + expected[part]
             neutral = self.target_neutral
-            ratios, contour = self._for_volume(
-                None if shapes.ratios is None else shapes.ratios[part],
-                None if shapes.contour is None else shapes.contour[part],
-                carried,
-                neutral + surface,
-                neutral + goal,
+            ratios, contour = self._asked(
+                terms.part(part), None if explained is None else explained.part(part)
             )
+            ratios, contour = self._for_volume(ratios, contour, carried, neutral + surface, neutral + goal)
             moved = self.target.forward(
                 self.target._gradients(volume), volume[:, self.target.fixed], contour, ratios, volume
             )
             result[part] = self.target.surface(moved) + carried
         return result
+
+    def _asked(
+        self, terms: SourceTerms, explained: Explained | None
+    ) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The characteristics ``anacon`` asks of the whole result (eqs. 15-16), given what the examples
+        explain: the explained part's eye areas and lip contour on the target, changed by what the source
+        expression does beyond its explained part (area ratios to it, contour motion mapped by eq. 17's
+        similarity). Without examples, ``fc(S_i, S, T)``."""
+        ratios, motion = terms.ratios, terms.displacements
+        target = self.target_neutral
+        if explained is not None:
+            triangles = self.features.area_triangles
+            source = self.source_neutral
+            motion = motion - explained.source
+            if ratios is not None:
+                ratios = (
+                    ratios
+                    * _area_ratio(source, source + explained.source, triangles)
+                    * _area_ratio(target + explained.target, target, triangles)
+                )
+            target = target + explained.target
+        if terms.scale is None:
+            return ratios, None
+        contour = self.target.contour
+        return ratios, target[..., contour, :] + _mapped((terms.scale, terms.rotation), motion[:, contour])
+
+
+def _mapped(found: tuple[np.ndarray, np.ndarray], motion: np.ndarray) -> np.ndarray:
+    """``(B, L, 3)`` contour motions scaled and turned by eq. 17's ``(B,)`` scales and ``(B, 3, 3)``
+    rotations."""
+    scale, rotation = found
+    return scale[:, None, None] * motion @ np.swapaxes(rotation, 1, 2)
 
 
 def _area_ratio(numerator: np.ndarray, denominator: np.ndarray, triangles: np.ndarray) -> np.ndarray:

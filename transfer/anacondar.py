@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from transfer._base import Transfer, check_positive
 from transfer._frames import vertex_major
-from transfer._inputs import TransferInputs
-from transfer._projective import FACE_DIAGONAL
+from transfer._inputs import TransferInputs, check_inputs, check_weights
 from transfer.deformation import deformation_transfer
 from transfer.plbs import patch_blendshapes
 
+#: Vertices of the paper's skin (Table 2): the data term of eq. 2 counts each rig vertex as this many over
+#: the rig's vertex count, so that Table 3's ``lambda_reg`` means the same on a coarser or finer rig.
+PAPER_SKIN_VERTICES = 29_826
+#: Goals retargeted at once (bounds the few ``(chunk, N, 3)`` arrays of a call beside its result).
+_GOAL_CHUNK = 64
 #: The transfers of the missing blendshape (sec. 4.5's ablation: ``dt`` instead of ``adt``).
 MISSING_TRANSFERS = ("adt", "dt")
 
@@ -29,6 +33,12 @@ class AnaConDaR(Transfer):
     `transfer._adt`); their sum passes through ``anacon`` (eqs. 6, 19), the inverse and forward
     simulations on the target's head with the source expression's facial characteristics.
 
+    The target examples take precedence over ``anacon``: its characteristics and anatomy constrain what
+    the examples do not determine (`transfer._adt.Explained`), so with every shape its own example the
+    method returns the target's shapes (relative RMS 1.3e-4 on the tests' warped ``tiny``, 1.0e-2 on
+    ``toon`` with ``alien+character``, where deformation transfer misses by 0.34), and without examples it
+    is the paper's.
+
     The head is not the paper's CT template: it is made from the rig itself (a skull offset inward by a
     regional tissue thickness, soft tissue and muscle as prism layers of tetrahedra, see `transfer._head`),
     on a coarser skin than the rig's, and what that volume cannot express of a shape is carried over by
@@ -43,9 +53,14 @@ class AnaConDaR(Transfer):
         uses hard patches (0) and lets ``anacon`` remove their seams on its fine tetrahedral skin; the
         coarse head here cannot, so the patches are blended as in ``plbs``.
     lambda_reg : float, default 0.01
-        Ridge weight of eq. 2 (Table 3), positions in millimetres of a face scaled to a 30 cm skin
-        diagonal (the paper's unit; measured in whole diagonals, as ``plbs`` does, the ridge would
-        outweigh the data on a coarse rig).
+        Ridge weight of eq. 2 (Table 3). The data term is counted as on the paper's skin: positions in
+        millimetres of a face scaled to a 30 cm skin diagonal (the paper reports millimetres), and each
+        rig vertex weighing `PAPER_SKIN_VERTICES` / N, so that a patch counts as many vertices as the
+        paper's (Table 2). The paper gives no unit; this reading keeps the examples' own shapes (every
+        shape its own example reproduces the target) but lets a few random examples explain a shape they
+        miss by inflating small motions of others, which the target amplifies; ``lambda_reg=900`` (the
+        same 0.01 with positions in 30 cm face diagonals) stops that and loses the examples' detail
+        (Fig. 10's protocol, ``harness run --preset fig10``, measures both).
     adt : {"adt", "dt"}, default "adt"
         How the missing blendshape is transferred: anatomically, or by Sumner & Popovic's deformation
         transfer (the ablation of sec. 4.5).
@@ -53,6 +68,12 @@ class AnaConDaR(Transfer):
         Keep the facial characteristics (eqs. 15-17) in the forward simulations (``w_F = 10``).
     missing : bool, default True
         Add the missing blendshape (eq. 6); ``False`` retargets ``anacon(T_i^P)`` only.
+    anacon : bool, default True
+        Make the sum plausible by ``anacon`` (eqs. 6, 19). ``anacondar[missing=off,anacon=off]`` is the
+        patchwise blend ``T_i^P`` alone: Chandran et al.'s anatomical local model (ALM) as Wagner et al.
+        compare it (secs. 4.2, 4.4), the same PLBS as AnaConDaR's, without ALM's own data-driven surface
+        constraints. The paper pairs each target example with a source example through EBFR's rigs; the
+        harness knows the examples' weights, so the source example is the template at those weights.
     embed : bool, default False
         Ignore the given weights and embed the examples in the source domain instead (sec. 3.5,
         eqs. 20-21), as for target examples with no known source expression.
@@ -74,8 +95,10 @@ class AnaConDaR(Transfer):
     -----
     The head (fit, factorisations, the template's shapes simulated on it) is made once per template and
     target and shared by every call (`transfer._adt.anatomy`); a call then costs two inverse and two
-    forward simulations per shape. Without training expressions the data-driven part is empty and the
-    result is ``anacon(adt(S_i))``.
+    forward simulations per shape, and an inverse simulation of each training expression on both heads
+    (memoised, so a rising J simulates each once). Without training expressions the data-driven part is
+    empty and the result is ``anacon(adt(S_i))``. `retarget` takes the frames of a source animation
+    instead of the template's shapes.
     """
 
     name: ClassVar[str] = "anacondar"
@@ -85,6 +108,7 @@ class AnaConDaR(Transfer):
     adt: str = "adt"
     characteristics: bool = True
     missing: bool = True
+    anacon: bool = True
     embed: bool = False
     resolution: int = 1000
     iterations: int = 8
@@ -98,7 +122,7 @@ class AnaConDaR(Transfer):
                 raise ValueError(f"{field} must be an integer >= {least}, got {value!r}")
         if self.adt not in MISSING_TRANSFERS:
             raise ValueError(f"adt must be one of {', '.join(MISSING_TRANSFERS)}, got {self.adt!r}")
-        for field in ("characteristics", "missing", "embed"):
+        for field in ("characteristics", "missing", "anacon", "embed"):
             if not isinstance(getattr(self, field), bool):
                 raise ValueError(f"{field} must be on or off (a bool), got {getattr(self, field)!r}")
         check_positive(self.lambda_reg, "lambda_reg")
@@ -115,41 +139,147 @@ class AnaConDaR(Transfer):
 
     def transfer(self, inputs: TransferInputs) -> np.ndarray:
         """Eq. 6 for every template shape."""
-        from transfer._embedding import embed_examples
-        from transfer._partition import metis_partition
-        from transfer._patches import blend_weights
+        return self._retarget(inputs, inputs.template.deltas, frames=False)
 
+    def retarget(
+        self,
+        template: object,
+        target_neutral: object,
+        weights: object = None,
+        examples: object = None,
+        frames: object = None,
+    ) -> np.ndarray:
+        """Eq. 6 for the frames of a source animation: each frame ``S_i`` retargeted as a whole.
+
+        The paper retargets an animation frame by frame (sec. 3.1); a frame that mixes several template
+        shapes is not the mix of their retargetings, as ``adt`` and ``anacon`` are not linear. This is
+        the call of its quantitative evaluation (sec. 4.4, Fig. 10).
+
+        Parameters
+        ----------
+        template, target_neutral, weights, examples
+            As for calling the method.
+        frames : (F, K) array
+            Template shape weights of the source frames.
+
+        Returns
+        -------
+        (F, N, 3) array: the retargeted frames' displacements from the target neutral.
+        """
+        inputs = check_inputs(template, target_neutral, weights, examples, method=self.name)
+        frames = check_weights(frames, inputs.template.n_shapes, argument="frames")
+        return self._retarget(inputs, np.tensordot(frames, inputs.template.deltas, axes=1), frames=True)
+
+    def _retarget(self, inputs: TransferInputs, goals: np.ndarray, *, frames: bool) -> np.ndarray:
+        """Eq. 6 for ``(B, N, 3)`` source displacements ``goals``: the template's shapes (whose
+        `transfer._adt.SourceTerms` the anatomy keeps), or ``frames`` of an animation; `_GOAL_CHUNK` goals
+        at a time, so that memory stays a few ``(chunk, N, 3)`` arrays beside the result."""
+        from transfer._embedding import embed_examples
+        from transfer._projective import FACE_DIAGONAL
+
+        needed = self.anacon or self.embed or (self.missing and self.adt == "adt")
+        anatomy = self.anatomy(inputs) if needed else None
         template = inputs.template
-        anatomy = self.anatomy(inputs)
-        scale = (template.diagonal() or 1.0) / FACE_DIAGONAL
+        density = np.sqrt(template.n_vertices / PAPER_SKIN_VERTICES)
+        scale = (template.diagonal() or 1.0) / FACE_DIAGONAL * density
         weights = inputs.weights
         offsets = inputs.examples - inputs.target_neutral
         if self.embed and len(offsets):
             weights = embed_examples(anatomy, offsets, self.lambda_reg, scale)
-        data_driven = np.zeros_like(template.deltas, dtype=np.float64)
-        missing = template.deltas
-        if len(weights):
-            labels = metis_partition(template.neutral, template.triangles, self.n_patches, seed=self.seed)
-            source, data_driven = patch_blendshapes(
-                np.ascontiguousarray(np.tensordot(weights, template.deltas, axes=1).transpose(1, 0, 2)),
-                np.ascontiguousarray(offsets.transpose(1, 0, 2)),
-                vertex_major(template.deltas),
-                blend_weights(labels, template.triangles, self.blend_rings),
+        terms = None
+        if self.anacon:
+            terms = anatomy.source_terms(goals @ anatomy.rotation.T) if frames else anatomy.source_shapes()
+        examples = _Examples(self, anatomy, template, weights, offsets, scale) if len(weights) else None
+        result = np.empty(goals.shape)
+        for start in range(0, len(goals), _GOAL_CHUNK):
+            rows = slice(start, start + _GOAL_CHUNK)
+            goal = goals[rows]
+            data_driven, missing, explained = np.zeros_like(result[rows]), goal, None
+            if examples is not None:
+                data_driven, missing, explained = examples.explain(goal)
+            combined = data_driven
+            if self.missing:
+                if self.adt == "adt":
+                    transferred = anatomy.adt(missing @ anatomy.rotation.T)
+                else:
+                    transferred = deformation_transfer(
+                        template.neutral,
+                        missing,
+                        inputs.target_neutral,
+                        template.triangles,
+                        static_tolerance=self.static_tolerance,
+                    )
+                combined = combined + transferred
+            result[rows] = anatomy.anacon(combined, terms.part(rows), explained) if self.anacon else combined
+        return result
+
+
+class _Examples:
+    """The data-driven part of eq. 6 for any goals: patchwise blendshapes of the training examples
+    (eqs. 1-3), with what the anatomy rejects of the examples blended alike for ``anacon``.
+
+    Parameters
+    ----------
+    method : AnaConDaR
+    anatomy : transfer._adt.Anatomy or None
+        Needed when ``method.anacon``.
+    template : Rig
+    weights : (J, K) array
+        The examples' template weights (the source examples are the template at them).
+    offsets : (J, N, 3) array
+        The target examples' displacements.
+    scale : float
+        Length unit of eq. 2's data term.
+    """
+
+    def __init__(
+        self,
+        method: AnaConDaR,
+        anatomy: Any,
+        template: Any,
+        weights: np.ndarray,
+        offsets: np.ndarray,
+        scale: float,
+    ) -> None:
+        from transfer._partition import metis_partition
+        from transfer._patches import blend_weights
+
+        labels = metis_partition(template.neutral, template.triangles, method.n_patches, seed=method.seed)
+        self.blend = blend_weights(labels, template.triangles, method.blend_rings)
+        self.lambda_reg, self.scale, self.anatomy = method.lambda_reg, scale, anatomy
+        self.sources = np.tensordot(weights, template.deltas, axes=1)
+        self.fields = [offsets]
+        if method.anacon:
+            rotation = anatomy.rotation.T
+            self.fields += [
+                anatomy.rejected(self.sources @ rotation),
+                anatomy.rejected(offsets, on_target=True),
+            ]
+
+    def explain(self, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
+        """``T_i^P - T`` (eq. 3), the missing blendshapes ``S_i - S_i^P`` (eq. 4) and, with ``anacon``,
+        what the examples explain of ``(B, N, 3)`` goals (a `transfer._adt.Explained`, else None)."""
+        from transfer._adt import Explained
+
+        found = [
+            patch_blendshapes(
+                _major(self.sources),
+                _major(field),
+                vertex_major(goals),
+                self.blend,
                 self.lambda_reg,
-                scale,
+                self.scale,
             )
-            missing = template.deltas - source
-        combined = data_driven
-        if self.missing:
-            if self.adt == "adt":
-                transferred = anatomy.adt(missing @ anatomy.rotation.T)
-            else:
-                transferred = deformation_transfer(
-                    template.neutral,
-                    missing,
-                    inputs.target_neutral,
-                    template.triangles,
-                    static_tolerance=self.static_tolerance,
-                )
-            combined = combined + transferred
-        return anatomy.anacon(combined)
+            for field in self.fields
+        ]
+        source, data_driven = found[0]
+        if len(found) == 1:
+            return data_driven, goals - source, None
+        rotation = self.anatomy.rotation.T
+        explained = Explained(source @ rotation, data_driven, found[1][1], found[2][1])
+        return data_driven, goals - source, explained
+
+
+def _major(fields: np.ndarray) -> np.ndarray:
+    """``(J, N, 3)`` fields as the vertex-major ``(N, J, 3)`` of `transfer.plbs.patch_blendshapes`."""
+    return np.ascontiguousarray(fields.transpose(1, 0, 2))

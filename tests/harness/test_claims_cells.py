@@ -82,8 +82,8 @@ def test_examples_are_an_axis_scan_by_default():
 @pytest.mark.parametrize(
     ("fields", "message"),
     [
-        ({"examples": ("photos",)}, "--examples must be among scan, ideal, got \\('photos',\\)"),
-        ({"examples": "scan"}, "--examples must be among scan, ideal, got 'scan'"),
+        ({"examples": ("photos",)}, "--examples must be among scan, ideal, random, got \\('photos',\\)"),
+        ({"examples": "scan"}, "--examples must be among scan, ideal, random, got 'scan'"),
         ({"variations": ((("jmax", 3),),)}, "changes jmax; a variation may change mu, alpha"),
         ({"variations": ((("alpha",),),)}, "a variation must be \\(field, value\\) pairs"),
     ],
@@ -94,8 +94,8 @@ def test_bad_grid_fields_are_one_line_errors(fields, message):
 
 
 def test_the_examples_are_part_of_the_cell_id_and_a_records_column():
-    scan, ideal = (config(examples=(mode,)).cells()[0] for mode in EXAMPLES)
-    assert scan.id != ideal.id
+    scan, ideal, random = (config(examples=(mode,)).cells()[0] for mode in EXAMPLES)
+    assert len({scan.id, ideal.id, random.id}) == 3
     assert scan.record_fields()["examples"] == "scan" and "examples" in harness.RECORD_COLUMNS
 
 
@@ -159,7 +159,9 @@ def test_the_paper_preset_has_the_claims_variations_and_none_removes_them():
     assert paper.variations == CLAIM_VARIATIONS and paper.warps == ("alien+character",)
     assert {"plbs", "dt", "delta"} <= set(paper.transfers) and paper.examples == ("scan",)
     result = CliRunner().invoke(cli, ["run", "--help"])
-    assert "--examples scan|ideal|both" in result.output and "--variations [claims|none]" in result.output
+    assert (
+        "--examples scan|ideal|random|both" in result.output and "--variations [claims|none]" in result.output
+    )
 
 
 def test_variations_none_on_the_paper_preset(tmp_path):

@@ -117,7 +117,7 @@ def claim_cells(optimal_rms=GOOD, greedy_rms=WORSE, flat_rms=WORSE, alphas=None,
 
 def test_every_claim_held_on_records_that_show_it(tmp_path):
     found = table(tmp_path, *claim_cells())
-    assert list(found.columns) == ["paper", "measured", "verdict"] and len(found) == 9
+    assert list(found.columns) == ["paper", "measured", "verdict"] and len(found) == 10
     assert verdict(found, "greedy and optimal")[0] == HELD  # 9 of 10 shapes = 90% at 5 expressions
     assert "90%" in verdict(found, "greedy and optimal")[1]
     assert verdict(found, "optimal expressions") == (
@@ -278,12 +278,56 @@ def test_the_sanity_row_holds_ebfr_to_a_third_of_dt_with_exact_isolated_examples
     isolated = {"sequence": [[shape] for shape in SHAPES], "symmetry": False, "cap": 1, "examples": "ideal"}
     rows = cell("greedy", rms={20: ebfr}, **isolated)
     last = rows[-1]
-    rows += [{**last, "transfer": "dt", "rms": 1.0}, {**last, "transfer": "ebfr[beta=0.1]", "rms": 0.05}]
+    rows += [
+        {**last, "transfer": "dt", "rms": 1.0},
+        {**last, "transfer": "ebfr[beta=0.1]", "rms": 0.05},
+        {**last, "transfer": "anacondar", "rms": 0.03},
+    ]
     found = table(tmp_path, rows)
     held, measured = verdict(found, "every shape scanned alone")
-    assert held == expected and f"ebfr/dt {ebfr:.3f} (beta=0.1 0.05)" in measured
+    assert held == expected and f"ebfr/dt {ebfr:.3f} (anacondar 0.03, beta=0.1 0.05)" in measured
 
 
 def test_the_sanity_row_needs_isolated_cells(tmp_path):
     found = table(tmp_path, *claim_cells())
     assert verdict(found, "every shape scanned alone")[0] == NOT_MEASURED
+
+
+def animation_cells(packed: dict[int, list[float]], random: dict[int, list[float]]) -> list[list[dict]]:
+    """Cells of a fig10-like run: per seed, cpsat's packing and random examples (one cell per solver, as
+    the grid makes them), each with an anacondar and an ebfr ``frames_l2`` row per J."""
+    cells = []
+    for seed in range(len(next(iter(packed.values())))):
+        for solver, examples, values in (("cpsat", "ideal", packed), ("cpsat", "random", random)):
+            rows = cell(solver, seed=seed, examples=examples)
+            for j, errors in values.items():
+                for transfer in ("anacondar", "ebfr"):
+                    rows.append(
+                        {
+                            **rows[0],
+                            "kind": "transfer",
+                            "transfer": transfer,
+                            "j": j,
+                            "frames_l2": errors[seed],
+                        }
+                    )
+            cells.append(rows)
+    return cells
+
+
+def test_packing_against_random_examples_is_judged_over_seeds(tmp_path):
+    found = table(
+        tmp_path, *animation_cells({5: [1.0, 2.0], 10: [0.5, 1.0]}, {5: [2.0, 3.0], 10: [1.0, 2.0]})
+    )
+    held, measured = verdict(found, "packed expressions train anacondar")
+    assert held == HELD and measured.startswith("anacondar cpsat: cpsat below random at 4 of 4")
+    assert "ebfr cpsat: below random at 4 of 4 points" in measured
+
+
+def test_packing_against_random_examples_flips_between_seeds(tmp_path, tmp_path_factory):
+    found = table(
+        tmp_path, *animation_cells({5: [1.0, 4.0], 10: [0.5, 3.0]}, {5: [2.0, 3.0], 10: [1.0, 2.0]})
+    )
+    assert verdict(found, "packed expressions train anacondar")[0] == UNSTABLE
+    other = table(tmp_path_factory.mktemp("none"), *claim_cells())
+    assert verdict(other, "packed expressions train anacondar")[0] == NOT_MEASURED

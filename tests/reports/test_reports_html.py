@@ -74,6 +74,7 @@ def test_report_writes_markdown_html_and_figures(reported_run):
         "The paper's claims",
         "Transfer error (paper Figs. 9 and 10)",
         "Transfer error against the references",
+        "Retargeted frames (Wagner et al. 2024, Fig. 10)",
         "Does the evaluation tell packings apart?",
         "Worst transferred shapes",
         "Expression counts",
@@ -90,6 +91,7 @@ def test_report_writes_markdown_html_and_figures(reported_run):
     )
     assert "RMS divided by the dt RMS of the same cell and J" in markdown
     assert "The run has no delta transfer: no RMS relative to it." in markdown
+    assert "The run judges no retargeted frames" in markdown
     assert "Training expressions: not recorded" in markdown  # the fabricated run.json has no config
     figures = sorted(path.name for path in (directory / "figures").iterdir())
     assert figures == [
