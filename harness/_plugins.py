@@ -16,7 +16,7 @@ from registry import HarnessError
 
 if TYPE_CHECKING:
     from registry import PluginInfo
-    from solvers import LoadedSolver
+    from solvers import Capabilities, LoadedSolver
 
 ALL = "all"
 
@@ -53,6 +53,15 @@ def load_solver(label: str) -> LoadedSolver:
         return solvers.get(name, **dict(settings))
     except (TypeError, ValueError) as error:
         raise HarnessError(f"--solver {label}: {error}") from None
+
+
+def solver_capabilities(label: str) -> Capabilities:
+    """What a label's solver declares, made with the label's settings (a setting may change it: the
+    overlap of ``greedy-overlap[overlap=0.2]``), without checking its availability."""
+    import solvers
+
+    name, settings = split_label(label)
+    return solvers.solver_class(name)(**dict(settings)).capabilities
 
 
 def solver_info(label: str) -> PluginInfo:

@@ -152,7 +152,6 @@ change from run to run; two runs of one configuration agree on all others, which
 from __future__ import annotations
 
 import errno
-import hashlib
 import os
 import re
 import types
@@ -538,11 +537,22 @@ def _folder_write_error(error: OutputFolderError) -> RecordsWriteError:
 
 
 def write_listed(folder: OutputFolder, name: str, data: bytes) -> Path:
-    """Write ``OUT/name`` atomically, listed in the manifest *before* it is written: however the process
-    ends, the folder never holds a file the run wrote that the manifest does not list."""
-    folder.files[name] = {"kind": RUN_KIND, "sha256": hashlib.sha256(data).hexdigest()}
-    save_manifest(folder)
-    return write_atomically(folder.path / name, data)
+    """Write ``OUT/name`` atomically, listed in the manifest *before* it is in place (`OutputFolder.write`):
+    however the process ends, the folder never holds a file the run wrote that the manifest does not list.
+
+    Raises
+    ------
+    RecordsWriteError
+        When the file or the manifest cannot be written (e.g. the disk is full).
+    """
+    path = folder.path / name
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return folder.write(name, data)
+    except OutputFolderError as error:
+        raise _folder_write_error(error) from None
+    except OSError as error:
+        raise write_error(path, error) from None
 
 
 def open_new(out: Path, force: bool) -> OutputFolder:

@@ -21,8 +21,9 @@
   ``crashes`` (cell id -> ``{"cell": label, "count": n, "exit": how}``: how often, over every session, the
   worker process died or failed running a cell that has no part file yet).
 
-Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own part
-file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
+Cells run on an executor (`harness._executors`); each finished cell's rows are checked again in this process
+(`harness._verify`: a worker runs the solver plugin, which may change anything there) and written at once as
+its own part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
 infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
 ``--resume`` runs exactly the cells without a complete part file. A worker process that crashes on a cell
 loses it the first time and records it ``crashed`` the second (`harness._failures`). ``--resume`` runs no cell
@@ -74,6 +75,7 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
+from harness._verify import CellChecker
 from registry import HarnessError, OutputFolder, OutputFolderError, check_apart, stop_signals_deferred
 
 if TYPE_CHECKING:
@@ -508,6 +510,7 @@ def _run_locked(
                 reason = f"solver {spec.solver!r} unavailable: {unavailable[spec.solver]}"
                 _record(out, folder, spec, failure_rows(spec, "skipped", reason), summary, reporter)
         if executor is not None:
+            check = CellChecker()  # (every answer checked here, not only in the worker that gave it)
             for spec, outcome in executor.map(runnable):
                 if isinstance(outcome, Lost) and outcome.crash:
                     outcome = count_crash(info["crashes"], spec, outcome)
@@ -515,7 +518,7 @@ def _run_locked(
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
                     info["crashes"].pop(spec.id, None)
-                    _record(out, folder, spec, outcome, summary, reporter)
+                    _record(out, folder, spec, check(spec, outcome), summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         summary.seconds = time.perf_counter() - clock
         state, failure = ("incomplete" if summary.lost else "complete"), None
