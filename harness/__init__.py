@@ -47,7 +47,8 @@ if TYPE_CHECKING:
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
-    from harness._run import RunDirectoryError, RunSummary, in_progress, read_run, run_grid
+    from harness._run import RunSummary, in_progress, run_grid
+    from harness._run_file import RunDirectoryError, read_run
     from harness._settings import settings_text, split_label, split_requests
     from harness._track_store import StoreError, TrackStore, machine_id
 
@@ -84,7 +85,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],
-        "_run": ["RunDirectoryError", "RunSummary", "in_progress", "read_run", "run_grid"],
+        "_run": ["RunSummary", "in_progress", "run_grid"],
+        "_run_file": ["RunDirectoryError", "read_run"],
         "_settings": ["settings_text", "split_label", "split_requests"],
         "_track_store": ["StoreError", "TrackStore", "machine_id"],
     },

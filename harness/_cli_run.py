@@ -46,7 +46,8 @@ from harness._grid import (
 )
 from harness._progress import RichReporter
 from harness._records import RecordsWriteError
-from harness._run import RUN_FILE, read_run, run_grid
+from harness._run import run_grid
+from harness._run_file import RUN_FILE, read_run
 from registry import HarnessError, stop_signal
 
 #: Exit code of a run that lost cells to the infrastructure.

@@ -63,7 +63,6 @@ from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._records import (
     RECORDS_DIR,
-    RUN_FILE,
     open_for_resume,
     open_new,
     part_bytes,
@@ -75,6 +74,7 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
+from harness._run_file import RUN_FILE, RunDirectoryError, read_run
 from harness._verify import CellChecker
 from registry import HarnessError, OutputFolder, OutputFolderError, check_apart, stop_signals_deferred
 
@@ -82,10 +82,6 @@ if TYPE_CHECKING:
     from rigs import RigInputs
 
 RUN_FORMAT = 2
-
-
-class RunDirectoryError(HarnessError):
-    """The output directory cannot take this run (holds another run, is in use, or has nothing to resume)."""
 
 
 class Reporter(Protocol):
@@ -147,28 +143,6 @@ class RunSummary:
 def now() -> str:
     """Current UTC time, ISO 8601, to the second."""
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-
-
-def read_run(out: str | Path) -> dict[str, Any]:
-    """The ``run.json`` of a run directory.
-
-    Raises
-    ------
-    FileNotFoundError
-        When ``out`` holds no run.
-    RunDirectoryError
-        When ``run.json`` is not readable JSON, or not an object with a ``config`` object.
-    """
-    path = Path(out) / RUN_FILE
-    if not path.is_file():
-        raise FileNotFoundError(f"{out}: no {RUN_FILE} here, so no harness run to read")
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as error:
-        raise RunDirectoryError(f"{path}: not a readable run file ({error})") from None
-    if not isinstance(info, dict) or not isinstance(info.get("config"), dict):
-        raise RunDirectoryError(f"{path}: not a run file (expected an object with a 'config' object)")
-    return info
 
 
 def validate_config(

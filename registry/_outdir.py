@@ -15,8 +15,9 @@ them counts as the command's (a version 1 manifest, which lists no inodes, makes
 * a new or empty folder is taken;
 * a folder holding an earlier output of that kind is refused unless ``force``;
 * a folder holding anything else (a file the manifest does not list for this kind, one changed since it was
-  written, one that is not the file written there, a link) is always refused, naming what is in the way: nothing the command did not write is ever
-  overwritten or removed, and none has to be kept beside a replaced output;
+  written, one that is not the file written there, a link) is always refused, naming what is in the way:
+  nothing the command did not write is ever overwritten or removed, and none has to be kept beside a
+  replaced output;
 * a folder that is, contains or lies inside a protected path (the input rig's file or folder) is always
   refused, so that writing the output can never touch the input (`check_apart`).
 

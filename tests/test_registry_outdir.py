@@ -34,7 +34,11 @@ def test_a_new_folder_is_claimed_and_its_files_listed_with_kind_and_hash(tmp_pat
     manifest = json.loads((tmp_path / "out" / "deep" / MANIFEST_NAME).read_text())
     assert manifest["files"] == {
         "expressions.json": {"kind": "pack", "sha256": file_sha256(path), "inode": path.stat().st_ino},
-        "meshes/expression_01.obj": {"kind": "pack", "sha256": file_sha256(mesh), "inode": mesh.stat().st_ino},
+        "meshes/expression_01.obj": {
+            "kind": "pack",
+            "sha256": file_sha256(mesh),
+            "inode": mesh.stat().st_ino,
+        },
     }
     assert path.read_text() == "{}\n" and folder.files == manifest["files"]
     assert _siblings(tmp_path / "out" / "deep") == []

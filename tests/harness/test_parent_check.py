@@ -42,7 +42,9 @@ def test_a_solver_that_disables_the_checker_in_its_worker_is_recorded_invalid(
         assert cheat.status == "invalid" and "the harness's check" in cheat.message, cheat.message
         assert "share" in cheat.message and cheat.worker, cheat.message
         assert by[("greedy", mode)].status == "ok"
-    assert not harness.read_records(tmp_path / "out").query("solver == 'check-breaker' and kind != 'cell'").size
+    assert (
+        not harness.read_records(tmp_path / "out").query("solver == 'check-breaker' and kind != 'cell'").size
+    )
 
 
 def test_rows_that_are_no_cells_records_are_invalid(rig_file: Path) -> None:
