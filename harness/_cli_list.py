@@ -55,11 +55,26 @@ def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Table:
     from rich.table import Table
 
     table = Table(title=kind)
-    for column in ("name", "available", "version", "description", "capabilities / reason"):
+    for column in ("name", "available", "version", "description", "capabilities / reason", "settings"):
         table.add_column(column)
     for item in items:
         flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
         detail = flags if item["available"] else f"[yellow]{escape(item['reason'])}[/]"
         mark = "[green]yes[/]" if item["available"] else "[red]no[/]"
-        table.add_row(item["name"], mark, item["version"] or "-", escape(item["description"]) or "-", detail)
+        settings = "\n".join(_setting_text(setting) for setting in item["settings"]) or "-"
+        table.add_row(
+            item["name"],
+            mark,
+            item["version"] or "-",
+            escape(item["description"]) or "-",
+            detail,
+            escape(settings),
+        )
     return table
+
+
+def _setting_text(setting: dict[str, Any]) -> str:
+    """``workers=1: an integer in [1, 64]`` (the default, then what a value may be)."""
+    default = "the backend's own" if setting["default"] is None else setting["default"]
+    default = {True: "on", False: "off"}.get(default, default) if isinstance(default, bool) else default
+    return f"{setting['name']}={default}" + (f": {setting['domain']}" if setting["domain"] else "")
