@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from harness._bench_session import SAMPLE_COLUMNS, Measurement, ProbeError, measure
     from harness._bench_suites import SUITES, Group, Suite, suite
     from harness._cli_constraints import check_file_pairs, constraint_options, constraint_params
-    from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
+    from harness._cli_types import COUNT, DURATION, SOLVER_SEED, FiniteFloatRange, terminal
     from harness._commits import (
         CodeVersion,
         CommitError,
@@ -70,7 +70,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "resolve",
         ],
         "_cli_constraints": ["check_file_pairs", "constraint_options", "constraint_params"],
-        "_cli_types": ["DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
+        "_cli_types": ["COUNT", "DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
         "_durations": ["format_duration", "parse_duration"],
         "_environment": ["commits_since", "machine"],
         "_executors": ["DaskExecutor", "LocalExecutor"],

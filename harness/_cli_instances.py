@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
-from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
+from harness._cli_types import COUNT, DURATION, SOLVER_SEED, FiniteFloatRange, terminal
 from registry import HarnessError
 
 #: Options that set the packing of a rig argument; a run directory has them in its run.json.
@@ -75,12 +75,8 @@ def instances() -> None:
     show_default=True,
     help="Importance weights (eq. 4); off = every weight 1.",
 )
-@click.option(
-    "--cap", type=click.IntRange(min=1), help="Most shapes per expression (sec. 6). [default: no cap]"
-)
-@click.option(
-    "--jmax", type=click.IntRange(min=1), default=20, show_default=True, help="Most expressions (instances)."
-)
+@click.option("--cap", type=COUNT, help="Most shapes per expression (sec. 6). [default: no cap]")
+@click.option("--jmax", type=COUNT, default=20, show_default=True, help="Most expressions (instances).")
 @click.option(
     "--time-limit",
     type=DURATION,

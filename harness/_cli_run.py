@@ -20,12 +20,16 @@ from rich.markup import escape
 
 from harness._cli_constraints import constraint_options, grid_constraints
 from harness._cli_types import (
+    AXIS_COUNT,
     CAPS,
+    COUNT,
     DURATION,
     FLOATS,
+    JOBS,
     NAMES,
     PLUGINS,
     POSITIVE_INTS,
+    SCAN_SEED,
     SEEDS,
     SOLVER_SEED,
     SWITCH,
@@ -171,7 +175,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--jmax",
-    type=click.IntRange(min=1),
+    type=COUNT,
     help=f"Most expressions per sequence. [default: {_preset_help('jmax')}]",
 )
 @click.option(
@@ -205,13 +209,13 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--scan-seed",
-    type=click.IntRange(min=0),
+    type=SCAN_SEED,
     help="Seed of the scan-like training expressions (the evaluation's capture noise and head motion) of "
     "repetition 0; repetition r uses this + r. [default: 0]",
 )
 @click.option(
     "--repetitions",
-    type=click.IntRange(min=1),
+    type=AXIS_COUNT,
     help=f"Repetitions of every cell. [default: {_preset_help('repetitions')}]",
 )
 @click.option(
@@ -233,7 +237,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--permutations",
-    type=click.IntRange(min=1),
+    type=AXIS_COUNT,
     help="Item orders of every cell (a grid axis, as --repetitions): permutation 0 as built, p > 0 the "
     "items shuffled with seed p before the solver sees them (SCIP's PERMUTE). [default: 1]",
 )
@@ -248,7 +252,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @constraint_options
 @click.option(
     "--jobs",
-    type=click.IntRange(min=1),
+    type=JOBS,
     default=DEFAULT_JOBS,
     help="Local worker processes; with --executor dask and no --scheduler, the worker processes of the "
     "Dask cluster started for the run.",

@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from harness import _environment as environment
 from harness import _plugins as plugins
+from harness._bounds import check_bounds
 from harness._cell import Lost, Row, failure_rows
 from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
@@ -163,6 +164,7 @@ def validate_config(
     )
     plugins.check_rigs(config.rigs)
     plugins.check_warps(config.warps)
+    check_bounds(config.with_overrides(solvers=solvers))
     if config.repetitions < 1:
         raise HarnessError(f"--repetitions must be at least 1, got {config.repetitions}")
     if config.jmax is not None and config.jmax < 1:
