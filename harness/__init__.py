@@ -4,7 +4,8 @@ Runs write ``OUT/run.json`` and ``OUT/records/*.parquet``; `read_run` and `read_
 columns are documented in `harness._records`); the tables made from them are the `reports` package's. The
 harness runs rigs through `packing`, `solvers` and `transfer` and never computes results itself. Beside
 them, the pieces other commands build on (`session`'s ``harness pack``, plugin commands): the shared options
-(`constraint_options`, `DURATION`, ...), the output folder (`claim`) and the plugins (`load_solver`).
+(`constraint_options`, `DURATION`, ...), the output folder (`claim`), the plugins (`load_solver`) and a
+solver in a worker process of its own (`IsolatedSolver`).
 
 Names are imported from their modules on first use (PEP 562), so that ``harness --help`` and the commands
 that need no records store start without importing pandas and pyarrow.
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
         CellSpec,
         RunConfig,
     )
+    from harness._isolated import IsolatedSolver, SolverFailure, last_line, late_allowance, no_answer
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
@@ -82,6 +84,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "CellSpec",
             "RunConfig",
         ],
+        "_isolated": ["IsolatedSolver", "SolverFailure", "last_line", "late_allowance", "no_answer"],
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],

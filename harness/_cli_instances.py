@@ -3,7 +3,10 @@
 Registered through the ``harness.commands`` entry point ``instances`` (pyproject.toml), like ``report`` and
 ``compare``; the work is done in `harness._instances` (the files) and `harness._instances_source` (what to
 replay). Errors the user can fix (an unknown rig or solver, an ``--out`` that is a file or holds other
-files) end as one line with exit code 2, as for the built-in commands.
+files, a solver that fails) end as one line with exit code 2, as for the built-in commands. The reference
+solver solves in a worker process of its own (`harness.IsolatedSolver`, as ``harness pack``'s does): a
+solver that calls ``sys.exit`` or crashes is a failure of the export, and one that overruns ``--time-limit``
+is stopped.
 """
 
 from __future__ import annotations
@@ -148,6 +151,7 @@ def _export(
     from harness import _instances_source as sources
     from harness import _plugins as plugins
     from harness._instances import export as export_instances
+    from harness._isolated import IsolatedSolver
 
     plugins.expand_names([solver_name], plugins.solver_names(), "solver", "--solver")
     if sources.is_run_directory(argument):
@@ -165,6 +169,10 @@ def _export(
         if run_rig is not None:
             raise HarnessError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
         chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
-    solver = plugins.load_solver(solver_name)
-    result = export_instances(chosen, solver=solver, out=out, force=force)
+    plugins.check_settings([solver_name], [], solver_option="--solver")
+    found = plugins.solver_info(solver_name)
+    if not found.available:
+        raise HarnessError(f"--solver {solver_name} is unavailable here: {found.reason or found.status}")
+    with IsolatedSolver(solver_name) as isolated:  # (as harness pack and a run's cells solve: in a worker)
+        result = export_instances(chosen, solver=isolated, out=out, force=force)
     return result.document
