@@ -38,7 +38,7 @@ from harness._cli_types import (
     terminal,
 )
 from harness._durations import format_duration
-from harness._executors import DaskExecutor, Executor, LocalExecutor
+from harness._executors import WORKER_WAIT, DaskExecutor, Executor, LocalExecutor
 from harness._grid import (
     CLAIM_SOLVERS,
     CLAIM_VARIATIONS,
@@ -269,6 +269,13 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "workers is started on this machine for the run.",
 )
 @click.option(
+    "--worker-wait",
+    type=DURATION,
+    default=f"{WORKER_WAIT / 60:g}m",
+    help="With --executor dask: how long the cluster may have no worker at all before the run gives up on "
+    "the cells left (lost: --resume runs them).",
+)
+@click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     help="Run directory (run.json, records/). [default: results/PRESET]",
@@ -309,6 +316,7 @@ def run(
     jobs: int,
     executor: str,
     scheduler: str | None,
+    worker_wait: float,
     out: Path | None,
     resume: Path | None,
     force: bool,
@@ -353,12 +361,16 @@ def run(
             base = RunConfig(preset=preset, **PRESETS[preset]) if preset_given else stored
             config = base.with_overrides(**given)
 
+    console = terminal()
+    reporter = RunReporter(console, quiet=quiet)
+
     def make_executor(timeout: float | None) -> Executor:
         if executor == "dask":
-            return DaskExecutor(scheduler, timeout=timeout, jobs=jobs)
+            return DaskExecutor(
+                scheduler, timeout=timeout, jobs=jobs, worker_wait=worker_wait, notice=reporter.notice
+            )
         return LocalExecutor(jobs=jobs, timeout=timeout)
 
-    console = terminal()
     execution = {"executor": executor, **({"scheduler": scheduler} if scheduler else {"jobs": jobs})}
     try:
         summary = run_grid(
@@ -367,7 +379,7 @@ def run(
             make_executor=make_executor,
             resume=resume is not None,
             force=force,
-            reporter=RunReporter(console, quiet=quiet),
+            reporter=reporter,
             command=["harness", *sys.argv[1:]],
             execution=execution,
             retry_failed=retry_failed,
