@@ -510,7 +510,7 @@ def _run_locked(
             reporter.end()
         finally:  # (a stop that comes while the workers close cannot keep run.json "running")
             with stop_signals_deferred():
-                _mark(out, folder, info, state, error=failure)
+                _mark(out, folder, info, state, error=failure, quietly=state in ("interrupted", "failed"))
     return summary
 
 
@@ -592,8 +592,23 @@ def _close_quietly(executor: Executor | None) -> None:
 
 
 def _mark(
-    out: Path, folder: OutputFolder, info: dict[str, Any], state: str, *, error: str | None = None
+    out: Path,
+    folder: OutputFolder,
+    info: dict[str, Any],
+    state: str,
+    *,
+    error: str | None = None,
+    quietly: bool = False,
 ) -> None:
+    """Record the run's end in ``run.json``.
+
+    Raises
+    ------
+    harness._records.RecordsWriteError
+        When ``run.json`` cannot be written (e.g. the disk is full), unless ``quietly``: a run already
+        failing keeps its own error (``run.json`` then still says ``running``, and ``--resume`` works the
+        same), while a run that could not record its end must not end as if it had.
+    """
     if not info:  # failed before run.json was written
         return
     info["state"], info["finished"] = state, now()
@@ -602,4 +617,5 @@ def _mark(
     try:
         write_run(out, info, folder)
     except OSError:
-        pass  # e.g. the disk is full; run.json still says "running" and --resume works the same
+        if not quietly:
+            raise
