@@ -27,7 +27,7 @@ from registry._checks import parametrize_checks, run_checks
 from registry._errors import HarnessError
 from registry._memo import BoundedMemo
 from registry._outdir import OutputFolder, OutputFolderError, check_apart, claim, reopen
-from registry._plugin_settings import Setting, checked_settings, declared_settings
+from registry._plugin_settings import SETTING_TYPES, Setting, checked_settings, declared_settings
 from registry._registry import (
     PluginInfo,
     PluginRegistry,
@@ -45,6 +45,7 @@ from registry._stop import (
 )
 
 __all__ = [
+    "SETTING_TYPES",
     "STOP_SIGNALS",
     "Availability",
     "AvailabilityStatus",
