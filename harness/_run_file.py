@@ -7,8 +7,8 @@ Every command that reads a run (``--resume``, ``show``, ``report``, ``compare``,
 ``state`` the harness never writes is one line naming the file, the key and what it holds, never an
 exception from deep inside a reader. The types of ``config`` are those of `harness._grid.RunConfig`'s fields
 (tuples as JSON lists, ``regions`` an object of name -> vertex indices), so a field added there is checked
-with no list to update here. A run of format 2 or later holds every field `RunConfig` cannot do without;
-earlier ones may hold fewer.
+with no list to update here. A run of format 2 or later holds every field `RunConfig` cannot do without,
+each within its bound (`harness._bounds`); earlier ones may hold fewer.
 
 A part file belongs to a run only when its cell is one of the run's grid: `run_cells` gives their ids, from
 ``config`` and ``rig_digests``, as ``--resume`` builds the grid, so that a part file copied in from another
@@ -28,6 +28,7 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
+from harness._bounds import check_bounds
 from harness._grid import RunConfig
 from registry import HarnessError
 
@@ -182,6 +183,10 @@ def _check_config(path: Path, config: Mapping[str, object], format_: int) -> Non
         missing = [name for name in _required_config() if name not in config]
         if missing:
             raise RunDirectoryError(f"{path}: config lacks {', '.join(missing)}")
+        try:
+            check_bounds(RunConfig.from_dict(config))
+        except HarnessError as error:
+            raise RunDirectoryError(f"{path}: config: {error}") from None
 
 
 @functools.cache

@@ -45,7 +45,13 @@ def harness(*arguments: object, cwd: Path, site: Path | None = None) -> Ran:
     """``harness ARGUMENTS`` in a child process in ``cwd``, with the plugins of ``site`` installed."""
     path = os.pathsep.join([str(ROOT), *([str(site)] if site else [])])
     environment = {**os.environ, "PYTHONPATH": path, "COLUMNS": "250", "NO_COLOR": "1"}
-    command = [sys.executable, "-c", "from harness.cli import main; main()", *map(os.fsdecode, arguments)]
+    command = [
+        sys.executable,
+        "-P",
+        "-c",
+        "from harness.cli import main; main()",
+        *map(os.fsdecode, arguments),
+    ]
     try:
         done = subprocess.run(
             command, cwd=cwd, env=environment, capture_output=True, text=True, timeout=HANG_SECONDS
@@ -483,8 +489,14 @@ def _set(path: str, value: object) -> Callable[[dict], None]:
     return change
 
 
-def _without(key: str) -> Callable[[dict], None]:
-    return lambda document: document.pop(key)
+def _without(path: str) -> Callable[[dict], None]:
+    def change(document: dict) -> None:
+        *parents, key = path.split(".")
+        for parent in parents:
+            document = document[parent]
+        del document[key]
+
+    return change
 
 
 RUN_FILES = [
@@ -493,7 +505,7 @@ RUN_FILES = [
     ("config-time-limit-word", _set("config.time_limit", "fast"), "config.time_limit"),
     ("config-unknown-key", _set("config.nonsense", 1), "nonsense"),
     ("config-regions-nested", _set("config.regions", {"lip": [[1, 2]]}), "config.regions"),
-    ("config-missing-rigs", lambda document: document["config"].pop("rigs"), "config lacks rigs"),
+    ("config-missing-rigs", _without("config.rigs"), "config lacks rigs"),
     ("git-number", _set("git", 5), "git"),
     ("no-state", _without("state"), "state"),
     ("state-unknown", _set("state", "sleeping"), "state"),
@@ -763,10 +775,25 @@ def _store_file(place: Place) -> tuple[list[object], str, Path]:
     return ["track", "steps", "--store", place.write("store", "x")], "store", place.clone
 
 
-@case("track/store-holds-a-broken-part")
-def _store_broken(place: Place) -> tuple[list[object], str, Path]:
-    place.write("store/machine=m/commit=0123456789abcdef0123456789abcdef01234567/part.parquet", "not parquet")
-    return ["track", "steps", "--store", place.folder / "store"], "part.parquet", place.clone
+for label, content in [("not-parquet", b"not parquet"), ("other-columns", "parquet of other columns")]:
+
+    def _store_broken(place: Place, content=content) -> tuple[list[object], str, Path]:
+        part = place.folder / "store/machine=m/commit=0123456789abcdef0123456789abcdef01234567/part.parquet"
+        part.parent.mkdir(parents=True)
+        if isinstance(content, bytes):
+            part.write_bytes(content)
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            pq.write_table(pa.table({"x": [1]}), part)
+        return (
+            ["track", "steps", "--store", place.folder / "store", "--machine", "m"],
+            "part.parquet",
+            place.clone,
+        )
+
+    case(f"track/store-part-{label}")(_store_broken)
 
 
 @case("track/publish-out-is-a-file", safe=lambda place: (place.folder / "site").read_text() == "keep")
