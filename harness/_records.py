@@ -7,7 +7,9 @@ Layout of a run directory ``OUT/``:
   written whole to a temporary file (a name starting with ``.``) and renamed, so a crash or a full disk
   never leaves a half-written part that readers would see. Each part carries its cell id and row count in
   its Parquet metadata and page checksums; ``--resume`` reads every part back (`check_parts`) and moves a
-  truncated or corrupt one to ``OUT/broken-parts/`` to run its cell again. Files in ``records/`` not named
+  truncated or corrupt one, or one of a cell outside the run's grid (`foreign_part`: copied in from another
+  run), to ``OUT/broken-parts/`` to run its cell again; every reader (`read_records`) refuses such a part
+  file. Files in ``records/`` not named
   like a part are no records and are never read, moved or removed.
 - ``OUT/.harness-manifest.json``: the files the harness wrote here (`registry.claim`); the run writing
   the folder holds a lock on ``OUT`` itself (`harness._run.locked`).

@@ -165,6 +165,15 @@ def test_a_forged_manifest_with_the_right_hash_never_makes_a_users_file_ours(
     assert notes.read_text() == "my notes\n"
 
 
+def test_a_manifest_nested_too_deeply_is_no_manifest_and_nothing_is_removed(tmp_path) -> None:
+    out = tmp_path / "out"
+    claim(out, kind="pack", force=False).replace({"expression_01.obj": "ours\n"})
+    (out / MANIFEST_NAME).write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(OutputFolderError, match=r"is not a harness manifest \(nested too deeply\)"):
+        claim(out, kind="pack", force=True)
+    assert (out / "expression_01.obj").read_text() == "ours\n"
+
+
 def test_a_copied_output_is_not_the_commands_and_is_never_replaced(tmp_path) -> None:
     import shutil
 
