@@ -88,7 +88,11 @@ class CellChecker:
         setting."""
         import packing
 
-        key = (spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, repr(sorted(params.items(), key=str)))
+        key = (
+            spec.rig, spec.rig_digest, spec.rig_seed, spec.warp, spec.mu, spec.alpha, spec.beta,
+            spec.symmetry, spec.importance, spec.cap, spec.distortion, spec.together, spec.apart,
+            spec.regions,
+        )  # fmt: skip
 
         def build() -> Analysis:
             with warnings.catch_warnings():
