@@ -22,7 +22,7 @@ from registry._availability import Availability
 from registry._errors import HarnessError
 
 #: Seconds a plugin's ``availability()`` may take to answer (it is meant to be cheap: no backend import).
-PROBE_SECONDS = 10.0
+PROBE_SECONDS = 5.0
 
 
 class UnknownPluginError(HarnessError):

@@ -374,7 +374,7 @@ for label, name, fragment in [
     ("reader-returns-a-dict", "d.dic", "rig format plugin 'dict'"),
     ("reader-skips-validation", "u.unc", "rig format plugin 'unchecked'"),
 ]:
-    for command in ("info", "pack", "run", "export"):
+    for command in ("info", "pack", "run"):
 
         def _format(place: Place, name=name, fragment=fragment, command=command) -> tuple[list[object], str]:
             path = place.write(name, "x")
@@ -395,7 +395,6 @@ for label, name, fragment in [
                     "--out",
                     place.folder / "out",
                 ],  # fmt: skip
-                "export": export(path, place),
             }[command]
             return arguments, fragment
 
@@ -455,14 +454,6 @@ for label, arguments, fragment, noted in [
         lambda place: run_options(place, "--solvers", "silent"),
         "did not answer within",
         True,
-    ),
-    (
-        "pack-silent-availability",
-        lambda place: (
-            pack("tiny", place)[:2] + ["--solver", "silent", "--no-pictures", "--out", place.folder / "out"]
-        ),
-        "did not answer within",
-        False,
     ),
 ]:
     add(f"plugins/{label}", arguments, fragment, noted=noted, site=True)
@@ -532,12 +523,7 @@ for label, change, fragment in RUN_FILES:
             }[command]
             return arguments, fragment
 
-        if command in ("show", "instances") or label in (
-            "config-mu-words",
-            "no-state",
-            "git-number",
-            "nested-deep",
-        ):
+        if command in ("show", "instances") or label == "config-mu-words":
             case(f"records/run-json-{label}-{command}")(_run_file)
 
 
