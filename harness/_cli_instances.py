@@ -3,7 +3,10 @@
 Registered through the ``harness.commands`` entry point ``instances`` (pyproject.toml), like ``report`` and
 ``compare``; the work is done in `harness._instances` (the files) and `harness._instances_source` (what to
 replay). Errors the user can fix (an unknown rig or solver, an ``--out`` that is a file or holds other
-files) end as one line with exit code 2, as for the built-in commands.
+files, a solver that fails) end as one line with exit code 2, as for the built-in commands. The reference
+solver solves in a worker process of its own (`harness.IsolatedSolver`, as ``harness pack``'s does): a
+solver that calls ``sys.exit`` or crashes is a failure of the export, and one that overruns ``--time-limit``
+is stopped.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
-from harness._cli_types import DURATION, SOLVER_SEED, FiniteFloatRange, terminal
+from harness._cli_types import COUNT, DURATION, SOLVER_SEED, FiniteFloatRange, terminal
 from registry import HarnessError
 
 #: Options that set the packing of a rig argument; a run directory has them in its run.json.
@@ -75,12 +78,8 @@ def instances() -> None:
     show_default=True,
     help="Importance weights (eq. 4); off = every weight 1.",
 )
-@click.option(
-    "--cap", type=click.IntRange(min=1), help="Most shapes per expression (sec. 6). [default: no cap]"
-)
-@click.option(
-    "--jmax", type=click.IntRange(min=1), default=20, show_default=True, help="Most expressions (instances)."
-)
+@click.option("--cap", type=COUNT, help="Most shapes per expression (sec. 6). [default: no cap]")
+@click.option("--jmax", type=COUNT, default=20, show_default=True, help="Most expressions (instances).")
 @click.option(
     "--time-limit",
     type=DURATION,
@@ -152,6 +151,7 @@ def _export(
     from harness import _instances_source as sources
     from harness import _plugins as plugins
     from harness._instances import export as export_instances
+    from harness._isolated import IsolatedSolver
 
     plugins.expand_names([solver_name], plugins.solver_names(), "solver", "--solver")
     if sources.is_run_directory(argument):
@@ -169,6 +169,10 @@ def _export(
         if run_rig is not None:
             raise HarnessError("--rig picks a rig of a run directory; RIG_OR_RUN is not one")
         chosen = [sources.from_rig(argument, params=params, jmax=jmax, time_limit=time_limit, seed=seed)]
-    solver = plugins.load_solver(solver_name)
-    result = export_instances(chosen, solver=solver, out=out, force=force)
+    plugins.check_settings([solver_name], [], solver_option="--solver")
+    found = plugins.solver_info(solver_name)
+    if not found.available:
+        raise HarnessError(f"--solver {solver_name} is unavailable here: {found.reason or found.status}")
+    with IsolatedSolver(solver_name) as isolated:  # (as harness pack and a run's cells solve: in a worker)
+        result = export_instances(chosen, solver=isolated, out=out, force=force)
     return result.document

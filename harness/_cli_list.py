@@ -61,9 +61,25 @@ def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Table:
     table.add_column("version", overflow="fold")
     table.add_column("description", overflow="fold", ratio=3)
     table.add_column("capabilities / reason", overflow="fold", ratio=2)
+    table.add_column("settings", overflow="fold", ratio=2)
     for item in items:
         flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
         detail = flags if item["available"] else f"[yellow]{escape(item['reason'])}[/]"
         mark = "[green]yes[/]" if item["available"] else "[red]no[/]"
-        table.add_row(item["name"], mark, item["version"] or "-", escape(item["description"]) or "-", detail)
+        settings = "\n".join(_setting_text(setting) for setting in item["settings"]) or "-"
+        table.add_row(
+            item["name"],
+            mark,
+            item["version"] or "-",
+            escape(item["description"]) or "-",
+            detail,
+            escape(settings),
+        )
     return table
+
+
+def _setting_text(setting: dict[str, Any]) -> str:
+    """``workers=1: an integer in [1, 64]`` (the default, then what a value may be)."""
+    default = "the backend's own" if setting["default"] is None else setting["default"]
+    default = {True: "on", False: "off"}.get(default, default) if isinstance(default, bool) else default
+    return f"{setting['name']}={default}" + (f": {setting['domain']}" if setting["domain"] else "")

@@ -11,7 +11,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from harness._cli_types import terminal
+from harness._cli_types import RIG_SEED, terminal
 from harness._rigspec import FETCHED_RIGS, fetched_path, resolve_rig
 from registry import HarnessError
 
@@ -38,7 +38,7 @@ def _check_preset(preset: str) -> None:
 
 @rigs.command("generate")
 @click.argument("preset")
-@click.option("--seed", type=click.IntRange(min=0), default=0, help="Generator seed (same seed, same rig).")
+@click.option("--seed", type=RIG_SEED, default=0, help="Generator seed (same seed, same rig).")
 @click.option(
     "--out",
     type=click.Path(dir_okay=True, path_type=Path),
@@ -107,9 +107,7 @@ def _one_line(rig: Rig) -> str:
 
 @rigs.command("info")
 @click.argument("rig")
-@click.option(
-    "--seed", type=click.IntRange(min=0), default=0, help="Generator seed when RIG is a preset name."
-)
+@click.option("--seed", type=RIG_SEED, default=0, help="Generator seed when RIG is a preset name.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 def info(rig: str, seed: int, as_json: bool) -> None:
     """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, degenerate
@@ -151,9 +149,7 @@ def _vector(values: list[float]) -> str:
     required=True,
     help="Warp preset (see harness list) or spec: scale:SX,SY,SZ, local:CENTER,FACTOR[,RADIUS], joined by +",
 )
-@click.option(
-    "--seed", type=click.IntRange(min=0), default=0, help="Generator seed when RIG is a preset name."
-)
+@click.option("--seed", type=RIG_SEED, default=0, help="Generator seed when RIG is a preset name.")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="Output file or folder.")
 def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
     """Warp every mesh of RIG (file or preset) into a target character with the same topology."""

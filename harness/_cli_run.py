@@ -20,12 +20,16 @@ from rich.markup import escape
 
 from harness._cli_constraints import constraint_options, grid_constraints
 from harness._cli_types import (
+    AXIS_COUNT,
     CAPS,
+    COUNT,
     DURATION,
     FLOATS,
+    JOBS,
     NAMES,
     PLUGINS,
     POSITIVE_INTS,
+    SCAN_SEED,
     SEEDS,
     SOLVER_SEED,
     SWITCH,
@@ -34,7 +38,7 @@ from harness._cli_types import (
     terminal,
 )
 from harness._durations import format_duration
-from harness._executors import DaskExecutor, Executor, LocalExecutor
+from harness._executors import WORKER_WAIT, DaskExecutor, Executor, LocalExecutor
 from harness._grid import (
     CLAIM_SOLVERS,
     CLAIM_VARIATIONS,
@@ -46,7 +50,8 @@ from harness._grid import (
 )
 from harness._progress import RichReporter
 from harness._records import RecordsWriteError
-from harness._run import RUN_FILE, read_run, run_grid
+from harness._run import run_grid
+from harness._run_file import RUN_FILE, read_run
 from registry import HarnessError, stop_signal
 
 #: Exit code of a run that lost cells to the infrastructure.
@@ -177,7 +182,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--jmax",
-    type=click.IntRange(min=1),
+    type=COUNT,
     help=f"Most expressions per sequence. [default: {_preset_help('jmax')}]",
 )
 @click.option(
@@ -211,13 +216,13 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--scan-seed",
-    type=click.IntRange(min=0),
+    type=SCAN_SEED,
     help="Seed of the scan-like training expressions (the evaluation's capture noise and head motion) of "
     "repetition 0; repetition r uses this + r. [default: 0]",
 )
 @click.option(
     "--repetitions",
-    type=click.IntRange(min=1),
+    type=AXIS_COUNT,
     help=f"Repetitions of every cell. [default: {_preset_help('repetitions')}]",
 )
 @click.option(
@@ -248,7 +253,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 @click.option(
     "--permutations",
-    type=click.IntRange(min=1),
+    type=AXIS_COUNT,
     help="Item orders of every cell (a grid axis, as --repetitions): permutation 0 as built, p > 0 the "
     "items shuffled with seed p before the solver sees them (SCIP's PERMUTE). [default: 1]",
 )
@@ -263,7 +268,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 @constraint_options
 @click.option(
     "--jobs",
-    type=click.IntRange(min=1),
+    type=JOBS,
     default=DEFAULT_JOBS,
     help="Local worker processes; with --executor dask and no --scheduler, the worker processes of the "
     "Dask cluster started for the run.",
@@ -278,6 +283,13 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     "--scheduler",
     help="Dask scheduler address (tcp://HOST:PORT), with --executor dask; without it a cluster of --jobs "
     "workers is started on this machine for the run.",
+)
+@click.option(
+    "--worker-wait",
+    type=DURATION,
+    default=f"{WORKER_WAIT / 60:g}m",
+    help="With --executor dask: how long the cluster may have no worker at all before the run gives up on "
+    "the cells left (lost: --resume runs them).",
 )
 @click.option(
     "--out",
@@ -320,6 +332,7 @@ def run(
     jobs: int,
     executor: str,
     scheduler: str | None,
+    worker_wait: float,
     out: Path | None,
     resume: Path | None,
     force: bool,
@@ -364,12 +377,16 @@ def run(
             base = RunConfig(preset=preset, **PRESETS[preset]) if preset_given else stored
             config = base.with_overrides(**given)
 
+    console = terminal()
+    reporter = RunReporter(console, quiet=quiet)
+
     def make_executor(timeout: float | None) -> Executor:
         if executor == "dask":
-            return DaskExecutor(scheduler, timeout=timeout, jobs=jobs)
+            return DaskExecutor(
+                scheduler, timeout=timeout, jobs=jobs, worker_wait=worker_wait, notice=reporter.notice
+            )
         return LocalExecutor(jobs=jobs, timeout=timeout)
 
-    console = terminal()
     execution = {"executor": executor, **({"scheduler": scheduler} if scheduler else {"jobs": jobs})}
     try:
         summary = run_grid(
@@ -378,7 +395,7 @@ def run(
             make_executor=make_executor,
             resume=resume is not None,
             force=force,
-            reporter=RunReporter(console, quiet=quiet),
+            reporter=reporter,
             command=["harness", *sys.argv[1:]],
             execution=execution,
             retry_failed=retry_failed,

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Generic, TypeVar
 
 import click
 
+from harness._bounds import AXIS_MAX, COUNT_MAX, JOBS_MAX, RIG_SEED_MAX, SEED_MAX, SEEDS_MAX
 from harness._durations import parse_duration
 from harness._settings import expand, split_requests
 from registry import HarnessError
@@ -16,13 +17,6 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 NONE_WORDS = ("none", "off", "no")
-
-#: Largest solver seed: the solvers take a 32-bit signed seed (CP-SAT, HiGHS, the heuristics' generators).
-SEED_MAX = 2**31 - 1
-#: Most seeds a `SeedList` expands to (each one a grid axis value: thousands of runs already).
-SEEDS_MAX = 10_000
-#: Largest seed of a generated rig or actor: the records keep seeds as 64-bit integers.
-RIG_SEED_MAX = 2**63 - 1
 
 #: A command's callback, as click's option decorators take and return it.
 Command = TypeVar("Command", bound=Callable[..., object])
@@ -78,7 +72,7 @@ class PluginList(click.ParamType):
 
 
 def seed_number(text: str) -> int:
-    """A seed: ASCII digits, >= 0 (ValueError otherwise)."""
+    """A seed: ASCII digits, >= 0 (ValueError otherwise, an empty text too)."""
     if not text.isascii() or not text.isdigit():
         raise HarnessError(text)
     return int(text)
@@ -96,6 +90,16 @@ class FiniteFloatRange(click.FloatRange):
 
 #: A solver seed option's type.
 SOLVER_SEED = click.IntRange(0, SEED_MAX)
+#: The seed of the scan-like examples (repetition r adds r; the records keep it as a 64-bit integer).
+SCAN_SEED = click.IntRange(0, SEED_MAX)
+#: A generated rig's seed.
+RIG_SEED = click.IntRange(0, RIG_SEED_MAX)
+#: Repetitions or permutations of every cell.
+AXIS_COUNT = click.IntRange(1, AXIS_MAX)
+#: Worker processes.
+JOBS = click.IntRange(1, JOBS_MAX)
+#: Most expressions of a sequence, or most shapes of one.
+COUNT = click.IntRange(1, COUNT_MAX)
 
 
 class SeedList(click.ParamType):
@@ -110,10 +114,10 @@ class SeedList(click.ParamType):
             return value
         seeds: list[int] = []
         for part in (part.strip() for part in str(value).split(",")):
-            first, _, last = part.partition("-")
+            first, dash, last = part.partition("-")
             try:
                 low = seed_number(first)
-                high = seed_number(last) if last else low
+                high = seed_number(last) if dash else low
             except ValueError:
                 self.fail(f"{part!r} is not a seed or a range of seeds like 0-4 (in {value!r})", param, ctx)
             if high < low:
@@ -165,9 +169,9 @@ class Switch(click.ParamType):
 
 
 def positive_int(text: str) -> int:
-    """An int >= 1 (ValueError otherwise)."""
+    """An int in 1..`COUNT_MAX` (ValueError otherwise)."""
     number = int(text)
-    if number < 1:
+    if not 1 <= number <= COUNT_MAX:
         raise HarnessError(text)
     return number
 
@@ -176,8 +180,8 @@ NAMES = CommaList(str, "names")
 PLUGINS = PluginList()
 SEEDS = SeedList()
 FLOATS = CommaList(float, "numbers")
-POSITIVE_INTS = CommaList(positive_int, "positive integers")
-CAPS = CommaList(positive_int, "caps", allow_none=True)
+POSITIVE_INTS = CommaList(positive_int, f"positive integers up to {COUNT_MAX}")
+CAPS = CommaList(positive_int, f"caps (1 to {COUNT_MAX}, or none)", allow_none=True)
 DURATION = Duration()
 SWITCH = Switch()
 

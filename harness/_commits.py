@@ -117,20 +117,34 @@ def resolve(repository: Path, ref: str) -> str:
         raise CommitError(f"{ref!r} names no commit of {repository}") from None
 
 
-def commit_range(repository: Path, spec: str) -> list[str]:
+def commit_range(repository: Path, spec: str, *, strict: bool = False) -> list[str]:
     """The commits of ``spec`` oldest first: ``A..B`` (as ``git rev-list``, first parents only) or one ref.
+
+    With ``strict``, ``A`` must be one of ``B``'s ancestors: a range backwards (or between two branches)
+    holds no commit between them, or commits that are not.
 
     Raises
     ------
     CommitError
-        When a ref names no commit.
+        When a ref names no commit, or, with ``strict``, ``A`` is not an ancestor of ``B``.
     """
     if ".." not in spec:
         return [resolve(repository, spec)]
     start, _, end = spec.partition("..")
     first, last = resolve(repository, start or "HEAD"), resolve(repository, end or "HEAD")
+    if strict and first != last and not _is_ancestor(repository, first, last):
+        raise CommitError(f"{spec}: {start or 'HEAD'} is not an ancestor of {end or 'HEAD'}; give OLD..NEW")
     listed = git(repository, "rev-list", "--first-parent", "--reverse", f"{first}..{last}")
     return [first, *listed.split()]
+
+
+def _is_ancestor(repository: Path, commit: str, descendant: str) -> bool:
+    """Whether ``commit`` is an ancestor of ``descendant`` (``git merge-base --is-ancestor``)."""
+    try:
+        git(repository, "merge-base", "--is-ancestor", commit, descendant)
+    except CommitError:
+        return False
+    return True
 
 
 def first_parents(repository: Path, tip: str) -> list[str]:

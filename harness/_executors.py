@@ -35,7 +35,7 @@ import logging
 import threading
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
@@ -77,6 +77,9 @@ _PHASES = ("starting", "warming up", "running")
 #: Seconds between looks at a Dask cluster's workers while none is idle (a worker that joins the cluster
 #: gets cells within this time).
 _POLL = 1.0
+#: Seconds a Dask cluster may have no worker at all before the run gives up on the cells left (batch
+#: workers may wait in a queue): they are lost, and ``--resume`` runs them.
+WORKER_WAIT = 600.0
 
 
 class Executor(Protocol):
@@ -328,9 +331,21 @@ class DaskExecutor:
         Seconds the solver's warm-up may take, and then the cell, before its process is killed.
     jobs : int
         Worker processes of the cluster started here (without ``scheduler``), >= 1.
+    worker_wait : float
+        Seconds the cluster may have no worker before the cells left are lost (`WORKER_WAIT`).
+    notice : callable, optional
+        Told, in one line, when the executor starts waiting for a worker to join.
     """
 
-    def __init__(self, scheduler: str | None = None, timeout: float | None = None, jobs: int = 1) -> None:
+    def __init__(
+        self,
+        scheduler: str | None = None,
+        timeout: float | None = None,
+        jobs: int = 1,
+        *,
+        worker_wait: float = WORKER_WAIT,
+        notice: Callable[[str], None] | None = None,
+    ) -> None:
         try:
             from distributed import Client
         except ImportError as error:
@@ -347,6 +362,9 @@ class DaskExecutor:
             where = f"--scheduler {scheduler}" if scheduler else "the local Dask cluster"
             raise HarnessError(f"{where}: cannot reach the Dask scheduler: {error}") from error
         self.timeout = timeout
+        self.where = f"the Dask cluster at {scheduler}" if scheduler else "the local Dask cluster"
+        self.worker_wait = worker_wait
+        self.notice = notice or (lambda message: None)
         self._slots: list[_DaskSlot] = []
         self._running: dict[Future, _DaskSlot] = {}
 
@@ -365,6 +383,7 @@ class DaskExecutor:
                 yield spec, template
             else:
                 queue.append(spec)
+        alone_since = None  # (when the cluster was last seen without a worker)
         while queue or self._running:
             cluster_lost = None
             if queue:
@@ -373,6 +392,19 @@ class DaskExecutor:
                 except OSError as error:  # the scheduler went away between two cells
                     cluster_lost = Lost(f"Dask scheduler lost: {error}")
             if not self._running and cluster_lost is None:  # no worker yet: wait for one to join
+                if self._slots:
+                    alone_since = None
+                elif alone_since is None:
+                    alone_since = time.monotonic()
+                    self.notice(
+                        f"waiting for a worker to join {self.where} (it has none; giving up after "
+                        f"{self.worker_wait:g}s)"
+                    )
+                elif time.monotonic() - alone_since > self.worker_wait:
+                    lost = Lost(f"no worker joined {self.where} within {self.worker_wait:g}s")
+                    yield from ((spec, lost) for spec in queue)
+                    queue.clear()
+                    continue
                 time.sleep(_POLL)
                 continue
             for future in self._finished():

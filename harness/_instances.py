@@ -51,6 +51,7 @@ from registry import HarnessError, claim
 if TYPE_CHECKING:
     import numpy as np
 
+    from harness._isolated import IsolatedSolver
     from packing import Analysis, Expression, PackingProblem, Solution, Termination
     from rigs import Rig
     from solvers import LoadedSolver
@@ -105,7 +106,7 @@ def solu_status(termination: Termination, found: bool) -> str:
 
 
 def export(
-    sequences: Iterable[Sequence], *, solver: LoadedSolver, out: Path, force: bool = False
+    sequences: Iterable[Sequence], *, solver: LoadedSolver | IsolatedSolver, out: Path, force: bool = False
 ) -> ExportResult:
     """Run every reference sequence with ``solver`` and write its subproblems to ``out`` (module notes).
 
@@ -113,8 +114,9 @@ def export(
     ----------
     sequences : iterable of Sequence
         What to replay (`harness._instances_source.from_rig` / ``from_run``).
-    solver : LoadedSolver
-        The reference solver (``solvers.get(name)``; an exact one proves the ``=opt=`` values).
+    solver : LoadedSolver or IsolatedSolver
+        The reference solver (``solvers.get(name)``, or one solving in a worker process; an exact one proves
+        the ``=opt=`` values).
     out : Path
         Output folder (created; see the module notes for what it may already hold).
     force : bool
@@ -213,7 +215,11 @@ def recorded_sequence(
     )
     failed = next((e for e in expressions if e.termination is packing.Termination.ERROR), None)
     if failed is not None:
-        raise HarnessError(f"reference solver {solver.name} failed in expression {failed.index}")
+        reason = [line for line in str(failed.message).splitlines() if line.strip()]
+        raise HarnessError(
+            f"reference solver {solver.name} failed in expression {failed.index}"
+            + (f": {reason[-1].strip()}" if reason else "")
+        )
     packing.check(
         rig,
         expressions,

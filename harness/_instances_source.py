@@ -109,7 +109,7 @@ class Sequence:
 
 def is_run_directory(argument: str) -> bool:
     """Whether ``argument`` is a run directory (a folder holding ``run.json``)."""
-    from harness._records import RUN_FILE
+    from harness._run_file import RUN_FILE
 
     return (Path(argument) / RUN_FILE).is_file()
 

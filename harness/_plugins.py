@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING, Any
 from harness._grid import NO_WARP
 from harness._rigspec import is_rig_file
 from harness._settings import split_label
-from registry import HarnessError
+from registry import HarnessError, checked_settings, declared_settings
 
 if TYPE_CHECKING:
     from registry import PluginInfo
-    from solvers import LoadedSolver
+    from solvers import Capabilities, LoadedSolver
 
 ALL = "all"
 
@@ -55,6 +55,15 @@ def load_solver(label: str) -> LoadedSolver:
         raise HarnessError(f"--solver {label}: {error}") from None
 
 
+def solver_capabilities(label: str) -> Capabilities:
+    """What a label's solver declares, made with the label's settings (a setting may change it: the
+    overlap of ``greedy-overlap[overlap=0.2]``), without checking its availability."""
+    import solvers
+
+    name, settings = split_label(label)
+    return solvers.solver_class(name)(**dict(settings)).capabilities
+
+
 def solver_info(label: str) -> PluginInfo:
     """Availability (with the reason), backend version and class of a label's solver, without solving."""
     import solvers
@@ -78,19 +87,24 @@ def transfer_info(label: str) -> PluginInfo:
 
 
 def listing(info: PluginInfo) -> dict[str, Any]:
-    """The JSON-ready row of ``harness list``: the plugin's `PluginInfo`, its one-line description and
-    what it declares (a solver's capabilities; whether a transfer method uses the training examples and
-    takes 0/1 weights only)."""
+    """The JSON-ready row of ``harness list``: the plugin's `PluginInfo`, its one-line description, what it
+    declares (a solver's capabilities; whether a transfer method uses the training examples and takes 0/1
+    weights only) and its settings (`settings_listing`)."""
     plugin = info.plugin
     if plugin is None:  # (it did not load: the reason says why)
-        return {**info.as_dict(), "description": "", "capabilities": {}}
+        return {**info.as_dict(), "description": "", "capabilities": {}, "settings": []}
     if hasattr(plugin, "capabilities"):
         declared = dict(plugin.capabilities.as_dict())
         clause = _overlap_clause(plugin.capabilities.max_overlap)
     else:
         declared = {trait: bool(getattr(plugin, trait)) for trait in ("uses_examples", "binary_weights")}
         clause = _examples_clause(declared["uses_examples"])
-    return {**info.as_dict(), "description": f"{describe(plugin)} {clause}".strip(), "capabilities": declared}
+    return {
+        **info.as_dict(),
+        "description": f"{describe(plugin)} {clause}".strip(),
+        "capabilities": declared,
+        "settings": settings_listing(plugin),
+    }
 
 
 def describe(plugin: object) -> str:
@@ -147,10 +161,13 @@ def check_settings(
 ) -> None:
     """Every label's settings make its plugin (a solver's class or a transfer method), before any cell runs.
 
+    A solver that declares its settings (`registry.Setting`) has every value checked against the
+    declaration (type, range, choices) first; one that declares none is made with them.
+
     Raises
     ------
     ValueError
-        Naming the option (``solver_option`` for a solver), the label and what the plugin said.
+        Naming the option (``solver_option`` for a solver), the label and what is wrong.
     """
     for label in solver_labels:
         try:
@@ -162,15 +179,55 @@ def check_settings(
         import solvers
 
         try:
-            solvers.solver_class(name)(**dict(settings))
+            cls = solvers.solver_class(name)
+            cls(**checked_settings(cls, dict(settings)))
         except (TypeError, ValueError) as error:
-            raise HarnessError(f"{solver_option} {label}: {error}") from None
+            raise HarnessError(f"{solver_option} {label}: {_first_line(error)}") from None
     for label in transfer_labels:
         if split_label(label)[1]:
             try:
                 transfer_method(label)
             except (TypeError, ValueError) as error:
                 raise HarnessError(f"--transfers {label}: {error}") from None
+
+
+def _first_line(error: BaseException) -> str:
+    lines = str(error).strip().splitlines()
+    return lines[0] if lines else type(error).__name__
+
+
+def settings_listing(plugin: object) -> list[dict[str, Any]]:
+    """The settings a plugin declares (`registry.Setting`), JSON-ready: name, type, default, domain, help;
+    a dataclass plugin (a transfer method) that declares none lists its fields with their defaults."""
+    declared = declared_settings(plugin)
+    if declared is not None:
+        return [
+            {
+                "name": setting.name,
+                "type": setting.type.__name__,
+                "default": setting.default,
+                "domain": setting.domain(),
+                "help": setting.help,
+            }
+            for setting in declared
+        ]
+    import dataclasses
+
+    if not (isinstance(plugin, type) and dataclasses.is_dataclass(plugin)):
+        return []
+    return [
+        {
+            "name": field.name,
+            "type": str(field.type),
+            "default": field.default
+            if isinstance(field.default, bool | int | float | str)
+            else repr(field.default),
+            "domain": "",
+            "help": "",
+        }
+        for field in dataclasses.fields(plugin)
+        if field.default is not dataclasses.MISSING
+    ]
 
 
 def check_rigs(names: Iterable[str]) -> None:

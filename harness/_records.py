@@ -7,7 +7,9 @@ Layout of a run directory ``OUT/``:
   written whole to a temporary file (a name starting with ``.``) and renamed, so a crash or a full disk
   never leaves a half-written part that readers would see. Each part carries its cell id and row count in
   its Parquet metadata and page checksums; ``--resume`` reads every part back (`check_parts`) and moves a
-  truncated or corrupt one to ``OUT/broken-parts/`` to run its cell again. Files in ``records/`` not named
+  truncated or corrupt one, or one of a cell outside the run's grid (`foreign_part`: copied in from another
+  run), to ``OUT/broken-parts/`` to run its cell again; every reader (`read_records`) refuses such a part
+  file. Files in ``records/`` not named
   like a part are no records and are never read, moved or removed.
 - ``OUT/.harness-manifest.json``: the files the harness wrote here (`registry.claim`); the run writing
   the folder holds a lock on ``OUT`` itself (`harness._run.locked`).
@@ -156,7 +158,6 @@ change from run to run; two runs of one configuration agree on all others, which
 from __future__ import annotations
 
 import errno
-import hashlib
 import os
 import re
 import types
@@ -170,6 +171,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from harness._cell import ColumnType, RecordValue, expression_columns
+from harness._run_file import RUN_FILE, read_run, run_cells
 from packing import Expression
 from registry import (
     HarnessError,
@@ -343,7 +345,6 @@ TIMING_COLUMNS: tuple[str, ...] = (
 #: Row order of `read_records`.
 SORT_COLUMNS: tuple[str, ...] = ("cell", "kind", "expression", "transfer", "j")
 
-RUN_FILE = "run.json"
 RECORDS_DIR = "records"
 #: Kind of a run's files in the folder manifest (`registry.claim`).
 RUN_KIND = "run"
@@ -543,11 +544,22 @@ def _folder_write_error(error: OutputFolderError) -> RecordsWriteError:
 
 
 def write_listed(folder: OutputFolder, name: str, data: bytes) -> Path:
-    """Write ``OUT/name`` atomically, listed in the manifest *before* it is written: however the process
-    ends, the folder never holds a file the run wrote that the manifest does not list."""
-    folder.files[name] = {"kind": RUN_KIND, "sha256": hashlib.sha256(data).hexdigest()}
-    save_manifest(folder)
-    return write_atomically(folder.path / name, data)
+    """Write ``OUT/name`` atomically, listed in the manifest *before* it is in place (`OutputFolder.write`):
+    however the process ends, the folder never holds a file the run wrote that the manifest does not list.
+
+    Raises
+    ------
+    RecordsWriteError
+        When the file or the manifest cannot be written (e.g. the disk is full).
+    """
+    path = folder.path / name
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return folder.write(name, data)
+    except OutputFolderError as error:
+        raise _folder_write_error(error) from None
+    except OSError as error:
+        raise write_error(path, error) from None
 
 
 def open_new(out: Path, force: bool) -> OutputFolder:
@@ -579,13 +591,23 @@ def open_for_resume(out: Path) -> OutputFolder:
     return folder
 
 
+def foreign_part(cell: str, grid: set[str] | None) -> str:
+    """Why the part file of ``cell`` is not one of the run whose grid has the cells ``grid``
+    (`harness._run_file.run_cells`; None for a run that does not describe its grid): "" when it is one.
+    ``--resume`` sets such a part aside, and every reader refuses it (`read_records`)."""
+    return "" if grid is None or cell in grid else "not a cell of this run's grid"
+
+
 def repair_parts(out: Path, folder: OutputFolder, grid: set[str]) -> tuple[set[str], dict[Path, str]]:
-    """Read every part file back; set aside the broken ones and those of cells not in the grid; list the
-    good ones (and ``run.json``) in the manifest. Returns the finished cell ids and what was set aside."""
+    """Read every part file back; set aside the broken ones and those of cells not in the grid
+    (`foreign_part`); list the good ones (and ``run.json``) in the manifest. Returns the finished cell ids
+    and what was set aside."""
     done, broken = check_parts(out)
-    for cell in sorted(done - grid):
-        broken[part_path(out, cell)] = "not a cell of this run's grid"
-    done &= grid
+    for cell in sorted(done):
+        problem = foreign_part(cell, grid)
+        if problem:
+            broken[part_path(out, cell)] = problem
+            done.discard(cell)
     moved = {}
     for path, reason in sorted(broken.items()):
         try:
@@ -619,22 +641,26 @@ def read_records(out: str | os.PathLike) -> pd.DataFrame:
     FileNotFoundError
         When ``out`` has no records.
     RecordsReadError
-        When a part file cannot be read (naming it; ``harness run --resume`` redoes its cell).
+        When a part file cannot be read, or is not one of the run's cells (`foreign_part`: a part copied
+        in from another run), naming it (``harness run --resume`` sets it aside and redoes its cell).
+    harness.RunDirectoryError
+        When ``run.json`` is not a run file.
     """
     parts = part_files(Path(out))
     if not parts:
         raise FileNotFoundError(f"{out}: no records (expected part files in {Path(out) / RECORDS_DIR})")
+    grid = run_cells(read_run(out)) if (Path(out) / RUN_FILE).is_file() else None
     tables = []
     for path in parts:
         try:
             table = pq.read_table(path)
-            foreign = schema_mismatch(table.schema)
+            foreign = schema_mismatch(table.schema) or _not_its_cell(path, table, grid)
             if foreign:
                 raise ValueError(foreign)
             tables.append(conformed(table))
         except (OSError, ValueError, pa.ArrowException) as error:
             raise RecordsReadError(
-                f"{path}: not a readable part file ({_first_line(error)}); "
+                f"{path}: not a readable part file of this run ({_first_line(error)}); "
                 f"harness run --resume {out} sets it aside and runs its cell again"
             ) from None
     frame = pa.concat_tables(tables).to_pandas(types_mapper=_nullable_types)
@@ -642,6 +668,14 @@ def read_records(out: str | os.PathLike) -> pd.DataFrame:
         if pa.types.is_list(arrow_type):
             frame[name] = frame[name].map(_as_list)
     return frame.sort_values(list(SORT_COLUMNS), kind="stable", na_position="first").reset_index(drop=True)
+
+
+def _not_its_cell(path: Path, table: pa.Table, grid: set[str] | None) -> str:
+    """Why a part file's rows are not the records of the run's cell its name gives ("" when they are)."""
+    cell = path.name.removesuffix(".parquet")
+    if set(table.column("cell").to_pylist()) - {cell}:
+        return "its rows are another cell's"
+    return foreign_part(cell, grid)
 
 
 def _first_line(error: BaseException) -> str:

@@ -60,7 +60,8 @@ def resolve_rig(text: str, *, seed: int = 0) -> Rig:
 
 
 def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: str) -> dict[str, RigInputs]:
-    """Every rig file among ``arguments`` reads, and every warp finds the centres it needs on it.
+    """Every rig file among ``arguments`` reads and has blendshapes, and every warp finds the centres it needs
+    on it.
 
     Run before any cell, so that a rig without the landmarks or regions a warp needs (e.g. ``big-eyes`` on
     a rig without eyelid regions) is one error up front, not one failed cell per solver.
@@ -74,6 +75,8 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
     ------
     rigs.RigError
         For an unreadable file (naming it and the problem).
+    HarnessError
+        For a rig without blendshapes.
     ValueError
         For a warp that cannot be applied, naming the warp, the rig, the missing centre and the warps
         that do apply.
@@ -86,6 +89,8 @@ def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: 
         if not is_rig_file(argument):
             continue
         rig, found[argument] = rigs.load_with_inputs(argument)
+        if not rig.n_shapes:
+            raise HarnessError(f"rig {argument}: it has no blendshapes, so there is nothing to pack")
         for name in warps:
             try:
                 rigs.WARPS[name].resolve(rig)

@@ -21,8 +21,9 @@
   ``crashes`` (cell id -> ``{"cell": label, "count": n, "exit": how}``: how often, over every session, the
   worker process died or failed running a cell that has no part file yet).
 
-Cells run on an executor (`harness._executors`); each finished cell's rows are written at once as its own part
-file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
+Cells run on an executor (`harness._executors`); each finished cell's rows are checked again in this process
+(`harness._verify`: a worker runs the solver plugin, which may change anything there) and written at once as
+its own part file (`harness._records`), so an interruption loses only the cells in flight. A cell lost to the
 infrastructure (a killed worker, a lost Dask scheduler) gets no part file: the run ends ``incomplete`` and
 ``--resume`` runs exactly the cells without a complete part file. A worker process that crashes on a cell
 loses it the first time and records it ``crashed`` the second (`harness._failures`). ``--resume`` runs no cell
@@ -55,6 +56,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from harness import _environment as environment
 from harness import _plugins as plugins
+from harness._bounds import check_bounds
 from harness._cell import Lost, Row, failure_rows
 from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
@@ -62,7 +64,6 @@ from harness._failures import count_crash, failed_cells
 from harness._grid import NO_WARP, CellSpec, RunConfig, digest_key, rig_digest
 from harness._records import (
     RECORDS_DIR,
-    RUN_FILE,
     open_for_resume,
     open_new,
     part_bytes,
@@ -74,16 +75,14 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
+from harness._run_file import RUN_FILE, RunDirectoryError, read_run
+from harness._verify import CellChecker
 from registry import HarnessError, OutputFolder, OutputFolderError, check_apart, stop_signals_deferred
 
 if TYPE_CHECKING:
     from rigs import RigInputs
 
 RUN_FORMAT = 2
-
-
-class RunDirectoryError(HarnessError):
-    """The output directory cannot take this run (holds another run, is in use, or has nothing to resume)."""
 
 
 class Reporter(Protocol):
@@ -147,28 +146,6 @@ def now() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
-def read_run(out: str | Path) -> dict[str, Any]:
-    """The ``run.json`` of a run directory.
-
-    Raises
-    ------
-    FileNotFoundError
-        When ``out`` holds no run.
-    RunDirectoryError
-        When ``run.json`` is not readable JSON, or not an object with a ``config`` object.
-    """
-    path = Path(out) / RUN_FILE
-    if not path.is_file():
-        raise FileNotFoundError(f"{out}: no {RUN_FILE} here, so no harness run to read")
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as error:
-        raise RunDirectoryError(f"{path}: not a readable run file ({error})") from None
-    if not isinstance(info, dict) or not isinstance(info.get("config"), dict):
-        raise RunDirectoryError(f"{path}: not a run file (expected an object with a 'config' object)")
-    return info
-
-
 def validate_config(
     config: RunConfig, constraint_origins: Mapping[tuple[str, str], str] | None = None
 ) -> RunConfig:
@@ -187,6 +164,7 @@ def validate_config(
     )
     plugins.check_rigs(config.rigs)
     plugins.check_warps(config.warps)
+    check_bounds(config.with_overrides(solvers=solvers))
     if config.repetitions < 1:
         raise HarnessError(f"--repetitions must be at least 1, got {config.repetitions}")
     if config.jmax is not None and config.jmax < 1:
@@ -508,6 +486,7 @@ def _run_locked(
                 reason = f"solver {spec.solver!r} unavailable: {unavailable[spec.solver]}"
                 _record(out, folder, spec, failure_rows(spec, "skipped", reason), summary, reporter)
         if executor is not None:
+            check = CellChecker()  # (every answer checked here, not only in the worker that gave it)
             for spec, outcome in executor.map(runnable):
                 if isinstance(outcome, Lost) and outcome.crash:
                     outcome = count_crash(info["crashes"], spec, outcome)
@@ -515,7 +494,7 @@ def _run_locked(
                     _lose(out, folder, info, spec, outcome.reason, summary, reporter)
                 else:
                     info["crashes"].pop(spec.id, None)
-                    _record(out, folder, spec, outcome, summary, reporter)
+                    _record(out, folder, spec, check(spec, outcome), summary, reporter)
         _certify(out, folder, {spec.id for spec in pending}, summary, reporter)
         summary.seconds = time.perf_counter() - clock
         state, failure = ("incomplete" if summary.lost else "complete"), None
@@ -531,7 +510,7 @@ def _run_locked(
             reporter.end()
         finally:  # (a stop that comes while the workers close cannot keep run.json "running")
             with stop_signals_deferred():
-                _mark(out, folder, info, state, error=failure)
+                _mark(out, folder, info, state, error=failure, quietly=state in ("interrupted", "failed"))
     return summary
 
 
@@ -613,8 +592,23 @@ def _close_quietly(executor: Executor | None) -> None:
 
 
 def _mark(
-    out: Path, folder: OutputFolder, info: dict[str, Any], state: str, *, error: str | None = None
+    out: Path,
+    folder: OutputFolder,
+    info: dict[str, Any],
+    state: str,
+    *,
+    error: str | None = None,
+    quietly: bool = False,
 ) -> None:
+    """Record the run's end in ``run.json``.
+
+    Raises
+    ------
+    harness._records.RecordsWriteError
+        When ``run.json`` cannot be written (e.g. the disk is full), unless ``quietly``: a run already
+        failing keeps its own error (``run.json`` then still says ``running``, and ``--resume`` works the
+        same), while a run that could not record its end must not end as if it had.
+    """
     if not info:  # failed before run.json was written
         return
     info["state"], info["finished"] = state, now()
@@ -623,4 +617,5 @@ def _mark(
     try:
         write_run(out, info, folder)
     except OSError:
-        pass  # e.g. the disk is full; run.json still says "running" and --resume works the same
+        if not quietly:
+            raise

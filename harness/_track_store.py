@@ -70,8 +70,11 @@ class TrackStore:
 
         try:
             self.filesystem, self.root = fsspec.core.url_to_fs(url)
+            is_file = self.filesystem.isfile(self.root)
         except (ValueError, ImportError, OSError) as error:
             raise StoreError(f"track store {url!r}: {error}") from None
+        if is_file:
+            raise StoreError(f"track store {url!r}: is a file, not the folder of a store")
         self.url = url
 
     def add(self, measurement: Measurement, facts: CommitFacts, anchor: str, machine: dict[str, Any]) -> str:
@@ -137,9 +140,14 @@ class TrackStore:
             try:
                 with self.filesystem.open(path, "rb") as stream:
                     table = pq.read_table(stream)
-            except (OSError, pa.ArrowException) as error:
+                problems = json.loads((table.schema.metadata or {}).get(PROBLEMS_KEY, b"[]"))
+            except (OSError, ValueError, pa.ArrowException) as error:
                 raise StoreError(f"track store: {path} does not read ({error})") from None
-            problems = json.loads((table.schema.metadata or {}).get(PROBLEMS_KEY, b"[]"))
+            expected = {*SAMPLE_COLUMNS, *SESSION_COLUMNS} - {"machine", "commit"}
+            missing = sorted(expected - set(table.column_names))
+            if missing or not isinstance(problems, list):
+                what = f"it lacks {', '.join(missing)}" if missing else "its problems are not a list"
+                raise StoreError(f"track store: {path} is not a part of a store ({what})")
             frame = table.to_pandas().assign(
                 machine=where.get("machine", ""), commit=where.get("commit", ""), problems="\n".join(problems)
             )

@@ -4,7 +4,8 @@ Solvers (``harness.solvers``), transfer methods (``harness.transfers``) and ``ha
 (``harness.commands``) are each a `PluginRegistry`: names from installed metadata without importing a plugin,
 a plugin loaded on first use, a load failure or a missing attribute listed as unavailable with the reason, a
 name registered twice warned about, and an `Availability` for every plugin. Beside them, what every package
-shares: `HarnessError`, the error type of bad input, the stop signals (`handle_stop_signals`), the running of
+shares: `HarnessError`, the error type of bad input, a plugin's declared settings (`Setting`), the stop
+signals (`handle_stop_signals`), the running of
 a plugin kind's conformance checks (`run_checks`), the one cache type (`BoundedMemo`), the one file writer
 (`atomic_write`: every file the project writes goes through it) and the output folders built on it (`claim`).
 This package imports nothing else of the project, so every package may use it.
@@ -26,6 +27,7 @@ from registry._checks import parametrize_checks, run_checks
 from registry._errors import HarnessError
 from registry._memo import BoundedMemo
 from registry._outdir import OutputFolder, OutputFolderError, check_apart, claim, reopen
+from registry._plugin_settings import SETTING_TYPES, Setting, checked_settings, declared_settings
 from registry._registry import (
     PluginInfo,
     PluginRegistry,
@@ -43,6 +45,7 @@ from registry._stop import (
 )
 
 __all__ = [
+    "SETTING_TYPES",
     "STOP_SIGNALS",
     "Availability",
     "AvailabilityStatus",
@@ -53,13 +56,16 @@ __all__ = [
     "PluginInfo",
     "PluginRegistry",
     "PluginUnavailableError",
+    "Setting",
     "UnknownPluginError",
     "append_text",
     "atomic_path",
     "atomic_write",
     "check_apart",
+    "checked_settings",
     "claim",
     "collect",
+    "declared_settings",
     "handle_stop_signals",
     "missing_attributes",
     "move_apart",

@@ -43,7 +43,11 @@ NEW_FILE_MODE = 0o666 & ~_current_umask()
 
 
 def atomic_write(
-    path: str | os.PathLike, data: bytes | str | Callable[[BinaryIO], None], *, sync: bool = True
+    path: str | os.PathLike,
+    data: bytes | str | Callable[[BinaryIO], None],
+    *,
+    sync: bool = True,
+    before_replace: Callable[[os.stat_result], None] | None = None,
 ) -> Path:
     """Write ``data`` to ``path`` atomically.
 
@@ -58,6 +62,10 @@ def atomic_write(
         Flush the content and the folder's entry to disk before this returns. A caller writing many files
         into a folder of its own (not yet in place) passes False, flushes them with `sync_file` (which may
         run beside the making of the next file) and calls `sync_folders` once they are all written.
+    before_replace : callable, optional
+        Called with the status of the written temporary file (its inode is the one ``path`` will have)
+        just before it is renamed over ``path``; an exception it raises leaves ``path`` unchanged (an
+        output folder lists a file with its inode before the file is in place).
 
     Returns
     -------
@@ -82,6 +90,9 @@ def atomic_write(
             if sync:
                 handle.flush()
                 os.fsync(descriptor)
+            if before_replace is not None:
+                handle.flush()
+                before_replace(os.fstat(descriptor))
         os.replace(name, path)
     except BaseException:
         Path(name).unlink(missing_ok=True)

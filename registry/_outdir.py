@@ -2,18 +2,22 @@
 
 A folder a command writes holds a manifest, ``.harness-manifest.json``::
 
-    {"format": "harness-output-folder", "version": 1,
-     "files": {"expressions.json": {"kind": "pack", "sha256": "<hex>"}, ...}}
+    {"format": "harness-output-folder", "version": 2,
+     "files": {"expressions.json": {"kind": "pack", "sha256": "<hex>", "inode": 1234}, ...}}
 
 listing every file written there (a path relative to the folder, ``/``-separated), the kind of command that
-wrote it (``pack``, ``run``, ``instances``, ``report``) and the SHA-256 of what it wrote. `claim` opens a
-folder for a command of one kind:
+wrote it (``pack``, ``run``, ``instances``, ``report``), the SHA-256 of what it wrote and the inode the file
+got when it was written. The inode ties an entry to the file the command made: a copy of the folder, a
+manifest copied beside other files or one written by hand lists inodes its files do not have, so none of
+them counts as the command's (a version 1 manifest, which lists no inodes, makes no file the command's).
+`claim` opens a folder for a command of one kind:
 
 * a new or empty folder is taken;
 * a folder holding an earlier output of that kind is refused unless ``force``;
 * a folder holding anything else (a file the manifest does not list for this kind, one changed since it was
-  written, a link) is always refused, naming what is in the way: nothing the command did not write is ever
-  overwritten or removed, and none has to be kept beside a replaced output;
+  written, one that is not the file written there, a link) is always refused, naming what is in the way:
+  nothing the command did not write is ever overwritten or removed, and none has to be kept beside a
+  replaced output;
 * a folder that is, contains or lies inside a protected path (the input rig's file or folder) is always
   refused, so that writing the output can never touch the input (`check_apart`).
 
@@ -45,6 +49,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 import weakref
 from collections.abc import Iterable, Mapping
@@ -63,7 +68,9 @@ from registry._errors import HarnessError
 
 MANIFEST_NAME = ".harness-manifest.json"
 MANIFEST_FORMAT = "harness-output-folder"
-MANIFEST_VERSION = 1
+MANIFEST_VERSION = 2
+#: Manifest versions read: version 1 listed no inodes (its entries make no file the command's).
+READ_VERSIONS = (1, 2)
 #: Files flushed to disk at once, beside the making of the next file (`OutputFolder.replace`).
 FLUSHING = 4
 
@@ -81,10 +88,26 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _flushed(path: Path) -> str:
-    """Flush a file written without it to disk (`registry.sync_file`); returns its SHA-256."""
+#: One manifest entry: ``kind``, ``sha256`` and ``inode`` (absent in version 1 manifests).
+Entry = dict[str, str | int]
+
+
+def _flushed(path: Path) -> tuple[str, int]:
+    """Flush a file written without it to disk (`registry.sync_file`); returns its SHA-256 and inode."""
     sync_file(path)
-    return file_sha256(path)
+    return file_sha256(path), os.stat(path).st_ino
+
+
+def written_by(entry: Mapping[str, object], path: Path) -> bool:
+    """Whether ``path`` is the file a manifest ``entry`` lists: the inode the file got when the command
+    wrote it (a copy or another file has another one) and its content unchanged since."""
+    try:
+        status = os.lstat(path)
+    except OSError:
+        return False
+    if not stat.S_ISREG(status.st_mode) or entry.get("inode") != status.st_ino:
+        return False
+    return file_sha256(path) == entry["sha256"]
 
 
 def _write_error(path: Path, error: OSError) -> OutputFolderError:
@@ -96,12 +119,10 @@ def _write_error(path: Path, error: OSError) -> OutputFolderError:
 class OutputFolder:
     """A claimed output folder (made by `claim`; see the module docstring).
 
-    ``files`` maps each listed file (relative name) to its ``{"kind", "sha256"}`` entry.
+    ``files`` maps each listed file (relative name) to its ``{"kind", "sha256", "inode"}`` entry.
     """
 
-    def __init__(
-        self, path: Path, kind: str, files: dict[str, dict[str, str]], lock: int | None = None
-    ) -> None:
+    def __init__(self, path: Path, kind: str, files: dict[str, Entry], lock: int | None = None) -> None:
         self.path = path
         self.kind = kind
         self.files = files
@@ -157,7 +178,8 @@ class OutputFolder:
                 for name, future in flushed.items():
                     if future.exception() is not None:
                         raise _write_error(self.path / name, future.exception()) from None
-                    files[name] = {"kind": self.kind, "sha256": future.result()}
+                    sha256, inode = future.result()
+                    files[name] = {"kind": self.kind, "sha256": sha256, "inode": inode}
             names = list(files)
             try:
                 _flushed(atomic_write(staging / MANIFEST_NAME, _manifest_text(files), sync=False))
@@ -179,10 +201,10 @@ class OutputFolder:
 
     def _fill(
         self, staging: Path, pairs: Iterable[tuple[str, bytes | str]], flushing: ThreadPoolExecutor
-    ) -> dict[str, Future[str]]:
+    ) -> dict[str, Future[tuple[str, int]]]:
         """Write ``pairs`` into ``staging`` as they come, each flushed to disk and hashed by ``flushing``
-        while the next is made; name -> its SHA-256 to come, in order."""
-        flushed: dict[str, Future[str]] = {}
+        while the next is made; name -> its SHA-256 and inode to come, in order."""
+        flushed: dict[str, Future[tuple[str, int]]] = {}
         folders: set[str] = set()
         for name, data in pairs:
             name = _checked_name(name)
@@ -244,8 +266,30 @@ class OutputFolder:
         self._check_inside(name)
         if full.is_symlink() or not full.is_file():
             raise OutputFolderError(f"{full}: not a regular file, so it cannot be recorded as output")
-        self.files[name] = {"kind": self.kind, "sha256": file_sha256(full)}
+        self.files[name] = {"kind": self.kind, "sha256": file_sha256(full), "inode": full.stat().st_ino}
         return name
+
+    def write(self, name: str, data: bytes) -> Path:
+        """Write the file ``name`` of the folder atomically, listed in the manifest (with the inode it gets)
+        and the manifest saved *before* it is in place: however the process ends, the folder never holds
+        a file the command wrote that the manifest does not list.
+
+        Raises
+        ------
+        OSError
+            When the file cannot be written (it is then as it was).
+        OutputFolderError
+            When the manifest cannot be saved (the file is then as it was).
+        """
+        name = _checked_name(name)
+        self._check_inside(name)
+        sha256 = hashlib.sha256(data).hexdigest()
+
+        def list_it(status: os.stat_result) -> None:
+            self.files[name] = {"kind": self.kind, "sha256": sha256, "inode": status.st_ino}
+            self.save()
+
+        return atomic_write(self.path / name, data, before_replace=list_it)
 
     def clear(self) -> list[Path]:
         """Remove this kind's listed files (the earlier output `claim` found only these in) and the folders
@@ -253,7 +297,8 @@ class OutputFolder:
         removed = []
         for name in sorted(self.files):
             path = self.path / name
-            if self.files[name]["kind"] == self.kind and self._inside(name) and _regular(path):
+            entry = self.files[name]
+            if entry["kind"] == self.kind and self._inside(name) and written_by(entry, path):
                 path.unlink()
                 removed.append(path)
             del self.files[name]
@@ -292,7 +337,7 @@ class OutputFolder:
             raise _write_error(self.manifest, error) from error
 
 
-def _manifest_text(files: Mapping[str, Mapping[str, str]]) -> str:
+def _manifest_text(files: Mapping[str, Mapping[str, object]]) -> str:
     document = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION, "files": dict(files)}
     return json.dumps(document, indent=2, sort_keys=True) + "\n"
 
@@ -359,7 +404,7 @@ def reopen(folder: Path, *, kind: str) -> OutputFolder:
     return OutputFolder(folder, kind, {name: entry for name, entry in files.items() if entry["kind"] == kind})
 
 
-def _refuse_foreign(folder: Path, files: Mapping[str, Mapping[str, str]], problem: str, kind: str) -> None:
+def _refuse_foreign(folder: Path, files: Mapping[str, Entry], problem: str, kind: str) -> None:
     """Refuse a folder whose manifest is not one, or that holds anything but ``kind``'s unchanged files."""
     if problem:
         raise OutputFolderError(f"{folder}: {problem}; move it away or choose another output folder")
@@ -380,9 +425,10 @@ def _listed(names: list[str]) -> str:
     return ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
 
 
-def _foreign(folder: Path, files: Mapping[str, Mapping[str, str]], kind: str | None) -> list[str]:
+def _foreign(folder: Path, files: Mapping[str, Entry], kind: str | None) -> list[str]:
     """Names of what in ``folder`` the command of ``kind`` did not write as it is now: files the manifest
-    does not list for ``kind`` (any kind for None) or whose content changed since, links, empty folders and
+    does not list for ``kind`` (any kind for None), that are not the file written there (`written_by`) or
+    whose content changed since, links, empty folders and
     anything else. The manifest and the leftovers of killed commands are no such thing, and a subfolder
     with a manifest of its own (a run's report) is judged by that manifest."""
     found = []
@@ -409,9 +455,7 @@ def _foreign(folder: Path, files: Mapping[str, Mapping[str, str]], kind: str | N
             if prefix + name == MANIFEST_NAME or _leftover(path, places):
                 continue
             entry = files.get(prefix + name)
-            if entry is None or kind not in (None, entry["kind"]) or not _regular(path):
-                found.append(prefix + name)
-            elif file_sha256(path) != entry["sha256"]:
+            if entry is None or kind not in (None, entry["kind"]) or not written_by(entry, path):
                 found.append(prefix + name)
     return sorted(found)
 
@@ -525,7 +569,7 @@ def check_apart(folder: Path, protect: Iterable[Path]) -> None:
         )
 
 
-def _read_manifest(path: Path) -> tuple[dict[str, dict[str, str]], str]:
+def _read_manifest(path: Path) -> tuple[dict[str, Entry], str]:
     """The manifest's file entries, and what makes it no manifest ("" when it is one or is missing)."""
     if not os.path.lexists(path):
         return {}, ""
@@ -534,16 +578,23 @@ def _read_manifest(path: Path) -> tuple[dict[str, dict[str, str]], str]:
             raise ValueError("not a regular file")
         document = json.loads(path.read_text(encoding="utf-8"))
         files = _manifest_files(document)
-    except (OSError, UnicodeDecodeError, ValueError, OutputFolderError) as error:
-        return {}, f"{MANIFEST_NAME} is not a harness manifest ({error})"
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError, OutputFolderError) as error:
+        return {}, f"{MANIFEST_NAME} is not a harness manifest ({_first_line(error)})"
     return files, ""
 
 
-def _manifest_files(document: object) -> dict[str, dict[str, str]]:
+def _first_line(error: BaseException) -> str:
+    if isinstance(error, RecursionError):
+        return "nested too deeply"
+    lines = str(error).strip().splitlines()
+    return lines[0] if lines else type(error).__name__
+
+
+def _manifest_files(document: object) -> dict[str, Entry]:
     """Validated ``files`` of a manifest document (ValueError naming what is wrong)."""
     if not isinstance(document, dict) or document.get("format") != MANIFEST_FORMAT:
         raise ValueError(f"no 'format': {MANIFEST_FORMAT!r}")
-    if document.get("version") != MANIFEST_VERSION:
+    if document.get("version") not in READ_VERSIONS:
         raise ValueError(f"version {document.get('version')!r}, expected {MANIFEST_VERSION}")
     files = document.get("files")
     if not isinstance(files, dict):
@@ -554,9 +605,12 @@ def _manifest_files(document: object) -> dict[str, dict[str, str]]:
             isinstance(entry, dict)
             and isinstance(entry.get("kind"), str)
             and isinstance(entry.get("sha256"), str)
+            and type(entry.get("inode", 0)) is int
         ):
-            raise ValueError(f"entry {name!r} is not {{'kind': str, 'sha256': str}}")
-        checked[_checked_name(name)] = {"kind": entry["kind"], "sha256": entry["sha256"]}
+            raise ValueError(f"entry {name!r} is not {{'kind': str, 'sha256': str, 'inode': int}}")
+        checked[_checked_name(name)] = {
+            key: entry[key] for key in ("kind", "sha256", "inode") if key in entry
+        }
     return checked
 
 

@@ -2,15 +2,17 @@
 
 Listing names reads installed metadata only. Loading a plugin imports its module, which keeps its heavy
 library import inside methods; `PluginRegistry.availability` then asks the class, still without importing
-the backend. A plugin whose module fails to import, or that lacks what its kind needs, is listed as
-unavailable with the error; the other plugins are unaffected. Two distributions registering one name
-trigger a warning, and the first found on ``sys.path`` wins.
+the backend, and gives it `PROBE_SECONDS` to answer: one that does not is listed as unavailable, saying so,
+and is not asked again in the process. A plugin whose module fails to import, or that lacks what its kind
+needs, is listed as unavailable with the error; the other plugins are unaffected. Two distributions
+registering one name trigger a warning, and the first found on ``sys.path`` wins.
 """
 
 from __future__ import annotations
 
 import functools
 import importlib.metadata
+import threading
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -18,6 +20,9 @@ from typing import Any
 
 from registry._availability import Availability
 from registry._errors import HarnessError
+
+#: Seconds a plugin's ``availability()`` may take to answer (it is meant to be cheap: no backend import).
+PROBE_SECONDS = 5.0
 
 
 class UnknownPluginError(HarnessError):
@@ -110,6 +115,7 @@ class PluginRegistry:
         self.group, self.kind, self._check = group, kind, check
         self._unknown, self._unavailable = unknown, unavailable
         self._loaded = functools.cache(self._load_entry)
+        self._silent: dict[str, Availability] = {}
 
     @functools.cached_property
     def _points(self) -> dict[str, importlib.metadata.EntryPoint]:
@@ -119,6 +125,7 @@ class PluginRegistry:
         """Forget discovered plugins and loaded classes (after installing or removing a plugin)."""
         self.__dict__.pop("_points", None)
         self._loaded.cache_clear()
+        self._silent.clear()
 
     def names(self) -> list[str]:
         """Names of the installed plugins, sorted (no plugin module is imported)."""
@@ -163,9 +170,16 @@ class PluginRegistry:
             return loaded
         if not hasattr(loaded, "availability"):
             return Availability.available(_distribution_version(point))
-        try:
-            found = loaded.availability()
-        except Exception as error:  # noqa: BLE001 - a third-party plugin's failure is its reason
+        if name in self._silent:
+            return self._silent[name]
+        answer = _within(loaded.availability, PROBE_SECONDS, f"{self.kind} {name} availability")
+        if answer is None:
+            self._silent[name] = Availability.load_error(
+                f"{name}.availability() did not answer within {PROBE_SECONDS:g} s"
+            )
+            return self._silent[name]
+        found, error = answer
+        if error is not None:  # a third-party plugin's failure is its reason
             return Availability.load_error(f"{name}.availability() failed: {type(error).__name__}: {error}")
         if not isinstance(found, Availability):
             return Availability.load_error(f"{name}.availability() returned {found!r}, not an Availability")
@@ -200,6 +214,23 @@ class PluginRegistry:
             return Availability.load_error(f"cannot load {point.value}: {type(error).__name__}: {error}")
         problem = None if self._check is None else self._check(plugin, point.name)
         return Availability.load_error(f"{point.value} {problem}") if problem else plugin
+
+
+def _within(call: Callable[[], Any], seconds: float, what: str) -> tuple[Any, Exception | None] | None:
+    """``call()``'s result (and None), or None and the exception it raised, when it answers within
+    ``seconds``; None when it does not (it goes on in a daemon thread, never awaited)."""
+    outcome: list[tuple[Any, Exception | None]] = []
+
+    def run() -> None:
+        try:
+            outcome.append((call(), None))
+        except Exception as error:  # noqa: BLE001 - handed to the caller
+            outcome.append((None, error))
+
+    thread = threading.Thread(target=run, name=what, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    return outcome[0] if outcome else None
 
 
 def collect(

@@ -139,13 +139,19 @@ def check_suite_solvers(suite: Suite, solvers: str | None) -> Suite:
     Raises
     ------
     HarnessError
-        For an empty list.
+        For an empty list, a solver this environment does not have, or a setting its plugin refuses (before
+        any commit is measured).
     """
     if solvers is None:
         return suite
-    from harness import split_requests
+    from harness import check_settings, expand_names, solver_names, split_requests
 
-    chosen = tuple(split_requests(solvers))
+    try:
+        chosen = tuple(split_requests(solvers))
+    except HarnessError as error:
+        raise HarnessError(f"--solvers {error}") from None
     if not chosen:
         raise HarnessError("--solvers: give at least one solver label")
+    chosen = expand_names(chosen, solver_names(), "solver", "--solvers")
+    check_settings(chosen, [])
     return replace(suite, solvers=chosen)

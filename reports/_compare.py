@@ -234,24 +234,65 @@ def _grouped(frame: pd.DataFrame) -> tuple[list[tuple], list[pd.DataFrame]]:
 
 
 def _benchmark_metrics(path: Path) -> list[Metric]:
+    """The metrics of a pytest-benchmark JSON file: each benchmark's median time and its ``extra_info``.
+
+    Raises
+    ------
+    HarnessError
+        One line naming the file (and the benchmark) when it is not such a file: not JSON, no
+        ``benchmarks`` list, a benchmark without a name, a median that is not a number, ...
+    """
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
-        benchmarks = document["benchmarks"]
-    except (OSError, ValueError, KeyError, TypeError) as error:
+    except RecursionError:
+        raise HarnessError(f"{path}: not a pytest-benchmark JSON file (nested too deeply)") from None
+    except (OSError, ValueError) as error:
         raise HarnessError(f"{path}: not a pytest-benchmark JSON file ({error})") from None
+    benchmarks = document.get("benchmarks") if isinstance(document, dict) else None
+    if not isinstance(benchmarks, list):
+        raise HarnessError(f"{path}: not a pytest-benchmark JSON file (no 'benchmarks' list)")
     metrics = []
-    for benchmark in benchmarks:
-        name = benchmark.get("fullname") or benchmark["name"]
-        stats = benchmark.get("stats") or {}
-        if "median" in stats:
-            metrics.append(Metric(name, "median time (s)", "time", float(stats["median"])))
-        for key, value in sorted((benchmark.get("extra_info") or {}).items()):
-            shown = (
-                float(value)
-                if isinstance(value, int | float) and not isinstance(value, bool)
-                else json.dumps(value)
-            )
-            metrics.append(Metric(name, key, "quality", shown))
+    for position, benchmark in enumerate(benchmarks):
+        metrics += _one_benchmark(path, position, benchmark)
+    return metrics
+
+
+def _finite_number(value: object) -> bool:
+    """Whether ``value`` is a number (not a flag) that a float holds finitely."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
+def _one_benchmark(path: Path, position: int, benchmark: object) -> list[Metric]:
+    """The metrics of one entry of a pytest-benchmark file's ``benchmarks`` (HarnessError naming it)."""
+
+    def refuse(what: str) -> HarnessError:
+        return HarnessError(f"{path}: benchmark {position + 1} {what}")
+
+    if not isinstance(benchmark, dict):
+        raise refuse("is not an object")
+    name = benchmark.get("fullname") or benchmark.get("name")
+    if not isinstance(name, str) or not name:
+        raise refuse("has no name")
+    stats, extra = benchmark.get("stats") or {}, benchmark.get("extra_info") or {}
+    if not isinstance(stats, dict) or not isinstance(extra, dict):
+        raise refuse(f"({name}): its 'stats' and 'extra_info' must be objects")
+    metrics = []
+    if "median" in stats:
+        median = stats["median"]
+        if not _finite_number(median):
+            raise refuse(f"({name}): its median {median!r:.40} is not a number of seconds")
+        metrics.append(Metric(name, "median time (s)", "time", float(median)))
+    for key, value in sorted(extra.items()):
+        try:
+            shown = float(value) if _finite_number(value) else json.dumps(value)
+        except (RecursionError, ValueError):
+            raise refuse(f"({name}): its extra_info {key!r:.40} cannot be shown") from None
+        metrics.append(Metric(name, key, "quality", shown))
     return metrics
 
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from harness import DURATION
+from harness import DURATION, FiniteFloatRange
 from harness.cli import UserError
 from reports._layout import REPORT_DIR
 
@@ -141,7 +141,7 @@ def report(out: Path, expressions: int, force: bool) -> None:
 )
 @click.option(
     "--fail-above",
-    type=click.FloatRange(min=1, min_open=True),
+    type=FiniteFloatRange(min=1, min_open=True),
     default=None,
     show_default="never",
     help="With --commits: fail when a case is confirmed slower by more than this ratio (not accepted in "
@@ -149,14 +149,14 @@ def report(out: Path, expressions: int, force: bool) -> None:
 )
 @click.option(
     "--warn-above",
-    type=click.FloatRange(min=1),
+    type=FiniteFloatRange(min=1),
     default=1.25,
     show_default=True,
     help="With --commits: print a warning for a case confirmed slower by more than this ratio.",
 )
 @click.option(
     "--threshold",
-    type=click.FloatRange(min=0),
+    type=FiniteFloatRange(min=0),
     default=0.1,
     show_default=True,
     help="A time is slower when NEW/OLD exceeds 1 + threshold and the paired test says so, the same when its "
@@ -164,7 +164,7 @@ def report(out: Path, expressions: int, force: bool) -> None:
 )
 @click.option(
     "--tolerance",
-    type=click.FloatRange(min=0),
+    type=FiniteFloatRange(min=0),
     default=1e-7,
     show_default=True,
     help="Relative change above which a quality figure (objective, coverage, RMS) counts as changed "
@@ -177,14 +177,14 @@ def report(out: Path, expressions: int, force: bool) -> None:
 )
 @click.option(
     "--min-time",
-    type=click.FloatRange(min=0),
+    type=FiniteFloatRange(min=0),
     default=0.01,
     show_default=True,
     help="Of two runs: seconds below which a case's median sequence is timer noise, left untested.",
 )
 @click.option(
     "--alpha",
-    type=click.FloatRange(min=0, max=1, min_open=True, max_open=True),
+    type=FiniteFloatRange(min=0, max=1, min_open=True, max_open=True),
     default=0.01,
     show_default=True,
     help="Level of the paired test of each case's times (Benjamini-Hochberg adjusted over all cases of the "

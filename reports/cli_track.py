@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import click
 from rich.markup import escape
 
+from harness import FiniteFloatRange
 from reports.cli import InputError, measuring_options
 
 if TYPE_CHECKING:
@@ -65,14 +66,14 @@ def _tracker(store: str, suite, anchor: str | None, **settings):
 def _judging_options(command):
     command = click.option(
         "--threshold",
-        type=click.FloatRange(min=0),
+        type=FiniteFloatRange(min=0),
         default=0.1,
         show_default=True,
         help="Least relative size of a step.",
     )(command)
     return click.option(
         "--alpha",
-        type=click.FloatRange(min=0, max=1, min_open=True, max_open=True),
+        type=FiniteFloatRange(min=0, max=1, min_open=True, max_open=True),
         default=0.01,
         show_default=True,
         help="Level of Welch's test between two levels of a case, and of the steps' intervals.",
@@ -129,7 +130,7 @@ def run(
         tracker = _tracker(
             store, chosen, anchor, rounds=rounds, repeat=repeat, sample_time=sample_time, console=console
         )
-        listed = harness.commit_range(tracker.repository, commits)
+        listed = harness.commit_range(tracker.repository, commits, strict=True)
         tracker.adopt(listed[0])
         console.print(f"[dim]anchor: {escape(tracker.names_of(tracker.anchor))}[/]")
         chosen_commits = listed[::every] + ([listed[-1]] if (len(listed) - 1) % every else [])

@@ -6,6 +6,13 @@ path never imports a format's dependencies (glTF's SciPy graph modules, USD's ``
 `rigs.save` and every command line know formats only through this registry: a new format is one module
 that calls `register_format` and one line that imports it (see `rigs._builtin_formats`), or, from an
 installed distribution, an entry point in the ``harness.rig_formats`` group naming a `RigFormat` object.
+
+A format from an entry point is a plugin: what it does is checked, never trusted. One that fails to load,
+is no `RigFormat` or takes a name already registered (a built-in's) is left out with one warning naming it;
+one whose ``claims`` raises claims nothing (a path only it could have read is refused naming it); its reader
+runs through `read_with`, which turns whatever it raises or returns that is no valid `Rig` into one
+`RigError` naming the plugin; and `rigs.load_with_inputs` records the whole folder of a plugin's rig (a
+plugin may open files without `rigs._safe`, which records what the built-in readers open).
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ import importlib
 import os
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -89,7 +96,15 @@ class RigFormat:
 
 
 _FORMATS: dict[str, RigFormat] = {}
+#: The entry point (``name = module:attribute``) of each format a plugin registered, by format name.
+_PLUGIN_ORIGINS: dict[str, str] = {}
 _PLUGINS_LOADED = False
+
+
+def plugin_origin(rig_format: RigFormat) -> str:
+    """``rig format plugin 'xyz' (module:attribute)`` for a format an entry point registered, else ""."""
+    origin = _PLUGIN_ORIGINS.get(rig_format.name)
+    return "" if origin is None or _FORMATS.get(rig_format.name) is not rig_format else origin
 
 
 def register_format(rig_format: RigFormat) -> RigFormat:
@@ -130,9 +145,17 @@ def detect_format(path: str | Path) -> RigFormat:
         raise RigError(f"{path}: no such file or folder")
     if not path.is_dir():
         regular_file(path)  # a dangling link, a FIFO or a device is named as such
+    failed = []
     for candidate in formats():
-        if candidate.recognises(path):
-            return candidate
+        try:
+            if candidate.recognises(path):
+                return candidate
+        except Exception as error:  # noqa: BLE001 - a plugin's claims: it claims nothing, the others go on
+            if not plugin_origin(candidate):
+                raise
+            failed.append(f"{plugin_origin(candidate)} failed recognising it: {_described(error)}")
+    if failed:
+        raise RigError(f"{path}: {failed[0]}")
     if path.is_dir():
         raise RigError(f"{path}: folder holds no rig of a known format ({', '.join(_FORMATS)})")
     suffix = path.suffix.lower()
@@ -159,6 +182,72 @@ def format_for_writing(path: Path) -> RigFormat:
     raise RigError(f"{path}: cannot save as {path.suffix!r}; use {', '.join(usable)}")
 
 
+def reader_of(kind: RigFormat, path: Path) -> Callable[..., Rig]:
+    """``kind.reader(path)``; for a plugin format, failing to find its reader is one `RigError` naming it."""
+    origin = plugin_origin(kind)
+    if not origin:
+        return kind.reader(path)
+    try:
+        reader = kind.reader(path)
+    except Exception as error:  # noqa: BLE001 - the plugin's failure, told as one line naming it
+        raise RigError(f"{path}: {origin} has no reader for it: {_described(error)}") from None
+    if not callable(reader):
+        raise RigError(f"{path}: {origin} has no reader for it: {reader!r} is not callable")
+    return reader
+
+
+def write_with(kind: RigFormat, rig: Rig, path: Path) -> Path:
+    """Write ``rig`` to ``path`` in format ``kind``; a plugin writer's failure is one `RigError` naming it.
+
+    Raises
+    ------
+    RigError
+        For a read-only format, or a writer that fails (a plugin's, whatever it raises).
+    """
+    origin = plugin_origin(kind)
+    try:
+        writer = kind.writer()
+        if writer is None:
+            raise RigError(f"{path}: cannot save format {kind.name!r}: it is read only")
+        return Path(writer(rig, path))
+    except RigError:
+        raise
+    except Exception as error:  # noqa: BLE001 - a plugin's failure, told as one line naming it
+        if not origin:
+            raise
+        raise RigError(f"{path}: {origin} failed writing it: {_described(error)}") from None
+
+
+def read_with(kind: RigFormat, reader: Callable[..., Rig], path: Path, options: dict[str, Any]) -> Rig:
+    """``reader(path, **options)``: for a plugin format, whatever it raises (but a `RigError`) and whatever
+    it returns but a valid `Rig` (checked again, as a rig made with `dataclasses.replace` is) is one
+    `RigError` naming the plugin; a built-in reader's result is returned as it is."""
+    from rigs._rig import Rig
+
+    origin = plugin_origin(kind)
+    if not origin:
+        return reader(path, **options)
+    try:
+        rig = reader(path, **options)
+    except RigError:
+        raise
+    except Exception as error:  # noqa: BLE001 - the plugin's failure, told as one line naming it
+        raise RigError(f"{path}: {origin} failed reading it: {_described(error)}") from None
+    if not isinstance(rig, Rig):
+        raise RigError(f"{path}: {origin} returned {type(rig).__name__}, not a rigs.Rig")
+    try:
+        return replace(rig)  # (a Rig made without its checks is checked now)
+    except RigError as error:
+        raise RigError(f"{path}: {origin} returned a rig that is not valid: {error}") from None
+    except Exception as error:  # noqa: BLE001 - fields of types no Rig has
+        raise RigError(f"{path}: {origin} returned a rig that is not valid: {_described(error)}") from None
+
+
+def _described(error: BaseException) -> str:
+    lines = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {lines[0]}" if lines else type(error).__name__
+
+
 def _resolve(reference: str | Callable[..., Any]) -> Callable[..., Any]:
     if callable(reference):
         return reference
@@ -178,18 +267,22 @@ def _load_plugins() -> None:
     import rigs._builtin_formats  # noqa: F401  (registers them)
 
     for entry in entry_points(group=ENTRY_POINT_GROUP):
+        origin = f"rig format plugin {entry.name!r} ({entry.value})"
         try:
             loaded = entry.load()
-        except Exception as error:  # a broken plugin must not break reading the formats that work
-            warnings.warn(
-                RigWarning(f"rig format plugin {entry.name!r} ({entry.value}) not loaded: {error}"),
-                stacklevel=3,
-            )
+        except Exception as error:  # noqa: BLE001 - a broken plugin must not break the formats that work
+            warnings.warn(RigWarning(f"{origin} not loaded: {_described(error)}"), stacklevel=3)
             continue
         if not isinstance(loaded, RigFormat):
+            warnings.warn(RigWarning(f"{origin} is not a RigFormat, left out"), stacklevel=3)
+            continue
+        if loaded.name in _FORMATS:
             warnings.warn(
-                RigWarning(f"rig format plugin {entry.name!r} ({entry.value}) is not a RigFormat"),
+                RigWarning(
+                    f"{origin} takes the name {loaded.name!r} of a format already registered; left out"
+                ),
                 stacklevel=3,
             )
             continue
-        register_format(loaded)
+        _FORMATS[loaded.name] = loaded
+        _PLUGIN_ORIGINS[loaded.name] = origin

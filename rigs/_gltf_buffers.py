@@ -61,7 +61,7 @@ class Buffers:
                 raise RigError(f"{label} has no URI; only buffer 0 may be the GLB binary chunk")
             data = self.blob
         elif uri.startswith("data:"):
-            data = _data_uri(uri, label)
+            data = _data_uri(uri, label, length)
         else:
             location = _uri_path(self.path.parent, uri, label)
             if not os.path.lexists(location):
@@ -279,18 +279,29 @@ def _uri_path(root: Path, uri: str, label: str) -> Path:
     return named_path(root, unquote(parts.path), f"{label} URI")
 
 
-def _data_uri(uri: str, label: str) -> bytes:
+#: Bytes a buffer may hold beyond its ``byteLength`` (the padding to four bytes glTF allows).
+PADDING = 3
+
+
+def _data_uri(uri: str, label: str, length: int) -> bytes:
     """The bytes of a ``data:`` URI (RFC 2397): base64 when its header ends in ``;base64``, else
-    percent-encoded."""
+    percent-encoded; more than the buffer's ``length`` (and its padding) is refused, before decoding
+    when the encoded size already says so (each base64 character holds 3/4 of a byte, a percent
+    escape a third)."""
     header, comma, payload = uri[len("data:") :].partition(",")
     if not comma:
         raise RigError(f"{label}: malformed data URI (no ',' before the data)")
-    if not header.endswith(";base64"):
-        return unquote_to_bytes(payload)
+    base64_encoded = header.endswith(";base64")
+    least = len(payload) * 3 // 4 - 2 if base64_encoded else len(payload) // 3
+    if least > length + PADDING:
+        raise RigError(f"{label}: its data URI holds about {least} bytes, more than its byteLength {length}")
     try:
-        return base64.b64decode(payload, validate=True)
+        data = base64.b64decode(payload, validate=True) if base64_encoded else unquote_to_bytes(payload)
     except (binascii.Error, ValueError) as error:
         raise RigError(f"{label}: malformed base64 in its data URI ({error})") from None
+    if len(data) > length + PADDING:
+        raise RigError(f"{label}: its data URI holds {len(data)} bytes, more than its byteLength {length}")
+    return data
 
 
 def dequantise(values: np.ndarray, normalized: bool) -> np.ndarray:

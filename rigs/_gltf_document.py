@@ -251,10 +251,21 @@ def world_matrix(
     return None, ""
 
 
+#: How far a node's rotation may be from a unit quaternion (glTF 2.0 requires one; exporters round): beyond
+#: it, a zero or a scaled quaternion is refused rather than taken for a rotation it is not.
+UNIT_QUATERNION_TOLERANCE = 1e-3
+
+
 def _local_matrix(node: dict, label: str) -> np.ndarray:
     if node.get("matrix") is not None:
         return numbers(node["matrix"], 16, f"{label} matrix").reshape(4, 4).T
     x, y, z, w = numbers(node.get("rotation", [0.0, 0.0, 0.0, 1.0]), 4, f"{label} rotation")
+    length = float(np.sqrt(x * x + y * y + z * z + w * w))
+    if not abs(length - 1.0) <= UNIT_QUATERNION_TOLERANCE:
+        raise RigError(
+            f"{label} rotation {[float(v) for v in (x, y, z, w)]} is not a unit quaternion (its length is "
+            f"{length:.6g})"
+        )
     rotation = np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],

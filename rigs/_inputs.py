@@ -58,8 +58,12 @@ class RigInputs:
 
     def add_file(self, path: Path | str, data: bytes | memoryview) -> None:
         """Note that ``data`` was read from ``path``."""
+        self.add_digest(path, hashlib.sha256(data).hexdigest(), len(data))
+
+    def add_digest(self, path: Path | str, sha256: str, size: int) -> None:
+        """Note that ``size`` bytes of SHA-256 ``sha256`` were read from ``path``."""
         name = self.relative(path)
-        entry = (hashlib.sha256(data).hexdigest(), len(data))
+        entry = (sha256, size)
         previous = self.files.get(name)
         if previous is None or previous[1] < entry[1]:
             self.files[name] = entry
@@ -133,6 +137,47 @@ def recording(root: Path | str, argument: Path | str | None = None) -> Iterator[
         yield inputs
     finally:
         _active.reset(token)
+
+
+#: Most files `record_folder` reads: a plugin's rig in a folder of more is refused (move it to its own).
+FOLDER_FILES_MAX = 10_000
+
+
+def record_folder(folder: Path | str, owner: str) -> None:
+    """Record every regular file under ``folder`` (its bytes) and the folder's recursive listing in the
+    active `recording` (nothing happens outside one): the content of a rig whose reader may have opened
+    any of them (``owner`` names it in messages).
+
+    Raises
+    ------
+    rigs.RigError
+        When the folder holds more than `FOLDER_FILES_MAX` files, or one cannot be read.
+    """
+    from rigs._rig import RigError
+
+    inputs = _active.get()
+    if inputs is None:
+        return
+    found = []
+    for root, folders, names in os.walk(folder):
+        folders.sort()
+        for name in sorted(names):
+            path = Path(root) / name
+            if path.is_file() and not path.is_symlink():
+                found.append(path)
+        if len(found) > FOLDER_FILES_MAX:
+            raise RigError(
+                f"{folder}: a rig of {owner} is recorded with every file of its folder, and this one holds "
+                f"more than {FOLDER_FILES_MAX}; move the rig into a folder of its own"
+            )
+    for path in found:
+        try:
+            with path.open("rb") as stream:
+                digest = hashlib.file_digest(stream, "sha256")
+                inputs.add_digest(path, digest.hexdigest(), stream.tell())
+        except OSError as error:
+            raise RigError(f"{path}: cannot read it ({error.strerror or error})") from None
+    inputs.add_listing(folder, found, recursive=True)
 
 
 def note_file(path: Path | str, data: bytes | memoryview) -> None:

@@ -23,8 +23,16 @@ from typing import Any
 
 import numpy as np
 
-from rigs._formats import detect_format, format_for_writing, rig_format
-from rigs._inputs import RigInputs, recording
+from rigs._formats import (
+    detect_format,
+    format_for_writing,
+    plugin_origin,
+    read_with,
+    reader_of,
+    rig_format,
+    write_with,
+)
+from rigs._inputs import RigInputs, record_folder, recording
 from rigs._provenance import LoadReport, NoiseFloor
 from rigs._rig import Rig, RigError, RigWarning, vector_lengths
 
@@ -45,10 +53,20 @@ def load_with_inputs(path: str | Path, **options: Any) -> tuple[Rig, RigInputs]:
         File or folder, as for `load`.
     **options
         Keyword arguments of `load`.
+
+    Notes
+    -----
+    A rig of a plugin format (`rigs._formats.plugin_origin`) is recorded as every file of its folder (the
+    rig's folder, or the folder of its file) and that folder's listing: a plugin may open files by other
+    means than `rigs._safe`, which records what the built-in readers open.
     """
     path = Path(path)
     with recording(path, None) if path.is_dir() else recording(path.parent, path) as inputs:
         rig = load(path, **options)
+        given = options.get("format")
+        kind = detect_format(path) if given is None else rig_format(given, path)
+        if plugin_origin(kind):
+            record_folder(path if path.is_dir() else path.parent, plugin_origin(kind))
     return rig, inputs
 
 
@@ -106,7 +124,7 @@ def load(
     """
     path = Path(path)
     kind = detect_format(path) if format is None else rig_format(format, path)
-    reader = kind.reader(path)
+    reader = reader_of(kind, path)
     accepted = [
         name
         for name, parameter in signature(reader).parameters.items()
@@ -116,7 +134,7 @@ def load(
     if unknown:
         listed = ", ".join(accepted) or "none"
         raise RigError(f"{path}: unknown option {unknown[0]!r} for {kind.name} (accepted: {listed})")
-    rig = reader(path, **options)
+    rig = read_with(kind, reader, path, options)
     if noise_floor is None:
         noise_floor = 0.0 if kind.verbatim else DEFAULT_NOISE_FLOOR
     if noise_floor < 0:
@@ -367,7 +385,4 @@ def save(rig: Rig, path: str | Path, *, format: str | None = None) -> Path:
     """
     path = Path(path)
     kind = format_for_writing(path) if format is None else rig_format(format, path)
-    writer = kind.writer()
-    if writer is None:
-        raise RigError(f"{path}: cannot save format {kind.name!r}: it is read only")
-    return writer(rig, path)
+    return write_with(kind, rig, path)

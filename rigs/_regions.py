@@ -76,9 +76,9 @@ def regions_from_mapping(
                 if array.ndim != 1 or n_vertices is not None and array.shape != (n_vertices,):
                     raise TypeError
                 array = np.flatnonzero(array)
-            if array.size and not np.issubdtype(array.dtype, np.integer):
-                raise TypeError
-            array = array.astype(np.int64).ravel()
+            if array.ndim != 1 or array.size and not np.issubdtype(array.dtype, np.integer):
+                raise TypeError  # (a nested list is no list of indices: it is never flattened)
+            array = array.astype(np.int64)
         except (TypeError, ValueError):
             raise RigError(
                 f"{origin}: region {name!r} must be a list of vertex indices or "

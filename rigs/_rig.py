@@ -192,6 +192,16 @@ def _landmarks(landmarks: Mapping[str, Any], source: str) -> dict[str, tuple[flo
     return points
 
 
+def _has_surrogates(text: str) -> bool:
+    """Whether ``text`` holds lone surrogates (the bytes of a file name that are not UTF-8, decoded with
+    ``surrogateescape``), which no UTF-8 file, record or document can hold."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
+
+
 @dataclass(frozen=True, eq=False)
 class Rig:
     """A blendshape rig: neutral mesh, K delta blendshapes, triangles and optional vertex regions.
@@ -284,6 +294,11 @@ class Rig:
                 raise RigError(f"{source}: a blendshape has an empty name")
             if name in seen:
                 raise RigError(f"{source}: duplicate blendshape name {name!r}")
+            if _has_surrogates(name):
+                raise RigError(
+                    f"{source}: blendshape name {name!r} is not text (a file name whose bytes are not "
+                    "UTF-8?); rename it"
+                )
             seen.add(name)
         _check_displacements(deltas, names, source)
 
@@ -303,6 +318,11 @@ class Rig:
             if not str(region_name):
                 raise RigError(f"{source}: a region has an empty name")
             indices = _as_array(indices, f"region {region_name!r}", source)
+            if indices.ndim > 1:
+                raise RigError(
+                    f"{source}: region {region_name!r} must be a flat list of vertex indices, got an array "
+                    f"of shape {indices.shape}"
+                )
             if indices.dtype == bool:
                 if indices.shape != (n_vertices,):
                     raise RigError(f"{source}: region {region_name!r} mask has shape {indices.shape}")

@@ -98,8 +98,17 @@ def session_constraints(
         params = {**params, "together": (*together, *matched.together), "apart": (*apart, *matched.apart)}
         document.update(rules=matched.applied, notes=matched.notes)
     kept = [name for name in rig.names if name not in excluded]
+    source = rig.provenance.source or "the rig"
+    if not rig.names:
+        raise HarnessError(f"{source}: the rig has no blendshapes to pack")
     if not kept:
-        raise HarnessError(f"--exclude leaves no shape of {rig.provenance.source or 'the rig'} to pack")
+        by_rules = len(excluded) > len(set(exclude))
+        what = {
+            (True, False): "--exclude leaves",
+            (True, True): "--exclude and the default constraints leave",
+            (False, True): "the default constraints (--no-default-constraints turns them off) leave",
+        }[(bool(exclude), by_rules)]
+        raise HarnessError(f"{what} no shape of {source} to pack")
     excluded = {name: excluded[name] for name in rig.names if name in excluded}
     return SessionConstraints(
         rig.subset(kept) if excluded else rig, dict(params), excluded, document, _notes(document, excluded)

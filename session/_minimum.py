@@ -8,7 +8,7 @@ within the time limit, the cover found is used and what was proved is said: the 
 lower bound and the cover's size.
 
 The cover and its ordering are solved in a worker process (`solvers.worker`), as every solve of ``harness
-pack`` is (`session._solver`): a backend that crashes or exits is one `SolverFailure` line, and Ctrl-C
+pack`` is (`harness.IsolatedSolver`): a backend that crashes or exits is one `SolverFailure` line, and Ctrl-C
 stops the worker and reaches the packing's clean-up.
 """
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from session._solver import SolverFailure, last_line
+from harness import SolverFailure, last_line
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem

@@ -66,14 +66,14 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import check_settings, format_duration, input_paths, resolve_rig
+from harness import IsolatedSolver, check_settings, format_duration, input_paths, no_answer, resolve_rig
 from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
 from session._mesh import TargetMesh, read_target
 from session._minimum import minimum_sequence
 from session._pictures import prepare_scene
-from session._solver import IsolatedSolver, LoudSolver, no_answer
+from session._solver import LoudSolver
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -168,7 +168,7 @@ class PackConfig:
     timeout : float, optional
         Wall-clock seconds for the whole packing (loading and analysis included). Every solve gets at most
         the time left, and a solver that overruns it (ignoring its limit, or having none) is stopped with
-        its worker process after a short allowance (`session._solver.late_allowance`); once it is
+        its worker process after a short allowance (`harness.late_allowance`); once it is
         spent, the sequence stops, the expressions found so far are written, and a warning says so. When no
         expression was found by then, an error says so and nothing is written.
     force : bool
@@ -227,7 +227,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
     registry.HarnessError
         For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
         or for an expression the session does not have.
-    session._solver.SolverFailure
+    harness.SolverFailure
         A solver that failed on an expression (it raised, answered items the problem does not have,
         claimed infeasibility, exited or crashed: it solves in a worker process), before anything is
         written.

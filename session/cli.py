@@ -7,7 +7,15 @@ from typing import TYPE_CHECKING
 
 import click
 
-from harness import DURATION, SOLVER_SEED, FiniteFloatRange, constraint_options, constraint_params, terminal
+from harness import (
+    COUNT,
+    DURATION,
+    SOLVER_SEED,
+    FiniteFloatRange,
+    constraint_options,
+    constraint_params,
+    terminal,
+)
 
 if TYPE_CHECKING:
     from rich.console import JustifyMethod
@@ -31,7 +39,7 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
     "importance (eq. 6), and the expressions are also written on it (OUT/on_target/).",
 )
 @click.option("--solver", default="cpsat", help="Solver plugin (see harness list).")
-@click.option("--jmax", type=click.IntRange(min=1), default=20, help="Most expressions (not with --minimum).")
+@click.option("--jmax", type=COUNT, default=20, help="Most expressions (not with --minimum).")
 @click.option(
     "--minimum",
     is_flag=True,
@@ -67,9 +75,7 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
 @click.option(
     "--importance/--no-importance", default=True, help="Importance weights (eq. 4); off = every weight 1."
 )
-@click.option(
-    "--cap", type=click.IntRange(min=1), help="Most shapes per expression (sec. 6). [default: no cap]"
-)
+@click.option("--cap", type=COUNT, help="Most shapes per expression (sec. 6). [default: no cap]")
 @click.option(
     "--extra-examples/--no-extra-examples",
     default=False,

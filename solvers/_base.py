@@ -23,6 +23,7 @@ import numpy as np
 
 from registry import Availability as Availability
 from registry import AvailabilityStatus as AvailabilityStatus
+from registry import Setting as Setting
 from registry import package_availability as package_availability
 
 if TYPE_CHECKING:  # imported where used, so that listing plugins does not import the method
@@ -135,6 +136,9 @@ class Solver(Protocol):
 
     name: ClassVar[str]
     capabilities: ClassVar[Capabilities]
+    #: Optional: the keyword arguments the class takes, with their types and ranges (`Setting`), checked
+    #: before the solver is made (``cpsat[workers=2]``) and shown by ``harness list``.
+    settings: ClassVar[tuple[Setting, ...]]
 
     @classmethod
     def availability(cls) -> Availability:

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     import scipy.sparse as sp
 
 
-def configured_highs(highspy, time_limit: float | None, seed: int, **options: float | bool):
+def configured_highs(highspy, time_limit: float | None, seed: int, **options: float | bool | str):
     """A silent, single-threaded ``highspy.Highs`` with relative MIP gap 0, the seed, the time limit and
     ``options``.
 
@@ -26,7 +26,7 @@ def configured_highs(highspy, time_limit: float | None, seed: int, **options: fl
         settings other than the ones recorded would be a silently different benchmark.
     """
     highs = highspy.Highs()
-    settings: dict[str, float | bool] = {
+    settings: dict[str, float | bool | str] = {
         "output_flag": False,
         "threads": 1,
         "random_seed": int(seed),

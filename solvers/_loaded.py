@@ -15,12 +15,14 @@ from __future__ import annotations
 import functools
 import inspect
 import numbers
+import os
 import time
 import traceback
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from registry import raised_without_signal
+from solvers import _strays as strays
 from solvers._base import (
     Availability,
     Capabilities,
@@ -89,10 +91,23 @@ class LoadedSolver:
             ``time_limit`` or a seed out of range (before the plugin is called).
         """
         check_solve_arguments(problem, time_limit, seed)
+        before, pid = strays.children(), os.getpid()
         start, cpu = time.perf_counter(), cpu_seconds()
         try:
-            answer = self.plugin.solve(problem, time_limit=time_limit, seed=seed)
+            try:
+                answer = self.plugin.solve(problem, time_limit=time_limit, seed=seed)
+            finally:
+                if os.getpid() != pid:  # a copy of this process the plugin forked never answers
+                    os._exit(0)
             elapsed, spent = time.perf_counter() - start, cpu_seconds() - cpu
+            left = strays.children() - before
+            if left:
+                strays.stop(left)
+                pids = ", ".join(map(str, sorted(left)))
+                raise RuntimeError(
+                    f"it left {len(left)} process(es) of its own behind (pid {pids}: a solver must wait for "
+                    "what it starts, and answer from one process); they were stopped"
+                )
             solution = _solution(problem, answer, elapsed, spent, self.name, self.plugin)
             return _with_overrun(solution, time_limit, elapsed, self.plugin)
         except Exception as error:  # a failing plugin is reported, never raised into the run

@@ -12,10 +12,13 @@ from typing import Any
 
 from registry import (
     Availability,
+    HarnessError,
     PluginInfo,
     PluginRegistry,
     PluginUnavailableError,
     UnknownPluginError,
+    checked_settings,
+    declared_settings,
     missing_attributes,
 )
 from solvers._base import Capabilities
@@ -44,6 +47,10 @@ def _check(plugin: Any, name: str) -> str | None:
         return f"declares name {plugin.name!r}, registered as {name!r}"
     if plugin.capabilities.minimum_cover and not hasattr(plugin, "solve_colouring"):
         return "declares minimum_cover but has no solve_colouring"
+    try:
+        declared_settings(plugin)
+    except HarnessError as error:
+        return str(error)
     return None
 
 
@@ -88,10 +95,14 @@ def get(name: str, **parameters: Any) -> LoadedSolver:
         No plugin of that name; the message lists the valid names.
     SolverUnavailableError
         The plugin cannot run here (missing package or binary, version mismatch, load error).
+    registry.HarnessError
+        A parameter the solver does not declare among its settings, or a value out of its range
+        (`registry.checked_settings`).
     TypeError
-        A parameter the solver does not take.
+        A parameter the solver does not take (a solver that declares no settings).
     """
     cls = solver_class(name)
+    parameters = checked_settings(cls, parameters)
     found = availability(name)
     if not found:
         raise SolverUnavailableError("solver", name, found)

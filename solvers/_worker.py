@@ -19,6 +19,7 @@ the work its backend did in a worker too (`solvers.cpu_seconds`).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import multiprocessing.connection
 import os
 import pickle
@@ -30,6 +31,8 @@ import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO
+
+from solvers import _strays as strays
 
 _cpu_lock = threading.Lock()
 _cpu_total = [0.0]
@@ -218,6 +221,9 @@ class Worker:
             except subprocess.TimeoutExpired:
                 process.kill()
                 process.wait()
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(process.pid, signal.SIGKILL)  # (what it started and left: its session's group)
+            strays.note_helper(process.pid, running=False)
         self._pending = 0
         if self._log is not None:
             self._log.close()
@@ -253,6 +259,7 @@ class Worker:
                 stderr=output if self.log else None,
                 start_new_session=True,  # Ctrl-C reaches the caller only; the caller stops its workers
             )
+        strays.note_helper(self._process.pid, running=True)
         self._connection = mine
         return mine
 

@@ -5,7 +5,8 @@ It reads pickled ``(function, args)`` calls from the connected socket FD, runs `
 when the call cannot be read, the function raised, or its result cannot be pickled; ``cpu`` is the CPU
 seconds the call took in this process (every thread) and in the child processes it waited for. A closed
 connection ends it, and so does the end of the process PARENT, however that ends (`exit_with_parent`).
-Ctrl-C is ignored: the parent stops its workers itself.
+Ctrl-C is ignored: the parent stops its workers itself. A copy of the process a call forked never answers,
+and the processes a solver leaves behind are ended (`solvers._strays`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
+
+from solvers._strays import mark_worker
 
 #: ``prctl`` option asking the kernel for a signal when the parent exits (``<linux/prctl.h>``).
 _PR_SET_PDEATHSIG = 1
@@ -64,13 +67,20 @@ def _cpu() -> float:
 
 
 def _answer(request: bytes) -> bytes:
-    """The pickled reply to one pickled call."""
-    start = _cpu()
+    """The pickled reply to one pickled call (a copy of this process the call forked ends instead: only
+    the worker itself answers)."""
+    start, pid = _cpu(), os.getpid()
     try:
         function, args = pickle.loads(request)
         result = _resolve(function)(*args)
-        return pickle.dumps((True, result, _cpu() - start), protocol=pickle.HIGHEST_PROTOCOL)
+        reply = (True, result, _cpu() - start)
     except BaseException:  # report everything; the parent decides
+        reply = (False, traceback.format_exc(), _cpu() - start)
+    if os.getpid() != pid:
+        os._exit(0)
+    try:
+        return pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL)
+    except BaseException:  # a result that cannot be pickled
         return pickle.dumps((False, traceback.format_exc(), _cpu() - start))
 
 
@@ -87,6 +97,7 @@ def main() -> None:
     """Serve the connection ``sys.argv[1]`` for the process ``sys.argv[2]``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     exit_with_parent(int(sys.argv[2]))
+    mark_worker()
     serve(multiprocessing.connection.Connection(int(sys.argv[1])))
 
 

@@ -7,7 +7,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from solvers._base import Availability, Capabilities, Result, Stopwatch
+from registry import checked_settings
+from solvers._base import Availability, Capabilities, Result, Setting, Stopwatch
 from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, objective_scale, run_cbc
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
@@ -29,10 +30,12 @@ class PulpCbcSolver(ExactSolver):
     name: ClassVar[str] = "cbc-pulp"
     capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True, warm_start=True)
 
+    settings: ClassVar[tuple[Setting, ...]] = (
+        Setting("cbc", str, "auto", "the CBC executable", choices=CBC_CHOICES),
+    )
+
     def __init__(self, cbc: str = "auto") -> None:
-        if cbc not in CBC_CHOICES:
-            raise ValueError(f"{self.name}: cbc must be one of {', '.join(CBC_CHOICES)}, got {cbc!r}")
-        self.cbc = cbc
+        self.cbc = str(checked_settings(self, {"cbc": cbc})["cbc"])
 
     @classmethod
     def availability(cls) -> Availability:

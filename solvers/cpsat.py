@@ -14,11 +14,12 @@ from typing import ClassVar, TypeVar
 import numpy as np
 
 from packing import Termination
-from registry import stop_signals_deferred
+from registry import checked_settings, stop_signals_deferred
 from solvers._base import (
     Availability,
     Capabilities,
     Result,
+    Setting,
     Stopwatch,
     distribution_version,
     package_availability,
@@ -26,6 +27,8 @@ from solvers._base import (
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
 
+#: Most CP-SAT search workers a solve may ask for (CP-SAT's own portfolio has a few dozen subsolvers).
+MAX_WORKERS = 64
 #: Total of the scaled integer weights. CP-SAT needs integer coefficients; scaling the weights so that
 #: they sum to 2**50 keeps every weight to about 1e-15 relative (far finer than the tie-break
 #: perturbation of `packing`), while the objective stays far below CP-SAT's int64 range.
@@ -132,11 +135,19 @@ class CpSatSolver(ExactSolver):
     capabilities: ClassVar[Capabilities] = Capabilities(
         exact=True, time_limit=True, minimum_cover=True, warm_start=True
     )
+    settings: ClassVar[tuple[Setting, ...]] = (
+        Setting(
+            "workers",
+            int,
+            1,
+            "CP-SAT search workers (1 is deterministic for a seed)",
+            low=1,
+            high=MAX_WORKERS,
+        ),
+    )
 
     def __init__(self, workers: int = 1) -> None:
-        if not isinstance(workers, int) or workers < 1:
-            raise ValueError(f"cpsat: workers must be a positive integer, got {workers!r}")
-        self.workers = workers
+        self.workers = int(checked_settings(self, {"workers": workers})["workers"])
 
     @classmethod
     def availability(cls) -> Availability:

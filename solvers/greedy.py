@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from packing import Termination
-from solvers._base import Availability, Capabilities, Result, Stopwatch, distribution_version
+from registry import checked_settings
+from solvers._base import Availability, Capabilities, Result, Setting, Stopwatch, distribution_version
 from solvers._open import OpenExpression
 
 if TYPE_CHECKING:
@@ -208,11 +209,20 @@ class GreedyOverlapSolver(GreedySolver):
 
     name: ClassVar[str] = "greedy-overlap"
     capabilities: Capabilities = Capabilities(exact=False, time_limit=False, max_overlap=0.1)
+    settings: ClassVar[tuple[Setting, ...]] = (
+        Setting(
+            "overlap",
+            float,
+            0.1,
+            "share of an item's active vertices allowed to overlap",
+            low=0,
+            high=1,
+            high_open=True,
+        ),
+    )
 
     def __init__(self, overlap: float = 0.1) -> None:
-        if not 0.0 <= overlap < 1.0:
-            raise ValueError(f"greedy-overlap: overlap must be a fraction in [0, 1), got {overlap!r}")
-        self.overlap = float(overlap)
+        self.overlap = float(checked_settings(self, {"overlap": overlap})["overlap"])
         self.capabilities = replace(type(self).capabilities, max_overlap=self.overlap)
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:

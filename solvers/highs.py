@@ -13,7 +13,8 @@ from typing import ClassVar
 import numpy as np
 
 from packing import Termination
-from solvers._base import Availability, Capabilities, Result, Stopwatch, package_availability
+from registry import checked_settings
+from solvers._base import Availability, Capabilities, Result, Setting, Stopwatch, package_availability
 from solvers._exact import ExactSolver
 from solvers._highs_model import configured_highs, highs_solution, pass_model
 from solvers._model import CliqueModel
@@ -38,12 +39,46 @@ class HighsSolver(ExactSolver):
     Options: ``mip_rel_gap = mip_abs_gap = 0``, one thread, ``random_seed = seed``, native time limit, no
     restart after the root search (``mip_allow_restart``), and without the primal heuristics of
     `PRIMAL_HEURISTICS_OFF` (the start packing is given).
+
+    Parameters
+    ----------
+    presolve : bool
+        HiGHS's own presolve (off: HiGHS solves the model as the harness presolved it).
+    mip_heuristic_effort : float in [0, 1], optional
+        The share of HiGHS's MIP search spent in its primal heuristics (None: HiGHS's default).
     """
 
     name: ClassVar[str] = "highs"
     capabilities: ClassVar[Capabilities] = Capabilities(
         exact=True, time_limit=True, minimum_cover=True, warm_start=True
     )
+    settings: ClassVar[tuple[Setting, ...]] = (
+        Setting("presolve", bool, True, "HiGHS's own presolve before its branch and cut"),
+        Setting(
+            "mip_heuristic_effort",
+            float,
+            None,
+            "share of the search spent in primal heuristics",
+            low=0,
+            high=1,
+        ),
+    )
+
+    def __init__(self, presolve: bool = True, mip_heuristic_effort: float | None = None) -> None:
+        given = {
+            "presolve": presolve,
+            **({} if mip_heuristic_effort is None else {"mip_heuristic_effort": mip_heuristic_effort}),
+        }
+        checked = checked_settings(self, given)
+        self.presolve = bool(checked["presolve"])
+        self.mip_heuristic_effort = checked.get("mip_heuristic_effort")
+
+    def _options(self) -> dict[str, float | bool | str]:
+        """The HiGHS options the settings ask for (none at their defaults: HiGHS's own choice)."""
+        options: dict[str, float | bool | str] = {} if self.presolve else {"presolve": "off"}
+        if self.mip_heuristic_effort is not None:
+            options["mip_heuristic_effort"] = float(self.mip_heuristic_effort)
+        return options
 
     @classmethod
     def availability(cls) -> Availability:
@@ -83,7 +118,13 @@ class HighsSolver(ExactSolver):
         # The start is a good packing and the clique rows' LP is tight: the primal heuristics cost more than
         # they find (`PRIMAL_HEURISTICS_OFF`).
         highs = configured_highs(
-            highspy, time_limit, seed, mip_abs_gap=0.0, mip_allow_restart=False, **PRIMAL_HEURISTICS_OFF
+            highspy,
+            time_limit,
+            seed,
+            mip_abs_gap=0.0,
+            mip_allow_restart=False,
+            **PRIMAL_HEURISTICS_OFF,
+            **self._options(),
         )
         matrix = model.matrix()
         n_items = model.n_items

@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from solvers._base import Availability, Capabilities, Result, Stopwatch
+from registry import checked_settings
+from solvers._base import Availability, Capabilities, Result, Setting, Stopwatch
 from solvers._cbc import CBC_CHOICES, cbc_availability, find_cbc, objective_scale, run_cbc
 from solvers._exact import ExactSolver
 from solvers._model import CliqueModel
@@ -42,10 +43,12 @@ class NaivePulpCbcSolver(ExactSolver):
     capabilities: ClassVar[Capabilities] = Capabilities(exact=True, time_limit=True)
     reduces: ClassVar[bool] = False  # the formulation as published: every item and vertex row
 
+    settings: ClassVar[tuple[Setting, ...]] = (
+        Setting("cbc", str, "bundled", "the CBC executable", choices=CBC_CHOICES),
+    )
+
     def __init__(self, cbc: str = "bundled") -> None:
-        if cbc not in CBC_CHOICES:
-            raise ValueError(f"{self.name}: cbc must be one of {', '.join(CBC_CHOICES)}, got {cbc!r}")
-        self.cbc = cbc
+        self.cbc = str(checked_settings(self, {"cbc": cbc})["cbc"])
 
     @classmethod
     def availability(cls) -> Availability:

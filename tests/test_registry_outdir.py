@@ -33,8 +33,12 @@ def test_a_new_folder_is_claimed_and_its_files_listed_with_kind_and_hash(tmp_pat
     path, mesh = folder.replace({"expressions.json": "{}\n", "meshes/expression_01.obj": b"v 0 0 0\n"})
     manifest = json.loads((tmp_path / "out" / "deep" / MANIFEST_NAME).read_text())
     assert manifest["files"] == {
-        "expressions.json": {"kind": "pack", "sha256": file_sha256(path)},
-        "meshes/expression_01.obj": {"kind": "pack", "sha256": file_sha256(mesh)},
+        "expressions.json": {"kind": "pack", "sha256": file_sha256(path), "inode": path.stat().st_ino},
+        "meshes/expression_01.obj": {
+            "kind": "pack",
+            "sha256": file_sha256(mesh),
+            "inode": mesh.stat().st_ino,
+        },
     }
     assert path.read_text() == "{}\n" and folder.files == manifest["files"]
     assert _siblings(tmp_path / "out" / "deep") == []
@@ -141,6 +145,64 @@ def test_a_manifest_naming_files_outside_the_folder_is_not_ours(tmp_path, files,
     with pytest.raises(OutputFolderError, match=f"{MANIFEST_NAME} is not a harness manifest"):
         claim(out, kind="pack", force=force)
     assert victim.read_text() == "keep me\n" and (out / MANIFEST_NAME).exists()
+
+
+@pytest.mark.parametrize("version", [1, 2])
+@pytest.mark.parametrize("force", [False, True])
+def test_a_forged_manifest_with_the_right_hash_never_makes_a_users_file_ours(
+    tmp_path, version: int, force: bool
+) -> None:
+    out = tmp_path / "out"
+    claim(out, kind="pack", force=False).replace({"expression_01.obj": "ours\n"})
+    notes = out / "notes.txt"
+    notes.write_text("my notes\n")
+    document = json.loads((out / MANIFEST_NAME).read_text())
+    document["version"] = version
+    document["files"]["notes.txt"] = {"kind": "pack", "sha256": file_sha256(notes)}
+    (out / MANIFEST_NAME).write_text(json.dumps(document))
+    with pytest.raises(OutputFolderError, match=r"did not write .*\(notes.txt\)"):
+        claim(out, kind="pack", force=force).replace({"expression_01.obj": "new\n"})
+    assert notes.read_text() == "my notes\n"
+
+
+def test_a_manifest_nested_too_deeply_is_no_manifest_and_nothing_is_removed(tmp_path) -> None:
+    out = tmp_path / "out"
+    claim(out, kind="pack", force=False).replace({"expression_01.obj": "ours\n"})
+    (out / MANIFEST_NAME).write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(OutputFolderError, match=r"is not a harness manifest \(nested too deeply\)"):
+        claim(out, kind="pack", force=True)
+    assert (out / "expression_01.obj").read_text() == "ours\n"
+
+
+def test_a_copied_output_is_not_the_commands_and_is_never_replaced(tmp_path) -> None:
+    import shutil
+
+    out = tmp_path / "out"
+    claim(out, kind="pack", force=False).replace({"expression_01.obj": "ours\n"})
+    copy = Path(shutil.copytree(out, tmp_path / "backup"))
+    with pytest.raises(OutputFolderError, match=r"did not write .*\(expression_01.obj\)"):
+        claim(copy, kind="pack", force=True)
+    assert (copy / "expression_01.obj").read_text() == "ours\n"
+    claim(out, kind="pack", force=True).replace({"expression_01.obj": "new\n"})  # (the original is ours)
+    assert (out / "expression_01.obj").read_text() == "new\n"
+
+
+def test_a_file_written_one_by_one_is_listed_with_its_inode_before_it_is_in_place(tmp_path) -> None:
+    out = tmp_path / "out"
+    folder = claim(out, kind="run", force=False)
+    seen = []
+    original = outdir.OutputFolder.save
+
+    def save(self):
+        seen.append((dict(self.files.get("run.json", {})), (out / "run.json").exists()))
+        return original(self)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(outdir.OutputFolder, "save", save)
+        path = folder.write("run.json", b"{}\n")
+    assert seen == [({"kind": "run", "sha256": file_sha256(path), "inode": path.stat().st_ino}, False)]
+    assert outdir.written_by(_listed(out)["run.json"], path)
+    assert claim(out, kind="run", force=True).clear() == [path]
 
 
 def test_a_linked_subfolder_is_refused_and_what_it_leads_to_kept(tmp_path) -> None:

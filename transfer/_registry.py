@@ -5,10 +5,11 @@ unavailable with the reason, a name registered twice warned about."""
 from __future__ import annotations
 
 import dataclasses
+import typing
 from collections.abc import Iterable
 from typing import Any
 
-from registry import Availability, PluginInfo, PluginRegistry
+from registry import SETTING_TYPES, Availability, PluginInfo, PluginRegistry, Setting
 from transfer._base import Transfer
 
 GROUP = "harness.transfers"
@@ -72,4 +73,28 @@ def get(name: str, **params: object) -> Transfer:
             f"transfer method {name!r} has no parameter {', '.join(unknown)}; "
             f"accepted: {', '.join(sorted(accepted)) or 'none'}"
         )
-    return cls(**params)
+    return cls(**_typed(name, cls, params))
+
+
+def _typed(name: str, cls: type, params: dict[str, object]) -> dict[str, object]:
+    """``params`` checked against the types of the fields they set, where a field is a plain ``bool``,
+    ``int``, ``float`` or ``str`` (`registry.Setting`: ``align=3`` is no flag); the class's own checks
+    judge the rest (ranges, unions).
+
+    Raises
+    ------
+    ValueError
+        Naming the method, the parameter and what it must be.
+    """
+    if not params:
+        return params
+    hints = typing.get_type_hints(cls)
+    checked = dict(params)
+    for field in dataclasses.fields(cls):
+        kind = hints.get(field.name)
+        if field.name in params and kind in SETTING_TYPES:
+            try:
+                checked[field.name] = Setting(field.name, kind, field.default, "").checked(params[field.name])
+            except ValueError as error:
+                raise ValueError(f"transfer method {name!r}: {error}") from None
+    return checked

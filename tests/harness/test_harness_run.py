@@ -11,10 +11,10 @@ import pytest
 import harness
 import packing
 import reports
-from harness import _plugins, _records
+from harness import _plugins
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
-from registry import _atomic
+from registry import _atomic, _outdir
 from tests.harness.full_disk import FullDisk
 
 
@@ -211,26 +211,26 @@ def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
 
 
 def test_a_full_disk_stops_the_run_with_finished_cells_kept(rig_file, tmp_path, monkeypatch, inline) -> None:
-    real = _records.atomic_write
+    real = _outdir.atomic_write
     parts = []
 
-    def second_part_hits_a_full_disk(path, data):
+    def second_part_hits_a_full_disk(path, data, **options):
         if path.parent.name == "records":
             parts.append(path)
             if len(parts) == 2:
                 monkeypatch.setattr(_atomic, "os", FullDisk())
         try:
-            return real(path, data)
+            return real(path, data, **options)
         finally:
             monkeypatch.setattr(_atomic, "os", os)
 
-    monkeypatch.setattr(_records, "atomic_write", second_part_hits_a_full_disk)
+    monkeypatch.setattr(_outdir, "atomic_write", second_part_hits_a_full_disk)
     config = _config(rig_file, solvers=("greedy", "highs", "cpsat"), transfers=())
     with pytest.raises(harness.RecordsWriteError, match=r"could not write .*records.*disk full"):
         harness.run_grid(config, tmp_path, make_executor=inline)
     assert [path.name for path in (tmp_path / "records").iterdir()] == [parts[0].name]
     assert harness.read_run(tmp_path)["state"] == "failed"
-    monkeypatch.setattr(_records, "atomic_write", real)
+    monkeypatch.setattr(_outdir, "atomic_write", real)
     resumed = harness.run_grid(config, tmp_path, make_executor=inline, resume=True)
     assert resumed.already_done == 1 and resumed.statuses == {"ok": 2}
 

@@ -123,7 +123,7 @@ class TimedSolver:
 
 
 class InProcess(contextlib.nullcontext):
-    """`session._solver.IsolatedSolver` without the worker: the solver on the test clock solves here."""
+    """`harness.IsolatedSolver` without the worker: the solver on the test clock solves here."""
 
     def __init__(self, label, clock: Clock) -> None:
         super().__init__(TimedSolver(clock))

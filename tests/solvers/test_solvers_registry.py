@@ -66,9 +66,13 @@ def test_unknown_name_lists_the_valid_ones():
 def test_get_passes_parameters_and_rejects_unknown_ones():
     assert solvers.get("greedy-overlap", overlap=0.3).plugin.overlap == 0.3
     assert solvers.get("greedy-overlap", overlap=0.3).capabilities.max_overlap == 0.3
-    with pytest.raises(TypeError, match="does not take parameters"):
+    with pytest.raises(
+        ValueError, match=r"highs has no setting 'workers' \(its settings: presolve, mip_heur"
+    ):
         solvers.get("highs", workers=4)
-    with pytest.raises(ValueError, match="overlap must be a fraction"):
+    with pytest.raises(TypeError, match="does not take parameters"):
+        solvers.get("greedy", overlap=0.3)
+    with pytest.raises(ValueError, match=r"overlap must be a number in \[0, 1\), got 1.5"):
         solvers.get("greedy-overlap", overlap=1.5)
 
 

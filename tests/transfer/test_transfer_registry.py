@@ -60,7 +60,7 @@ def test_unknown_parameter_lists_accepted_ones():
         ("ebfr", {"motion_scale": "metres"}, r"motion_scale must be 'peak' or 'absolute', got 'metres'"),
         ("dt", {"static_tolerance": -1e-3}, r"static_tolerance must be a finite number >= 0"),
         ("plbs", {"n_patches": 0}, r"n_patches must be a positive integer, got 0"),
-        ("plbs", {"blend_rings": 1.5}, r"blend_rings must be a non-negative integer, got 1.5"),
+        ("plbs", {"blend_rings": 1.5}, r"blend_rings must be an integer, got 1.5"),
         ("plbs", {"lambda_reg": 0.0}, r"lambda_reg must be a finite number > 0"),
         ("ebfr-full", {"iterations": 0}, r"iterations must be a positive integer, got 0"),
         ("ebfr-full", {"beta_schedule": (0.5,)}, r"beta_schedule must be \(first, last\)"),
