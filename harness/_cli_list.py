@@ -49,32 +49,26 @@ def list_command(as_json: bool) -> None:
 
 
 def _plugin_table(kind: str, items: list[dict[str, Any]]) -> Table:
-    """One row per plugin: name, available, version, description, and its true capabilities or, when it
-    cannot run, the reason."""
+    """One row per plugin: its name, whether it is available and its version, then one folded column with
+    what it is, its true capabilities (or, when it cannot run, the reason) and its settings, so that the
+    table reads at 80 columns."""
     from rich import box
     from rich.markup import escape
     from rich.table import Table
 
-    table = Table(title=kind, title_justify="left", box=box.SIMPLE_HEAD)  # text folds, nothing is cut
+    table = Table(title=kind, title_justify="left", box=box.SIMPLE_HEAD, show_lines=True)
     table.add_column("name", no_wrap=True)
     table.add_column("available", no_wrap=True)
-    table.add_column("version", overflow="fold")
-    table.add_column("description", overflow="fold", ratio=3)
-    table.add_column("capabilities / reason", overflow="fold", ratio=2)
-    table.add_column("settings", overflow="fold", ratio=2)
+    table.add_column("version", overflow="fold", max_width=14)
+    table.add_column("what it is, can do and takes", overflow="fold", ratio=1)
     for item in items:
-        flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "-"
-        detail = flags if item["available"] else f"[yellow]{escape(item['reason'])}[/]"
+        flags = ", ".join(name for name, value in item["capabilities"].items() if value is True) or "none"
+        detail = f"can: {flags}" if item["available"] else f"[yellow]{escape(item['reason'])}[/]"
         mark = "[green]yes[/]" if item["available"] else "[red]no[/]"
-        settings = "\n".join(_setting_text(setting) for setting in item["settings"]) or "-"
-        table.add_row(
-            item["name"],
-            mark,
-            item["version"] or "-",
-            escape(item["description"]) or "-",
-            detail,
-            escape(settings),
-        )
+        settings = "; ".join(_setting_text(setting) for setting in item["settings"])
+        about = [escape(item["description"]) or "-", detail]
+        about += [f"settings: {escape(settings)}"] if settings else []
+        table.add_row(item["name"], mark, item["version"] or "-", "\n".join(about))
     return table
 
 
