@@ -2,8 +2,9 @@
 
 One layer serves every caller that must not share a process with what it runs (docs/architecture.md,
 "Solver libraries that do not share a process"): python-mip's CBC fails to load beside OR-Tools in one
-process, so that backend solves in a worker of its own (`worker`, behind the same ``Solver.solve``); the harness runs every grid cell in one, so that a solver
-that segfaults, hangs past ``--timeout`` or is killed loses that cell and not the run.
+process, so that backend solves in a worker of its own (`worker`, behind the same ``Solver.solve``); the
+harness runs every grid cell in one, so that a solver that segfaults, hangs past ``--timeout`` or is
+killed loses that cell and not the run.
 
 A `Worker` starts ``python -m solvers._worker_child`` (a fresh interpreter, never a fork: solver libraries
 keep threads and global state) on first use, talks to it over a socket pair (`multiprocessing.connection`
