@@ -2,7 +2,8 @@
 
 Sequences of different solvers diverge after the first expression, so to compare solvers (ours or outside
 tools) on the same problems, one reference sequence (Algorithm 1, one exact solver) is frozen and each of its
-subproblems is written as the model the exact backends solve (docs/architecture.md, "Common instances"). ``DIR`` holds:
+subproblems is written as the model the exact backends solve (docs/architecture.md, "Common instances").
+``DIR`` holds:
 
 ``PREFIX-eXX.mps``
     Expression XX's presolved model (eq. 3 after presolve, sec. 6), written as the minimisation of
