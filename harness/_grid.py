@@ -457,8 +457,9 @@ FIG10_TRANSFERS: tuple[str, ...] = (
 #: (`CLAIM_VARIATIONS`) and the two references every RMS is reported against (``dt`` and ``delta``).
 #: ``exact`` separates the exact backends: the first 40 expressions of the 1,000-shape film rig, the
 #: largest problems of its sequence (hundreds of items each), three repetitions so that `harness compare`
-#: can test their times. ``sanity`` checks the evaluation itself: every shape in an expression of its own
-#: (cap 1, no symmetry) and every expression a training example, ideal and scan-like, so that example-based
+#: can test their times. ``sanity`` checks the evaluation itself on three faces (the claims' unit of
+#: evidence): every shape in an expression of its own (cap 1, no symmetry) and every expression a training
+#: example, ideal and scan-like, so that example-based
 #: rigging has all it could ever have; it must come close to the truth (the claims table's sanity row),
 #: and ebfr's balance beta swept over five decades shows where fitting scan noise begins; anacondar must
 #: come close too. ``fig10`` is Wagner et al.'s quantitative comparison (2024, sec. 4.4): the paper's four
@@ -505,6 +506,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "cap": (1,),
         "symmetry": (False,),
         "examples": ("ideal", "scan"),
+        "seed": (0, 1, 2),
         "j_values": (10_000,),
         "time_limit": 10.0,
         "timeout": 600.0,

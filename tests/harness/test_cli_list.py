@@ -35,9 +35,18 @@ def test_every_loaded_plugin_has_a_description_with_its_overlap_or_examples() ->
 
 def test_the_table_shows_the_descriptions() -> None:
     listing = _listed()
-    assert "description" in listing
+    assert "what it is, can do and takes" in listing
     assert "Shapes in one expression may overlap: up to 10%" in listing
     assert "Ignores the training examples." in listing
+
+
+def test_the_table_reads_at_80_columns() -> None:
+    result = CliRunner(env={"COLUMNS": "80"}).invoke(cli, ["list"])
+    assert result.exit_code == 0, result.output
+    assert max(len(line) for line in result.output.splitlines()) <= 80
+    words = " ".join(line.strip() for line in result.output.splitlines())
+    assert "what it is, can do and takes" in words and "available" in words  # headers whole, not cut
+    assert "settings: workers=1: an integer in" in words  # cpsat's setting, folded at a space
 
 
 def test_a_third_party_solver_is_described_from_its_docstring(test_plugins) -> None:
