@@ -94,6 +94,10 @@ class Lost:
     crash: str = ""
 
 
+#: The timed steps of one expression row; their sum is its share of the cell's ``sequence_time``.
+_EXPRESSION_TIMES: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
+
+
 class RigChangedError(RuntimeError):
     """The rig file's content is no longer the one the run's cell ids were made from."""
 
@@ -300,11 +304,10 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
 
     expression_rows = _expression_rows(base, expressions, template.n_shapes)
     transfer_rows = _transfer_rows(base, spec, template, target, expressions)
-    timed = ("presolve_time", "build_time", "solve_time", "extra_time")
     cell_row.update(
         facts,
         max_overlap=float(solver.capabilities.max_overlap),
-        sequence_time=float(sum(row[key] for row in expression_rows for key in timed)),
+        sequence_time=float(sum(row[key] for row in expression_rows for key in _EXPRESSION_TIMES)),
         n_expressions=len(expressions),
         n_covered=expression_rows[-1]["covered"] if expression_rows else 0,
         cell_time=time.perf_counter() - started,
@@ -667,12 +670,22 @@ def failure_rows(spec: CellSpec, status: str, message: str) -> list[Row]:
     return [_finish({**spec.record_fields(), "kind": "cell", "status": status, "message": message})]
 
 
-def timeout_rows(spec: CellSpec, finished: list[Row], message: str) -> list[Row]:
+def timeout_rows(
+    spec: CellSpec, finished: list[Row], message: str, *, timeout: float, whole: bool
+) -> list[Row]:
     """The rows of a cell stopped by ``--timeout``: its ``timeout`` cell row, then the ``expression`` rows
     it had finished (read from its journal, `harness._journal`), counted in the cell row's
     ``n_expressions`` and ``n_covered``. Such a sequence was cut short: it is not checked and has no
-    transfers."""
+    transfers.
+
+    The cell row's ``cell_time`` is the ``timeout`` it exceeded, and its ``sequence_time`` is what its
+    sequence is charged: the finished expressions' times when the ``whole`` sequence had ended (the stop
+    came while checking or transferring), else at least the timeout, so that a timing comparison counts
+    the expression it was stuck in (`reports._timing.timing_samples`) instead of a cut sequence as fast.
+    """
     (cell_row,) = failure_rows(spec, "timeout", message)
+    spent = sum(float(row.get(column) or 0.0) for row in finished for column in _EXPRESSION_TIMES)
+    cell_row.update(cell_time=timeout, sequence_time=spent if whole else max(timeout, spent))
     if finished:
         cell_row.update(
             n_vertices=finished[0].get("n_vertices"),

@@ -235,11 +235,12 @@ class LocalExecutor:
         if _PHASES[slot.phase] == "starting":
             return Lost(f"worker start-up took over {STARTUP_ALLOWANCE:g}s")
         if _PHASES[slot.phase] == "warming up":
-            return timeout_rows(slot.spec, [], _warm_up_message(timeout))
+            return timeout_rows(slot.spec, [], _warm_up_message(timeout), timeout=timeout, whole=False)
         journal = read_journal(slot.journal)
         finished = [row for row in journal if row.get("kind") == "expression"]
         whole = any(row.get("kind") == SEQUENCE_END for row in journal)
-        return timeout_rows(slot.spec, finished, _timeout_message(timeout, len(finished), whole))
+        message = _timeout_message(timeout, len(finished), whole)
+        return timeout_rows(slot.spec, finished, message, timeout=timeout, whole=whole)
 
     @staticmethod
     def _crash(slot: _Slot, what: str, how: str) -> Lost:

@@ -7,7 +7,8 @@ rests on every sample and on a test (`reports._paired`), with each solver judged
   seconds of one expression (presolve, build, solve and the rest of its step) and, where the run recorded
   it, the CPU seconds of its solve (`solvers.cpu_seconds`: not the moments the machine gave to another
   job). A solve that did not finish its work (anything but `reports._tables.FINISHED`: a time limit, an
-  error) is *charged at the limit* (the row's ``time_limit``), never counted as fast.
+  error) is *charged at the limit* (the row's ``time_limit``), never counted as fast; a repetition stopped
+  by the cell's ``--timeout`` is charged the timeout at the expression it was stuck in.
 - **Paired instances.** Two runs of one case solve the same problem at expression k when their sequences
   chose the same shapes before it (the same *prefix*): such an expression is one unit, its time on each
   side the median over the run's repetitions (`paired_units`). Expressions whose prefixes differ are left
@@ -26,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from reports._paired import MIN_UNITS
-from reports._tables import CASE_COLUMNS, FINISHED, expression_rows, ok_cells
+from reports._tables import CASE_COLUMNS, FINISHED, expression_rows
 
 
 def _prefixes(rows: pd.DataFrame) -> pd.Series:
@@ -40,7 +41,9 @@ def _prefixes(rows: pd.DataFrame) -> pd.Series:
 
 
 def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
-    """One row per solve of every finished cell, with its charged seconds and CPU seconds.
+    """One row per solve of every finished cell, with its charged seconds and CPU seconds; a cell stopped
+    by ``--timeout`` keeps its finished solves and is charged the rest of its timeout at the expression it
+    was stuck in (`_stuck`).
 
     Parameters
     ----------
@@ -54,9 +57,9 @@ def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
     ``termination`` (and ``fallback`` when the records have it), ``seconds`` and ``cpu`` (NaN where the run
     did not record it), both charged at the time limit where the solve stopped there or failed.
     """
-    cells = ok_cells(records)
+    cells = records[(records["kind"] == "cell") & records["status"].isin(["ok", "timeout"])]
     rows = expression_rows(records)
-    rows = rows[rows["cell"].isin(cells["cell"])].copy()
+    rows = pd.concat([rows[rows["cell"].isin(cells["cell"])], _stuck(cells, rows)], ignore_index=True)
     limit = pd.to_numeric(rows["time_limit"], errors="coerce").astype(float)
     charged = ~rows["termination"].astype(str).isin(FINISHED) & limit.notna()
     cpu = rows["cpu_time"].astype(float) if "cpu_time" in rows else pd.Series(np.nan, index=rows.index)
@@ -65,6 +68,21 @@ def timing_samples(records: pd.DataFrame) -> pd.DataFrame:
     rows["prefix"] = _prefixes(rows)
     ended = ["termination", *(["fallback"] if "fallback" in rows else [])]
     return rows[[*CASE_COLUMNS, "repetition", "cell", "expression", "prefix", *ended, "seconds", "cpu"]]
+
+
+def _stuck(cells: pd.DataFrame, rows: pd.DataFrame) -> pd.DataFrame:
+    """Per cell stopped by ``--timeout`` in its sequence, a row for the expression it was stuck in: the
+    next one, charged what the cell's ``sequence_time`` holds beyond its finished expressions
+    (`harness._cell.timeout_rows`), with termination ``timeout`` (so, as any solve that did not finish, at
+    least its time limit); its prefix is every shape chosen before."""
+    stopped = cells[(cells["status"] == "timeout") & cells["sequence_time"].notna()]
+    finished = rows[rows["cell"].isin(stopped["cell"])].groupby("cell")
+    spent, reached = finished["seconds"].sum(), finished["expression"].max()
+    stuck = stopped.copy()
+    stuck["seconds"] = stuck["sequence_time"].astype(float) - stuck["cell"].map(spent).fillna(0.0)
+    stuck["expression"] = stuck["cell"].map(reached).fillna(0).astype(int) + 1
+    stuck = stuck[stuck["seconds"] > 0].assign(kind="expression", termination="timeout", shapes=None)
+    return stuck.assign(cpu_time=stuck["seconds"]) if "cpu_time" in rows else stuck
 
 
 def clock(old: pd.DataFrame, new: pd.DataFrame) -> str:

@@ -15,6 +15,7 @@ from harness import _plugins
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
 from registry import _atomic, _outdir
+from reports._timing import timing_samples
 from tests.harness.full_disk import FullDisk
 
 
@@ -170,6 +171,16 @@ def test_a_timed_out_cell_keeps_the_expressions_it_finished_and_is_not_run_again
         and cell["n_covered"] == greedy["covered"].iloc[-1]
     )
     assert set(finished["termination"]) == set(greedy["termination"])
+    # Timed, the repetition is charged its timeout at the expression it was stuck in, not left out as fast.
+    assert cell["cell_time"] == 2.0 and cell["sequence_time"] == 2.0
+    samples = timing_samples(records).query("solver == 'staller'")
+    assert list(samples["expression"]) == [1, 2, 3] and samples["termination"].iloc[-1] == "timeout"
+    # The first two took their own time; the third is charged the rest of the timeout and, as any solve
+    # that did not finish, at least its time limit.
+    assert samples["seconds"].iloc[:2].sum() < 2.0 and samples["seconds"].iloc[-1] == config.time_limit
+    # ... on the problem greedy solved third (the same shapes chosen before it): the two pair up.
+    greedy_samples = timing_samples(records).query("solver == 'greedy'")
+    assert samples["prefix"].iloc[-1] == greedy_samples["prefix"].iloc[2]
     assert list(journals.iterdir()) == []
     resumed = harness.run_grid(config, out, make_executor=_local(jobs=1), resume=True)
     assert resumed.already_done == 2 and not resumed.statuses
@@ -190,6 +201,11 @@ def test_a_cell_timed_out_after_its_sequence_says_so(rig_file, tmp_path, test_pl
         "while checking or transferring (no transfers)"
     )
     assert "transfer" not in set(records["kind"])
+    # Its sequence had ended: charged what its solves took, nothing for the expression after them.
+    expressions = records[records["kind"] == "expression"]
+    spent = expressions[["presolve_time", "build_time", "solve_time", "extra_time"]].astype(float).sum().sum()
+    assert cell["cell_time"] == 3.0 and cell["sequence_time"] == pytest.approx(spent)
+    assert len(timing_samples(records)) == count
 
 
 def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
