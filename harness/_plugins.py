@@ -7,6 +7,7 @@ lists the valid names.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness._grid import NO_WARP
@@ -131,13 +132,16 @@ def _examples_clause(uses_examples: bool) -> str:
 
 def expand_names(requested: Iterable[str], known: list[str], what: str, option: str) -> tuple[str, ...]:
     """Requested plugin labels (a name, or a name with settings: `harness._settings`) with ``all`` expanded
-    to every known name, in order, without repeats.
+    to every known name, in order, without repeats; a label naming a Python file (``./my_solver.py``,
+    settings allowed) registers the plugin it defines and stands for its name (`_registered`).
 
     Raises
     ------
     ValueError
         Naming the unknown names and listing the valid ones.
     """
+    requested = [_registered(label, what) for label in requested]
+    known = [*known, *(name for name in map(_plain_name, requested) if name not in known and name != ALL)]
     names: list[str] = []
     for name in requested:
         for expanded in known if name == ALL else [name]:
@@ -154,6 +158,37 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
     if not names:
         raise HarnessError(f"{option} names no {what}; valid: {', '.join(known)} or {ALL}")
     return tuple(names)
+
+
+def _plain_name(label: str) -> str:
+    return label.split("[", 1)[0]
+
+
+def _registered(label: str, what: str) -> str:
+    """``label`` with a plugin file's path (a name ending ``.py``) replaced by the name of the plugin it
+    defines, registered for this process and its workers (`solvers.add_file`, `transfer.add_file`)."""
+    path = _plain_name(label)
+    if not path.endswith(".py"):
+        return label
+    import solvers
+    import transfer
+
+    register = solvers.add_file if what == "solver" else transfer.add_file
+    return register(path) + label[len(path) :]
+
+
+def register_recorded_files(versions: dict[str, Any]) -> None:
+    """Register again the plugin files a run recorded (``run.json``'s ``versions``: a plugin whose entry
+    point is a ``.py`` file), so that ``--resume`` finds them; a file changed since is refused by the
+    version check, one that is gone by the names check."""
+    import solvers
+    import transfer
+
+    for kind, register in (("solvers", solvers.add_file), ("transfers", transfer.add_file)):
+        for entry in (versions.get(kind) or {}).values():
+            path = entry.get("entry_point", "") if isinstance(entry, dict) else ""
+            if isinstance(path, str) and path.endswith(".py") and Path(path).is_file():
+                register(path)
 
 
 def check_settings(

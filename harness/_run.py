@@ -384,6 +384,7 @@ def run_grid(
     previous = previous_run(out, resume=resume, force=force)
     changes: list[str] = []
     if previous is not None:
+        plugins.register_recorded_files(previous.get("versions") or {})
         stored = validate_config(RunConfig.from_dict(previous["config"]))
         if config is not None:
             changes += options_changed(stored, validate_config(config, constraint_origins))

@@ -5,21 +5,25 @@ library import inside methods; `PluginRegistry.availability` then asks the class
 the backend, and gives it `PROBE_SECONDS` to answer: one that does not is listed as unavailable, saying so,
 and is not asked again in the process. A plugin whose module fails to import, or that lacks what its kind
 needs, is listed as unavailable with the error; the other plugins are unaffected. Two distributions
-registering one name trigger a warning, and the first found on ``sys.path`` wins.
+registering one name trigger a warning, and the first found on ``sys.path`` wins. A plugin may also be one
+Python file, given by its path (`PluginRegistry.add_file`, `registry._plugin_files`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.metadata
 import threading
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from registry._availability import Availability
 from registry._errors import HarnessError
+from registry._plugin_files import FilePoint, defined_classes, record, recorded
 
 #: Seconds a plugin's ``availability()`` may take to answer (it is meant to be cheap: no backend import).
 PROBE_SECONDS = 5.0
@@ -118,8 +122,54 @@ class PluginRegistry:
         self._silent: dict[str, Availability] = {}
 
     @functools.cached_property
-    def _points(self) -> dict[str, importlib.metadata.EntryPoint]:
-        return collect(importlib.metadata.entry_points(group=self.group), self.kind)
+    def _points(self) -> dict[str, importlib.metadata.EntryPoint | FilePoint]:
+        points: dict[str, importlib.metadata.EntryPoint | FilePoint] = dict(
+            collect(importlib.metadata.entry_points(group=self.group), self.kind)
+        )
+        points.update((point.name, point) for point in recorded(self.group))
+        return points
+
+    def add_file(self, path: str | Path) -> str:
+        """Register the one plugin class a Python file defines, under the class's ``name``, for this
+        process and the processes it starts (`registry._plugin_files`).
+
+        Returns
+        -------
+        str
+            The name it is registered under.
+
+        Raises
+        ------
+        HarnessError
+            Naming the file: it is missing or fails to import, it defines no plugin of this kind or more
+            than one (with what each candidate lacks), or its plugin takes an installed plugin's name.
+        """
+        resolved = Path(path).expanduser().resolve()
+        if not resolved.is_file():
+            raise HarnessError(f"{path}: no such {self.kind} file")
+        candidates = defined_classes(str(resolved), str(path))
+        problems = {
+            cls.__name__: self._check(cls, str(getattr(cls, "name", ""))) if self._check else None
+            for cls in candidates
+        }
+        found = [cls for cls in candidates if problems[cls.__name__] is None]
+        if not found:
+            told = "; ".join(f"{name} {problem}" for name, problem in problems.items())
+            raise HarnessError(f"{path}: defines no {self.kind} class" + (f" ({told})" if told else ""))
+        if len(found) > 1:
+            many = ", ".join(cls.__name__ for cls in found)
+            raise HarnessError(
+                f"{path}: defines {len(found)} {self.kind} classes ({many}): keep one per file"
+            )
+        point = FilePoint(str(found[0].name), self.group, str(resolved))
+        installed = self._points.get(point.name)
+        if installed is not None and not (isinstance(installed, FilePoint) and installed == point):
+            raise HarnessError(
+                f"{path}: its {self.kind} is named {point.name!r}, as the one of {installed.value}; rename it"
+            )
+        record(point)
+        self.refresh()
+        return point.name
 
     def refresh(self) -> None:
         """Forget discovered plugins and loaded classes (after installing or removing a plugin)."""
@@ -131,7 +181,7 @@ class PluginRegistry:
         """Names of the installed plugins, sorted (no plugin module is imported)."""
         return sorted(self._points)
 
-    def entry_point(self, name: str) -> importlib.metadata.EntryPoint:
+    def entry_point(self, name: str) -> importlib.metadata.EntryPoint | FilePoint:
         """The entry point registered as ``name``.
 
         Raises
@@ -162,9 +212,17 @@ class PluginRegistry:
         """Whether plugin ``name`` can run here and why not (load errors included; never raised).
 
         A plugin without an ``availability()`` of its own is available when it loads, in the version of
-        the distribution that registers it.
+        the distribution that registers it; a plugin file's version ends with the file's digest, whatever its
+        class answers, so that a changed file is another version (``--resume`` refuses it).
         """
         point = self.entry_point(name)
+        found = self._availability(name, point)
+        if isinstance(point, FilePoint) and found:
+            own = f"{found.version}, " if found.version else ""
+            return dataclasses.replace(found, version=own + point.version)
+        return found
+
+    def _availability(self, name: str, point: importlib.metadata.EntryPoint | FilePoint) -> Availability:
         loaded = self._loaded(point)
         if isinstance(loaded, Availability):
             return loaded
@@ -206,7 +264,7 @@ class PluginRegistry:
             )
         return rows
 
-    def _load_entry(self, point: importlib.metadata.EntryPoint) -> Any:
+    def _load_entry(self, point: importlib.metadata.EntryPoint | FilePoint) -> Any:
         """The plugin, or a load-error `Availability` saying why it could not be loaded."""
         try:
             plugin = point.load()
@@ -259,11 +317,11 @@ def missing_attributes(plugin: Any, required: Iterable[str]) -> str | None:
     return f"lacks {', '.join(absent)}" if absent else None
 
 
-def _distribution_name(entry_point: importlib.metadata.EntryPoint) -> str:
+def _distribution_name(entry_point: importlib.metadata.EntryPoint | FilePoint) -> str:
     dist = getattr(entry_point, "dist", None)
     return dist.metadata["Name"] if dist is not None else ""
 
 
-def _distribution_version(entry_point: importlib.metadata.EntryPoint) -> str:
+def _distribution_version(entry_point: importlib.metadata.EntryPoint | FilePoint) -> str:
     dist = getattr(entry_point, "dist", None)
     return dist.version if dist is not None else ""

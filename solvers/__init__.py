@@ -8,7 +8,7 @@ The conformance checks for plugins live in `solvers.testing`. `Worker` runs func
 process that may crash or be killed without taking its caller along (a backend that cannot share a process
 with the others, the harness's grid cells).
 
-The plugin kit: a plugin's ``solve`` returns a `Result` (items, termination, bound); `load` (which `get`
+The plugin kit: a plugin's ``solve`` returns a `Result` (items, `Termination`, bound); `load` (which `get`
 applies) checks its arguments and turns its answer into a `packing.Solution` once for every plugin. An
 exact plugin subclasses `ExactSolver` and solves the presolved `CliqueModel`; a heuristic fills an
 `OpenExpression`, which keeps eq. 3b, the cap and the apart pairs; `package_availability` answers
@@ -52,6 +52,7 @@ if TYPE_CHECKING:
     from solvers._registry import (
         SolverUnavailableError,
         UnknownSolverError,
+        add_file,
         availability,
         get,
         info,
@@ -59,6 +60,7 @@ if TYPE_CHECKING:
         refresh,
         solver_class,
     )
+    from solvers._termination import Termination
     from solvers._worker import Worker, WorkerDied, WorkerError, wait_for_workers, worker
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -90,6 +92,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_registry": [
             "SolverUnavailableError",
             "UnknownSolverError",
+            "add_file",
             "availability",
             "get",
             "info",
@@ -97,6 +100,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "refresh",
             "solver_class",
         ],
+        "_termination": ["Termination"],
         "_worker": ["Worker", "WorkerDied", "WorkerError", "wait_for_workers", "worker"],
     },
 )

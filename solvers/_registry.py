@@ -64,6 +64,12 @@ def refresh() -> None:
     SOLVERS.refresh()
 
 
+def add_file(path: str) -> str:
+    """Register the solver class one Python file defines, under its ``name``, for this process and the
+    processes it starts (`registry.PluginRegistry.add_file`); returns that name."""
+    return SOLVERS.add_file(path)
+
+
 def names(available_only: bool = False) -> list[str]:
     """Names of the installed solver plugins, sorted.
 

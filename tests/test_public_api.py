@@ -1,4 +1,4 @@
-"""The public names that outside checks call (issues 2-7) exist with the documented signatures."""
+"""The public names that outside checks call exist with the documented signatures."""
 
 import dataclasses
 import inspect

@@ -24,7 +24,7 @@ cross-validation; `beta_curve` shows the RMS error against ground truth over ``b
 from transfer._base import Transfer
 from transfer._expressions import training_expressions
 from transfer._metrics import TransferMetrics, metrics, rms
-from transfer._registry import availability, get, info, names
+from transfer._registry import add_file, availability, get, info, names
 from transfer._scan import ScanModel, scan_expressions
 from transfer._sweep import BetaCurve, beta_curve
 
@@ -33,6 +33,7 @@ __all__ = [
     "ScanModel",
     "Transfer",
     "TransferMetrics",
+    "add_file",
     "availability",
     "beta_curve",
     "get",

@@ -27,6 +27,12 @@ def _check(plugin: Any, name: str) -> str | None:
 TRANSFERS = PluginRegistry(GROUP, "transfer method", _check)
 
 
+def add_file(path: str) -> str:
+    """Register the transfer method class one Python file defines, under its ``name``, for this process
+    and the processes it starts (`registry.PluginRegistry.add_file`); returns that name."""
+    return TRANSFERS.add_file(path)
+
+
 def names() -> list[str]:
     """Names of the installed transfer methods, sorted (no plugin module is imported)."""
     return TRANSFERS.names()

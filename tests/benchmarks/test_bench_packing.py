@@ -1,6 +1,6 @@
 """Speed of the packing analysis, of the presolve and of the problems of a whole expression sequence.
 
-Targets (issues 3 and 4): whole analysis (binary shapes, importance, mirror map, both symmetries, presolve)
+Targets: whole analysis (binary shapes, importance, mirror map, both symmetries, presolve)
 <= 1 s on `toon` (N~11.7k, K=65) and `female` (N~5k, K=265); presolve of the full problem from the vertices
 and of one expression's problem <= 5 ms on `female`; every problem of a whole greedy sequence, each derived
 from the previous one's presolved conflict sets, <= 12 ms on `female` (the packing share of the 20 ms greedy

@@ -1,4 +1,4 @@
-"""Solver speed and quality on the generated presets (issue: first optimal expression <= 30 ms including the
+"""Solver speed and quality on the generated presets (target: first optimal expression <= 30 ms including the
 model build, >= 50x faster than the paper's formulation in the same run; whole sequences; heuristic quality).
 
 Run the timings with ``pytest tests/benchmarks/test_bench_solvers.py --benchmark-enable``; by default each

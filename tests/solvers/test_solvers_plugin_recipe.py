@@ -1,5 +1,6 @@
-"""The README's solver plugin recipe works as written: its three files, copied from the README into a
-folder, install into a fresh environment, the harness lists the plugin there and its tests pass.
+"""The README's solver plugin recipe works as written: its three files (the plugin, its tests, the
+``pyproject.toml`` that distributes it), copied from the README into a folder, install into a fresh
+environment, the harness lists the plugin there and its tests pass.
 
 Nothing is fetched: the fresh environment sees this one's packages (the harness, pytest, pip and
 setuptools) through a site directory, and the plugin is built without build isolation.
@@ -18,7 +19,7 @@ from tests.plugin_distribution import OFFLINE_INSTALL, fresh_environment, run_in
 README = Path(__file__).resolve().parents[2] / "README.md"
 SECTION = "## Adding a solver plugin"
 #: The README's code blocks of the recipe, in order, and the file each one is.
-FILES = ("my_solver.py", "pyproject.toml", "test_my_solver.py")
+FILES = ("my_solver.py", "test_my_solver.py", "pyproject.toml")
 
 
 def recipe_files() -> dict[str, str]:
