@@ -141,18 +141,10 @@ class ExactSolver:
         call, and each component stopped answers the better of its incumbent and Algorithm 2's packing.
 
         A ``warm_start`` plugin gets Algorithm 2's packing of the kernel (`start_packing`), or on a fixed
-        kernel the best packing found before. Algorithm 1 removes every chosen item before the next
-        expression, so the previous expression's optimum has nothing left to offer as a start. Nor does any
-        other piece of an optimum carry over: without a cap every connected component of the conflict graph
-        holding an item of positive weight gives the optimum at least one item, so no component survives an
-        expression untouched (and under a cap the components are not independent at all); the kernels of the
-        60 largest problems of a 2,000-shape film sequence are one component each. The previous optimum bounds
-        the next one from above only (when ``beta = 0`` keeps the weights), while a cut-off prunes from below,
-        as the start's objective already does. What speeds the proofs up is the tighter relaxation of the
-        grown clique rows, and what that relaxation proves before the backend starts: on kernels of
-        `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose reduced-cost bound falls below a
-        good packing are left out (`solvers._fixing.solve_with_fixing`), which halves the models of the
-        largest problems, and so are the kept items that other kept items then dominate.
+        kernel the best packing found before (why no earlier optimum helps: docs/architecture.md, "What
+        makes it fast"). On kernels of `solvers._fixing.FIXING_MIN_ITEMS` items or more, the items whose
+        reduced-cost bound falls below a good packing are left out (`solvers._fixing.solve_with_fixing`),
+        and so are the kept items that other kept items then dominate.
         """
         clock = Stopwatch()
         if problem.n_items == 0:
