@@ -140,8 +140,10 @@ def expand_names(requested: Iterable[str], known: list[str], what: str, option: 
     ValueError
         Naming the unknown names and listing the valid ones.
     """
-    requested = [_registered(label, what) for label in requested]
-    known = [*known, *(name for name in map(_plain_name, requested) if name not in known and name != ALL)]
+    given = list(requested)
+    requested = [_registered(label, what) for label in given]
+    registered = [_plain_name(label) for label, was in zip(requested, given, strict=True) if label != was]
+    known = [*known, *(name for name in registered if name not in known)]
     names: list[str] = []
     for name in requested:
         for expanded in known if name == ALL else [name]:

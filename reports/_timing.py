@@ -76,11 +76,16 @@ def _stuck(cells: pd.DataFrame, rows: pd.DataFrame) -> pd.DataFrame:
     (`harness._cell.timeout_rows`), with termination ``timeout`` (so, as any solve that did not finish, at
     least its time limit); its prefix is every shape chosen before."""
     stopped = cells[(cells["status"] == "timeout") & cells["sequence_time"].notna()]
+    if stopped.empty:
+        return stopped
     finished = rows[rows["cell"].isin(stopped["cell"])].groupby("cell")
-    spent, reached = finished["seconds"].sum(), finished["expression"].max()
+    spent = finished["seconds"].sum().astype(float)
+    reached = finished["expression"].max().astype(float)
     stuck = stopped.copy()
-    stuck["seconds"] = stuck["sequence_time"].astype(float) - stuck["cell"].map(spent).fillna(0.0)
-    stuck["expression"] = stuck["cell"].map(reached).fillna(0).astype(int) + 1
+    stuck["seconds"] = stuck["sequence_time"].astype(float) - stuck["cell"].map(spent).astype(float).fillna(
+        0.0
+    )
+    stuck["expression"] = stuck["cell"].map(reached).astype(float).fillna(0.0).astype(int) + 1
     stuck = stuck[stuck["seconds"] > 0].assign(kind="expression", termination="timeout", shapes=None)
     return stuck.assign(cpu_time=stuck["seconds"]) if "cpu_time" in rows else stuck
 
