@@ -14,7 +14,8 @@ if TYPE_CHECKING:
     from rigs._camera import frontal_camera, three_quarter_camera
     from rigs._character import Character
     from rigs._faceunits import cached_faceunits, fetch_faceunits, load_faceunits
-    from rigs._formats import RigFormat, detect_format, formats, register_format
+    from rigs._format_table import RigFormat
+    from rigs._formats import detect_format, formats, register_format
     from rigs._generate import PRESETS, PresetSpec, generate
     from rigs._gltf_surface import GltfSurface
     from rigs._gltf_write import glb_bytes
@@ -48,7 +49,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "_camera": ["frontal_camera", "three_quarter_camera"],
         "_character": ["Character"],
-        "_formats": ["RigFormat", "detect_format", "formats", "register_format"],
+        "_format_table": ["RigFormat"],
+        "_formats": ["detect_format", "formats", "register_format"],
         "_faceunits": ["cached_faceunits", "fetch_faceunits", "load_faceunits"],
         "_generate": ["PRESETS", "PresetSpec", "generate"],
         "_io": ["load", "load_with_inputs", "moving_everywhere", "save"],

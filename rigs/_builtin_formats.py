@@ -1,4 +1,5 @@
-"""The rig formats this package reads and writes, registered in the order they are recognised.
+"""The rig formats this package reads and writes, entered in the table of formats (`rigs._format_table`) in
+the order they are recognised; `rigs._formats` imports this module before it looks any format up.
 
 * ``npz``: ``*.npz``, the native archive (`rigs._npz`), loaded verbatim;
 * ``gltf``: ``*.gltf``, ``*.glb``, morph targets of one mesh primitive (`rigs._gltf`);
@@ -15,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from rigs._formats import RigFormat, register_format
+from rigs._format_table import RigFormat, enter
 from rigs._obj_folder import MANIFEST_LIMIT, load_obj_folder, load_obj_neutral
 from rigs._rig import Rig
 from rigs._safe import read_json
@@ -59,7 +60,7 @@ def _load_obj_manifest(path: Path, *, neutral: str | Path | None = None) -> Rig:
     return load_obj_folder(path.parent, neutral=neutral)
 
 
-register_format(
+enter(
     RigFormat(
         "npz",
         (".npz",),
@@ -70,13 +71,13 @@ register_format(
         verbatim=True,
     )
 )
-register_format(RigFormat("gltf", (".gltf", ".glb"), "rigs._gltf:load_gltf", self_contained=(".glb",)))
-register_format(
+enter(RigFormat("gltf", (".gltf", ".glb"), "rigs._gltf:load_gltf", self_contained=(".glb",)))
+enter(
     RigFormat(
         "usd", USD_SUFFIXES, "rigs._usd:load_usd", write="rigs._usd:save_usd", write_suffixes=USD_SUFFIXES
     )
 )
-register_format(
+enter(
     RigFormat(
         "target",
         (".zip", ".json"),
@@ -86,7 +87,7 @@ register_format(
         self_contained=(".zip",),
     )
 )
-register_format(
+enter(
     RigFormat(
         "obj-folder",
         (".obj", ".json"),

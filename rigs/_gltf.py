@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs._gltf_appearance import appearance, surface_of
 from rigs._gltf_buffers import Buffers
 from rigs._gltf_document import (
     COMPRESSIONS,
@@ -35,7 +36,6 @@ from rigs._gltf_document import (
     open_gltf,
     world_matrix,
 )
-from rigs._gltf_surface import appearance, surface_of
 from rigs._gltf_weld import collapsed, weld_seams
 from rigs._provenance import Provenance, Surface, Weld
 from rigs._rig import Rig, RigError, RigWarning

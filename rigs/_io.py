@@ -23,15 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from rigs._formats import (
-    detect_format,
-    format_for_writing,
-    plugin_origin,
-    read_with,
-    reader_of,
-    rig_format,
-    write_with,
-)
+from rigs._format_table import plugin_origin
+from rigs._formats import detect_format, format_for_writing, read_with, reader_of, rig_format, write_with
 from rigs._inputs import RigInputs, record_folder, recording
 from rigs._provenance import LoadReport, NoiseFloor
 from rigs._rig import Rig, RigError, RigWarning, vector_lengths
@@ -56,7 +49,7 @@ def load_with_inputs(path: str | Path, **options: Any) -> tuple[Rig, RigInputs]:
 
     Notes
     -----
-    A rig of a plugin format (`rigs._formats.plugin_origin`) is recorded as every file of its folder (the
+    A rig of a plugin format (`rigs._format_table.plugin_origin`) is recorded as every file of its folder (the
     rig's folder, or the folder of its file) and that folder's listing: a plugin may open files by other
     means than `rigs._safe`, which records what the built-in readers open.
     """

@@ -21,8 +21,9 @@ from typing import TYPE_CHECKING, Any
 
 from render import shape_colours
 from session._mesh import ON_TARGET, TargetMesh, expression_name, expression_poses, session_meshes
+from session._picture_set import Legend
 from session._pictures import Scene, session_pictures
-from session._sheet import Card, Legend, scan_sheet
+from session._sheet import Card, scan_sheet
 from session._words import plain_words
 
 if TYPE_CHECKING:

@@ -49,22 +49,14 @@ from render import (
 )
 from session._gaze import Arrow, draw_arrows, gaze_arrows
 from session._mesh import expression_name, expression_poses
+from session._picture_set import PAINTED, POSES, SIZE, Legend, face_size
 
 if TYPE_CHECKING:
     from PIL import Image, ImageDraw, ImageFont
 
     from rigs import Rig
-    from session._sheet import Legend
 
 PICTURES = "pictures"
-#: Key (in an expression's ``files``) of the coloured front picture, and of the bare poses with the turn
-#: of their camera from the front in degrees.
-PAINTED = "front"
-POSES = {"front_pose": 0.0, "three_quarter_pose": 35.0}
-#: Size of the coloured picture in pixels (width, height); the face takes `FACE_SHARE` of its width on
-#: the left, the legend the rest. A pose picture is the face's part alone.
-SIZE = (420, 400)
-FACE_SHARE = 0.62
 BACKGROUND = np.array([1.0, 1.0, 1.0])
 #: Grey level of a bare pose (its pictures are greyscale on white: a third of the data to encode).
 CLAY = 0.84
@@ -77,11 +69,6 @@ _PNG_STRATEGY = zlib.Z_RLE
 _MOST_THREADS = 8
 #: Legend text height in pixels; the legend shrinks down to the smallest to fit its lines.
 _LEGEND_PX, _SMALLEST_PX = 11, 6
-
-
-def face_size() -> tuple[int, int]:
-    """(width, height) in pixels of the face in every picture: a pose picture's size."""
-    return round(FACE_SHARE * SIZE[0]), SIZE[1]
 
 
 class Rendering:
@@ -395,8 +382,3 @@ def _font(pixels: int, thread: int) -> ImageFont.FreeTypeFont:
 
     package = Path(str(importlib.util.find_spec("matplotlib").origin)).parent
     return ImageFont.truetype(str(package / "mpl-data" / "fonts" / "ttf" / "DejaVuSans.ttf"), pixels)
-
-
-def picture_files(files: Mapping[str, str]) -> list[tuple[str, str]]:
-    """(key, file) of an expression's pictures as the scan sheet shows them: coloured, then the poses."""
-    return [(key, files[key]) for key in (PAINTED, *POSES) if key in files]

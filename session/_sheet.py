@@ -27,10 +27,7 @@ import numpy as np
 
 from session._actor import Step, actor_steps, is_gaze
 from session._notes import td_notes
-from session._pictures import FACE_SHARE, PAINTED, POSES, SIZE, face_size, picture_files
-
-#: Each shape of an expression as its picture shows it: ``(plain words, shape name, RGB colour, extra?)``.
-Legend = list[tuple[str, str, np.ndarray, bool]]
+from session._picture_set import FACE_SHARE, PAINTED, POSES, SIZE, Legend, face_size, picture_files
 
 
 class Card(TypedDict):

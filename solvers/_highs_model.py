@@ -1,6 +1,6 @@
 """HiGHS models from arrays through highspy: configured solvers, row-wise LPs and MILPs, start solutions.
 
-Shared by the ``highs`` plugin (eq. 3), the colouring model of the fewest expressions (`solvers._minimum`),
+Shared by the ``highs`` plugin (eq. 3), the colouring model of the fewest expressions (`solvers._colouring`),
 MPS export (`solvers._mps`) and the LP relaxation of reduced-cost fixing (`solvers._fixing`). highspy must
 be the HiGHS that OR-Tools bundles to share a process with it (docs/architecture.md; `solvers.highs`).
 """

@@ -100,7 +100,7 @@ class HighsSolver(ExactSolver):
 
     def solve_colouring(self, problem, start, lower, *, time_limit, seed):
         """The fewest expressions covering every item, as a HiGHS MILP of the colouring model."""
-        from solvers._minimum import colour_highs
+        from solvers._colouring import colour_highs
 
         return colour_highs(problem, start, lower, time_limit, seed)
 

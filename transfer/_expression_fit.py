@@ -28,8 +28,8 @@ from transfer._frames import edge_vectors
 from transfer._gcv import Spectra
 
 if TYPE_CHECKING:
+    from transfer._regularisation import Regularisation
     from transfer._setup import TransferSetup
-    from transfer.ebfr import Regularisation
 
 #: Fitted shapes of one expression: (shapes, free vertices, (V, 3, len(shapes)) displacements) per
 #: constraint set, as `transfer._setup.TransferSetup.solve` yields them.

@@ -14,14 +14,8 @@ import packing
 import render
 import rigs
 from render._raster import Backdrop, Frame, Motion, rasterise, vertex_normals
-from session._pictures import (
-    SIZE,
-    _legend_picture,
-    face_size,
-    legend_layout,
-    prepare_scene,
-    session_pictures,
-)
+from session._picture_set import SIZE, face_size
+from session._pictures import _legend_picture, legend_layout, prepare_scene, session_pictures
 from session._words import plain_words
 
 FRONT = np.eye(3)  # rows right, up, towards the viewer: x right, y up, z nearer

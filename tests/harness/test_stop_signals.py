@@ -24,8 +24,9 @@ import solvers
 from harness.cli import main
 from registry import OutputFolderError, claim, handle_stop_signals, stop_signal, stop_signals_deferred
 from registry._outdir import MANIFEST_NAME
-from solvers._minimum import colour_cpsat
-from solvers.cpsat import CpSatSolver, interruptible
+from solvers._colouring import colour_cpsat
+from solvers._cpsat_run import interruptible
+from solvers.cpsat import CpSatSolver
 from solvers.greedy import GreedySolver
 from tests.harness.cli_helpers import assert_one_line_error, invoke
 

@@ -15,7 +15,8 @@ import rigs
 from harness._rigspec import input_paths
 from harness.cli import cli
 from rigs import Rig, RigError
-from rigs._formats import _FORMATS, RigFormat, register_format
+from rigs._format_table import REGISTERED, RigFormat
+from rigs._formats import register_format
 from rigs._safe import read_bytes
 
 
@@ -54,7 +55,7 @@ POINTS = RigFormat(
 def points_format(monkeypatch):
     """The registry with the ``points`` format added (as a format module would at import)."""
     rigs.formats()  # the built-in formats first
-    monkeypatch.setattr("rigs._formats._FORMATS", dict(_FORMATS))
+    monkeypatch.setattr("rigs._format_table.REGISTERED", dict(REGISTERED))
     register_format(POINTS)  # the one registration line
     return POINTS
 

@@ -16,9 +16,10 @@ import packing
 import rigs
 import solvers
 from packing import problem_from_incidence
+from solvers._cpsat_run import integer_weights
 from solvers._model import CliqueModel
 from solvers._reduce import reduce_problem
-from solvers.cpsat import _model_proto, integer_weights
+from solvers.cpsat import _model_proto
 from solvers.greedy import greedy_items
 from solvers.testing import brute_force_optimum, face_like_problem, random_problem
 
