@@ -48,17 +48,16 @@ class ExactSolver:
     Subclasses set ``name``, ``capabilities`` and ``availability`` as any plugin, and implement
     `solve_model`. ``reduces`` (default True) applies `solvers._reduce.reduce_problem` first, so
     ``solve_model`` gets the model of the kernel, its rows grown to maximal cliques of the conflict graph
-    when ``grows_cliques`` (default True, `solvers._cliques.grown_cliques`: the same feasible packings, a
-    tighter relaxation; False solves the kernel's conflict sets as they are, for comparisons), and
-    without the items reduced-cost fixing leaves out when ``fixes_by_reduced_costs`` (default True,
-    `solvers._fixing`; ``solve_model`` may then be called twice, the second time on a larger model, when
-    the first fixing's target was not reached; False solves the whole kernel, for comparisons). A kernel
-    of at most `solvers._enumerate.ENUMERATION_MAX_ITEMS` items is solved by listing its packings, without
-    ``solve_model``, when ``enumerates_small_kernels`` (default True; False sends it to the backend, for
-    comparisons). Without a binding cap, a kernel whose conflict graph falls into several connected
-    components is solved component by component when ``decomposes`` (default True; False solves it whole,
-    for comparisons). A plugin that must see the problem as given (the paper's per-vertex formulation,
-    ``naive-pulp-cbc``) sets ``reduces`` False and overrides `solve_problem`.
+    (`solvers._cliques.grown_cliques`: the same feasible packings, a tighter relaxation), without the items
+    reduced-cost fixing leaves out (`solvers._fixing`; ``solve_model`` may then be called twice, the second
+    time on a larger model, when the first fixing's target was not reached). A kernel of at most
+    `solvers._enumerate.ENUMERATION_MAX_ITEMS` items is solved by listing its packings, without
+    ``solve_model``; without a binding cap, a kernel whose conflict graph falls into several connected
+    components is solved component by component. A plugin that must see the problem as given (the paper's
+    per-vertex formulation, ``naive-pulp-cbc``) sets ``reduces`` False and overrides `solve_problem`. The
+    private switches ``_grows_cliques``, ``_fixes_by_reduced_costs``, ``_enumerates_small_kernels`` and
+    ``_decomposes`` turn one reduction off for the project's own comparisons; they are no part of the
+    plugin contract.
 
     A subclass that declares ``Capabilities(warm_start=True)`` accepts ``start`` in ``solve_model``.
     The start is opted into by that typed flag rather than detected from the signature: it is declared
@@ -76,10 +75,10 @@ class ExactSolver:
     name: ClassVar[str]
     capabilities: ClassVar[Capabilities]
     reduces: ClassVar[bool] = True
-    grows_cliques: ClassVar[bool] = True
-    fixes_by_reduced_costs: ClassVar[bool] = True
-    enumerates_small_kernels: ClassVar[bool] = True
-    decomposes: ClassVar[bool] = True
+    _grows_cliques: ClassVar[bool] = True
+    _fixes_by_reduced_costs: ClassVar[bool] = True
+    _enumerates_small_kernels: ClassVar[bool] = True
+    _decomposes: ClassVar[bool] = True
 
     def solve_model(
         self, model: CliqueModel, *, time_limit: float | None, seed: int, start: Sequence[int] = ()
@@ -186,7 +185,7 @@ class ExactSolver:
         (`kernel_neighbourhoods`)."""
         kept = reduction.kept
         closed = kernel_neighbourhoods(problem.conflict_bits, kept, problem.n_items)
-        if not self.decomposes or cap_binds or kept.size <= ENUMERATION_MAX_ITEMS:
+        if not self._decomposes or cap_binds or kept.size <= ENUMERATION_MAX_ITEMS:
             return [(reduction, closed)]
         pieces = kernel_components(closed)
         if len(pieces) == 1:
@@ -214,7 +213,7 @@ class ExactSolver:
         neighbourhoods of ``kernel.kept``."""
         clock = Stopwatch()
         kept = kernel.kept
-        if self.enumerates_small_kernels and kept.size <= ENUMERATION_MAX_ITEMS:
+        if self._enumerates_small_kernels and kept.size <= ENUMERATION_MAX_ITEMS:
             weights = np.asarray(problem.weights, dtype=np.float64)[kept]
             conflicts = unpack_bit_rows(closed, kept.size)
             cap = problem.cap if cap_binds else None
@@ -223,10 +222,10 @@ class ExactSolver:
             message = f"kernel of {kept.size} items solved by enumeration"
             result = Result(items, Termination.OPTIMAL, problem.objective(items), message=message)
             return _Part(result, None, prepare_time, clock.lap())
-        model = grown_cliques(kernel.cut_model(), closed) if self.grows_cliques else kernel.model
+        model = grown_cliques(kernel.cut_model(), closed) if self._grows_cliques else kernel.model
         start = start_packing(problem, kernel) if self.capabilities.warm_start else None
         costs = None
-        if self.fixes_by_reduced_costs:
+        if self._fixes_by_reduced_costs:
             costs = reduced_costs(model, () if start is None else start, closed)
         prepare_time = clock.lap()
         if costs is None:

@@ -170,9 +170,9 @@ def _loaded(solver: Any) -> LoadedSolver:
     An exact plugin (`solvers.ExactSolver`) is checked on a copy that sends every kernel to its backend:
     the conformance problems are small enough for the base to solve them all by enumeration otherwise."""
     loaded = load(solver)
-    if isinstance(loaded.plugin, ExactSolver) and loaded.plugin.enumerates_small_kernels:
+    if isinstance(loaded.plugin, ExactSolver) and loaded.plugin._enumerates_small_kernels:
         backend_only = copy.copy(loaded.plugin)
-        backend_only.enumerates_small_kernels = False
+        backend_only._enumerates_small_kernels = False
         loaded = load(backend_only)
     found = loaded.availability()
     if not found:

@@ -209,7 +209,7 @@ def test_film_scale_exact_sequences(benchmark, speed_target, n_shapes, name):
     and how much faster."""
     rig, analysis = _film_analysis(n_shapes)
     loaded = available(name)
-    plain = variant(name, "Unfixed", fixes_by_reduced_costs=False)
+    plain = variant(name, "Unfixed", _fixes_by_reduced_costs=False)
 
     def cpu_seconds(solver):
         start = time.process_time()

@@ -20,6 +20,6 @@ def available(name: str) -> LoadedSolver:
 
 def variant(name: str, label: str, **attributes: Any) -> LoadedSolver:
     """The plugin ``name`` (`available`) with class ``attributes`` replaced, e.g.
-    ``variant("cpsat", "Unfixed", fixes_by_reduced_costs=False)``; ``label`` ends its class name."""
+    ``variant("cpsat", "Unfixed", _fixes_by_reduced_costs=False)``; ``label`` ends its class name."""
     plugin = type(available(name).plugin)
     return solvers.load(type(f"{plugin.__name__}{label}", (plugin,), attributes))

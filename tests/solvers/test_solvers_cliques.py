@@ -76,7 +76,7 @@ def test_grown_rows_allow_exactly_the_packings_the_conflict_sets_allow(seed, cap
 
 def _plain(name: str):
     """The plugin ``name`` solving the kernel's conflict sets as they are (no grown cliques)."""
-    return variant(name, "Plain", grows_cliques=False)
+    return variant(name, "Plain", _grows_cliques=False)
 
 
 @pytest.mark.parametrize("name", EXACT)

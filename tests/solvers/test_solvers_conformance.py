@@ -194,7 +194,7 @@ def test_an_exact_plugin_answering_items_outside_its_model_is_an_error():
     class Wrapping(solvers.ExactSolver):
         name = "wrapping"
         capabilities = Capabilities(exact=True, time_limit=False)
-        enumerates_small_kernels = False  # every kernel goes to the backend
+        _enumerates_small_kernels = False  # every kernel goes to the backend
 
         @classmethod
         def availability(cls):

@@ -21,7 +21,7 @@ from tests.solvers.plugin_variants import variant
 
 def _backend_only(name: str):
     """The plugin ``name`` sending every kernel to its backend."""
-    return variant(name, "Backend", enumerates_small_kernels=False)
+    return variant(name, "Backend", _enumerates_small_kernels=False)
 
 
 @settings(max_examples=60, deadline=None)

@@ -25,7 +25,7 @@ EXACT = ("cpsat", "highs")
 
 def _plain(name: str):
     """The plugin ``name`` without reduced-cost fixing."""
-    return variant(name, "Unfixed", fixes_by_reduced_costs=False)
+    return variant(name, "Unfixed", _fixes_by_reduced_costs=False)
 
 
 @functools.cache

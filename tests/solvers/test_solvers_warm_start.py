@@ -69,8 +69,8 @@ class _Scripted(solvers.ExactSolver):
 
     name = "scripted"
     capabilities = Capabilities(exact=True, time_limit=True, warm_start=True)
-    fixes_by_reduced_costs = False
-    enumerates_small_kernels = False
+    _fixes_by_reduced_costs = False
+    _enumerates_small_kernels = False
     answer: str = "none"
     starts: list[tuple[int, ...]] = []
 
