@@ -10,20 +10,6 @@ Names are imported from their modules on first use (PEP 562), so that ``harness 
 without importing NumPy.
 """
 
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
 import lazy_loader
 
-if TYPE_CHECKING:
-    from session._files import SHEET_FILE
-    from session._pack import EXPRESSIONS_FILE, PackConfig, PackResult, pack
-
-__getattr__, __dir__, __all__ = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "_files": ["SHEET_FILE"],
-        "_pack": ["EXPRESSIONS_FILE", "PackConfig", "PackResult", "pack"],
-    },
-)
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

@@ -3,10 +3,10 @@ knowing only the modules below it, and which module is imported first never deci
 
 Every import counts: at the top, inside a function, under ``if TYPE_CHECKING:``, relative or absolute, and
 ``importlib.import_module`` of a constant name. ``from pkg import name`` is an edge to the submodule
-``pkg.name`` when there is one, else to the module a lazy ``__getattr__`` table (lazy_loader) of the package
-loads for ``name``, else to the package's ``__init__``. A lazy table itself is not an import: ``__init__``
-loads its entries only when a name is used, so it adds no edge from ``__init__``; the imports an
-``__init__`` writes out (eager ones, or a ``TYPE_CHECKING`` mirror of the table) count like any other.
+``pkg.name`` when there is one, else to the module the package's lazy loader loads for ``name`` (its
+``__init__.pyi``, `lazy_loader.attach_stub`), else to the package's ``__init__``. A lazy table itself is not
+an import: ``__init__`` loads its entries only when a name is used, so it adds no edge from ``__init__``; the
+imports an ``__init__`` writes out count like any other.
 """
 
 from __future__ import annotations
@@ -31,21 +31,18 @@ def module_name(path: Path, root: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def lazy_table(tree: ast.Module, package: str) -> dict[str, str]:
-    """The module of each name in the ``lazy_loader.attach(..., submod_attrs={...})`` of an ``__init__``."""
-    table = {}
-    for node in ast.walk(tree):
-        if not (isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "attach"):
-            continue
-        for keyword in node.keywords:
-            if keyword.arg != "submod_attrs" or not isinstance(keyword.value, ast.Dict):
-                continue
-            for key, names in zip(keyword.value.keys, keyword.value.values, strict=True):
-                if isinstance(key, ast.Constant) and isinstance(names, ast.List | ast.Tuple):
-                    for name in names.elts:
-                        if isinstance(name, ast.Constant):
-                            table[name.value] = f"{package}.{key.value}"
-    return table
+def lazy_table(package: str, root: Path = ROOT) -> dict[str, str]:
+    """The module of each name a package's lazy loader attaches: the ``from .module import name`` lines of
+    its ``__init__.pyi`` (`lazy_loader.attach_stub`)."""
+    stub = root / package / "__init__.pyi"
+    if not stub.exists():
+        return {}
+    return {
+        alias.name: f"{package}.{node.module}"
+        for node in ast.parse(stub.read_text(), str(stub)).body
+        if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module
+        for alias in node.names
+    }
 
 
 def imported_modules(
@@ -85,8 +82,7 @@ def import_graph(package: str, root: Path = ROOT) -> nx.DiGraph:
     """The imports between the modules of ``package`` under ``root``: importer to imported."""
     names = {path: module_name(path, root) for path in sorted((root / package).rglob("*.py"))}
     modules = set(names.values())
-    init = root / package / "__init__.py"
-    lazy = lazy_table(ast.parse(init.read_text(), str(init)), package) if init.exists() else {}
+    lazy = lazy_table(package, root)
     graph = nx.DiGraph()
     graph.add_nodes_from(modules)
     for path, name in names.items():
@@ -129,9 +125,9 @@ def test_the_graph_sees_every_kind_of_import(tmp_path: Path) -> None:
     package = tmp_path / "pkg"
     package.mkdir()
     (package / "__init__.py").write_text(
-        "import lazy_loader\n"
-        "__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={'_lazy': ['Lazy']})\n"
+        "import lazy_loader\n__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)\n"
     )
+    (package / "__init__.pyi").write_text("from ._lazy import Lazy as Lazy\n")
     (package / "_a.py").write_text(
         "from typing import TYPE_CHECKING\n"
         "from . import _b\n"
