@@ -19,17 +19,14 @@ the objective is rejected, and an expression of a solver that ran to its end mus
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
-import enum
 import functools
 import os
 import socket
 import time
 import types
-import typing
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -40,10 +37,11 @@ import rigs
 import solvers
 from harness import _animation, _replay
 from harness import _plugins as plugins
-from harness._grid import NO_WARP, CellSpec, rig_digest
+from harness._cell_rigs import RigChangedError, packing_params, rig_pair, template_rig
+from harness._grid import NO_WARP, CellSpec
 from harness._journal import SEQUENCE_END, append_row
 from harness._permute import permuted_solver
-from harness._rigspec import is_rig_file, resolve_rig
+from harness._rows import RecordValue, Row, expression_record
 from harness._settings import split_label
 from packing import Expression, Termination
 from registry import BoundedMemo
@@ -53,23 +51,7 @@ if TYPE_CHECKING:
     from rigs import Rig
     from solvers import LoadedSolver
 
-#: A value of one records column (`harness._records`): a plain number, string, flag, list or null.
-RecordValue = str | int | float | bool | list[str] | list[float] | None
-#: One row of the records table, by column name.
-Row = dict[str, RecordValue]
-#: The plain Python type of a records column: ``bool``, ``int``, ``float``, ``str`` or a list of one.
-ColumnType = type | types.GenericAlias
 
-#: Attributes of `packing.Expression` its ``expression`` row does not record: the item labels name its
-#: shapes again, the solution is recorded through the attributes the expression reads from it, and the
-#: solver's backend and version are the cell row's ``backend_version``.
-UNRECORDED_ATTRIBUTES = frozenset({"items", "solution", "backend", "version"})
-#: Records columns named otherwise than the `packing.Expression` attribute they record.
-_COLUMN_NAMES = {"index": "expression"}
-_SCALAR_TYPES = (bool, int, float, str)
-
-#: This process's last template and warped rigs, by (rig, digest, seed, warp).
-_RIGS: BoundedMemo[Rig] = BoundedMemo(4)
 #: Transfer errors by (rig, warp, method, examples, weights): solvers that agree share one computation.
 _TRANSFERS: BoundedMemo[Row] = BoundedMemo(512)
 #: Estimates (K, N, 3) of methods that ignore the training expressions, by (rig, warp, method).
@@ -98,72 +80,9 @@ class Lost:
 _EXPRESSION_TIMES: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
 
 
-class RigChangedError(RuntimeError):
-    """The rig file's content is no longer the one the run's cell ids were made from."""
-
-
 class CellSetupError(RuntimeError):
     """A machine other than the harness's cannot set a cell up: its rig cannot be built there, or one of
     its plugins does not load there (not installed, another version)."""
-
-
-#: Identifies a cell's template rig: (rig argument, content digest, seed).
-TemplateKey = tuple[str, str, int]
-
-
-def template_key(spec: CellSpec) -> TemplateKey:
-    """The key of a cell's template rig: cells with one key share one template."""
-    return spec.rig, spec.rig_digest, spec.rig_seed
-
-
-def generated(spec: CellSpec) -> bool:
-    """Whether a cell's template rig is generated from a preset's name and seed (it reads no file)."""
-    return not is_rig_file(spec.rig) and spec.rig in rigs.PRESETS
-
-
-def verified_template(spec: CellSpec) -> Rig:
-    """The template rig of a cell, after checking that its content still has the cell's digest (a rig file
-    is read once: the rig returned is the content checked).
-
-    Raises
-    ------
-    RigChangedError
-        When a rig file no longer has the content digest of ``spec.rig_digest``.
-    """
-    if not (spec.rig_digest and is_rig_file(spec.rig)):
-        return resolve_rig(spec.rig, seed=spec.rig_seed)
-    rig, inputs = rigs.load_with_inputs(spec.rig)
-    found = rig_digest(spec.rig, spec.rig_seed, inputs)
-    if found != spec.rig_digest:
-        raise RigChangedError(
-            f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
-            f"the run's cells were made for {spec.rig_digest[:19]}...)"
-        )
-    return rig
-
-
-def _template(spec: CellSpec, given: Rig | None) -> Rig:
-    """A cell's template rig, cached per process: ``given`` (its content as the harness read it), else read
-    from ``spec.rig`` (`verified_template`)."""
-    key = (*template_key(spec), NO_WARP)
-    return _RIGS.get_or_build(key, lambda: verified_template(spec) if given is None else given)
-
-
-def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
-    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
-
-    ``template``, when given, is the template's content read by the harness (`verified_template`), used
-    instead of reading ``spec.rig`` here.
-
-    Raises
-    ------
-    RigChangedError
-        When a rig file no longer has the content digest of ``spec.rig_digest``.
-    """
-    source = _template(spec, template)
-    if spec.warp == NO_WARP:
-        return source, source
-    return source, _RIGS.get_or_build((*template_key(spec), spec.warp), lambda: rigs.warp(source, spec.warp))
 
 
 def set_up(spec: CellSpec, template: Rig | None = None) -> None:
@@ -177,7 +96,7 @@ def set_up(spec: CellSpec, template: Rig | None = None) -> None:
         Naming the machine and what failed: the cell cannot run here, which is no result of the cell.
     """
     try:
-        _template(spec, template)
+        template_rig(spec, template)
         for label, info in [
             (spec.solver, plugins.solver_info(spec.solver)),
             *((name, plugins.transfer_info(name)) for name in spec.transfers),
@@ -195,24 +114,6 @@ def started() -> str:
     """The name of the worker process (``host:pid``): its reply to a first call says it has started and
     imported the harness."""
     return _worker_name()
-
-
-def packing_params(spec: CellSpec) -> dict[str, object]:
-    """Keyword arguments of `packing.analyse` / `packing.check` for a cell (`packing.PackingParams`)."""
-    params: dict[str, object] = {
-        "mu": spec.mu,
-        "alpha": spec.alpha,
-        "beta": spec.beta,
-        "symmetry": spec.symmetry,
-        "importance": spec.importance,
-        "max_per_expression": spec.cap,
-        "distortion": spec.distortion,
-        "together": spec.together,
-        "apart": spec.apart,
-    }
-    if spec.regions:
-        params["regions"] = {name: np.asarray(indices, dtype=np.int64) for name, indices in spec.regions}
-    return params
 
 
 #: Time limit of the warm-up solve when the run gives none or a longer one (the tiny problem is solved in
@@ -252,8 +153,8 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
         A file (`harness._journal`) to which each expression's row is appended as soon as the expression
         is finished, so that an executor that stops the cell still has them.
     template : Rig, optional
-        The template rig's content as the harness read it (`verified_template`), instead of reading
-        ``spec.rig`` here (a Dask worker may have no such file).
+        The template rig's content as the harness read it (`harness._cell_rigs.verified_template`),
+        instead of reading ``spec.rig`` here (a Dask worker may have no such file).
     """
     base: Row = spec.record_fields()
     cell_row: Row = {
@@ -384,71 +285,6 @@ def _check(
 def _failed_expression(expressions: list[Expression]) -> Expression | None:
     """The first expression whose solver reported an error (the sequence stops there)."""
     return next((e for e in expressions if e.termination is Termination.ERROR), None)
-
-
-def column_type(annotation: object) -> ColumnType:
-    """The plain Python type of the records column recording values annotated ``annotation``.
-
-    ``X | None`` is recorded as X (every column is nullable), ``tuple[X, ...]`` as ``list[X]`` and a string
-    enumeration (`packing.Termination`, `packing.SolutionStatus`) as ``str``; ``bool``, ``int``, ``float``
-    and ``str`` as themselves.
-
-    Raises
-    ------
-    TypeError
-        For any other annotation: a records column holds no arrays, mappings or objects.
-    """
-    origin, arguments = typing.get_origin(annotation), typing.get_args(annotation)
-    if origin in (types.UnionType, typing.Union) and len(arguments) == 2 and type(None) in arguments:
-        return column_type(next(argument for argument in arguments if argument is not type(None)))
-    if origin is tuple and len(arguments) == 2 and arguments[1] is Ellipsis and arguments[0] in _SCALAR_TYPES:
-        return list[arguments[0]]
-    if isinstance(annotation, type) and issubclass(annotation, enum.StrEnum):
-        return str
-    if annotation in _SCALAR_TYPES:
-        return annotation
-    raise TypeError(f"a records column cannot hold values annotated {annotation!r}")
-
-
-@functools.cache
-def expression_columns(
-    expression_type: type[Expression] = Expression,
-) -> Mapping[str, tuple[str, ColumnType]]:
-    """The ``expression`` record columns an expression fills: column -> (attribute, plain type).
-
-    Every field and public property of ``expression_type`` (`packing.Expression`, whose properties read
-    its `packing.Solution`) but `UNRECORDED_ATTRIBUTES` is one column, named as the attribute (``index``
-    is ``expression``) and typed by its annotation (`column_type`): a field added to the dataclass is
-    recorded with no column list to update (`harness._records` places its column after the others).
-    """
-    hints = typing.get_type_hints(expression_type)
-    annotations = {field.name: hints[field.name] for field in dataclasses.fields(expression_type)}
-    for owner in reversed(expression_type.__mro__):
-        for name, member in vars(owner).items():
-            if isinstance(member, property) and not name.startswith("_"):
-                annotations[name] = typing.get_type_hints(member.fget)["return"]
-    return {
-        _COLUMN_NAMES.get(name, name): (name, column_type(annotation))
-        for name, annotation in annotations.items()
-        if name not in UNRECORDED_ATTRIBUTES
-    }
-
-
-def expression_record(expression: Expression) -> Row:
-    """The values of an expression's `expression_columns`, as plain Python values of the column types."""
-    return {
-        column: _plain(getattr(expression, attribute), kind)
-        for column, (attribute, kind) in expression_columns().items()
-    }
-
-
-def _plain(value: object, kind: ColumnType) -> RecordValue:
-    if value is None:
-        return None
-    if isinstance(kind, types.GenericAlias):
-        (item,) = typing.get_args(kind)
-        return [item(element) for element in value]
-    return kind(value)
 
 
 def _expression_rows(base: Row, expressions: list[Expression], n_shapes: int) -> list[Row]:

@@ -3,9 +3,9 @@
 A cell runs in a worker process (`harness._executors`), where its solver plugin runs too, and a plugin can
 change anything in its own process: the worker's check (`harness._cell`) is no proof. So the run re-checks
 what each worker returned here, in the process that writes the records, with `packing.check` on the rig as
-this process reads it (`harness._cell.verified_template`), the symmetry pairs of this process's own analysis,
-the overlap the solver declares (``capabilities.max_overlap`` of the cell's solver made here with its
-settings), the cell's packing parameters, bounds at least the objectives, no infeasible verdict, and
+this process reads it (`harness._cell_rigs.verified_template`), the symmetry pairs of this process's own
+analysis, the overlap the solver declares (``capabilities.max_overlap`` of the cell's solver made here with
+its settings), the cell's packing parameters, bounds at least the objectives, no infeasible verdict, and
 maximality where the solver ran to its end. A replay cell's answers are checked one by one on their own
 instances, as `harness._replay.check` does, with the reference sequence computed here. A cell whose rows
 fail is recorded ``invalid`` (the cell row alone, as a failed check in the worker gives), and so is one
@@ -24,8 +24,10 @@ from typing import TYPE_CHECKING, Any
 
 from harness import _plugins as plugins
 from harness import _replay
-from harness._cell import Row, failure_rows, packing_params, rig_pair
+from harness._cell import failure_rows
+from harness._cell_rigs import packing_params, rig_pair
 from harness._grid import NO_WARP, CellSpec
+from harness._rows import Row
 from registry import BoundedMemo
 
 if TYPE_CHECKING:
