@@ -45,7 +45,7 @@ if TYPE_CHECKING:
         CellSpec,
         RunConfig,
     )
-    from harness._isolated import IsolatedSolver, SolverFailure, last_line, late_allowance, no_answer
+    from harness._isolated import IsolatedSolver, SolverFailure, last_line, late_allowance
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
@@ -84,7 +84,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "CellSpec",
             "RunConfig",
         ],
-        "_isolated": ["IsolatedSolver", "SolverFailure", "last_line", "late_allowance", "no_answer"],
+        "_isolated": ["IsolatedSolver", "SolverFailure", "last_line", "late_allowance"],
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],

@@ -4,8 +4,8 @@ A ``replay`` cell (`harness._replay`) solves the instances of a reference sequen
 own, and has no transfers; a cell of permutation p > 0 gives its solver every problem with the items
 shuffled (`harness._permute`).
 
-Everything numerical is delegated: `rigs` builds and warps the rig, `packing.sequence` runs Algorithm 1 with
-the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
+Everything numerical is delegated: `rigs` builds and warps the rig, `packing.Pipeline` analyses it, runs
+Algorithm 1 with the cell's solver and re-verifies the sequence from the raw deltas, and `transfer` methods
 rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
 (`harness._grid.EXAMPLES`: scan-like captures of the target, seeded by the cell's seed, or its ideal
 linear sums; or random expressions instead of the sequence), or retarget random source frames with them
@@ -25,7 +25,6 @@ import os
 import socket
 import time
 import types
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -33,7 +32,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import packing
-import rigs
 import solvers
 from harness import _animation, _replay
 from harness import _plugins as plugins
@@ -41,13 +39,13 @@ from harness._cell_rigs import RigChangedError, packing_params, rig_pair, templa
 from harness._grid import NO_WARP, CellSpec
 from harness._journal import SEQUENCE_END, append_row
 from harness._permute import permuted_solver
-from harness._rows import RecordValue, Row, expression_record
+from harness._rows import RecordValue, Row, expression_record, sequence_facts
 from harness._settings import split_label
-from packing import Expression, Termination
+from packing import Expression
 from registry import BoundedMemo
 
 if TYPE_CHECKING:
-    from packing import Analysis
+    from packing import Analysis, Pipeline
     from rigs import Rig
     from solvers import LoadedSolver
 
@@ -74,10 +72,6 @@ class Lost:
 
     reason: str
     crash: str = ""
-
-
-#: The timed steps of one expression row; their sum is its share of the cell's ``sequence_time``.
-_EXPRESSION_TIMES: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
 
 
 class CellSetupError(RuntimeError):
@@ -116,27 +110,18 @@ def started() -> str:
     return _worker_name()
 
 
-#: Time limit of the warm-up solve when the run gives none or a longer one (the tiny problem is solved in
-#: milliseconds; an anytime heuristic searches until its limit).
-WARM_UP_LIMIT = 5.0
-
-
 def warm_up(solver_name: str, time_limit: float | None = None) -> None:
-    """Solve one tiny problem with a solver once per process, so import and start-up costs stay out of
-    every recorded timing, under the run's ``time_limit`` when it is below `WARM_UP_LIMIT` (a solver that
-    searches until its limit then warms up within the limit its cells have). Failures are ignored here: the
-    timed cell reports them."""
+    """Warm a solver up once per process (`solvers.warm_up`, within the run's ``time_limit``), so that
+    import and start-up costs stay out of every recorded timing. Failures are ignored here: the timed cell
+    reports them."""
     if solver_name in _warmed_up:
         return
     _warmed_up.add(solver_name)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", packing.MissingTargetWarning)
-            problem = packing.build_problem(rigs.generate("tiny"))
-        limit = WARM_UP_LIMIT if time_limit is None else min(WARM_UP_LIMIT, time_limit)
-        plugins.load_solver(solver_name).solve(problem, time_limit=limit, seed=0)
+        solver = plugins.load_solver(solver_name)
     except (Exception, SystemExit):  # noqa: BLE001 - the timed cell reports the real failure
-        pass
+        return
+    solvers.warm_up(solver, time_limit)
 
 
 def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = None) -> list[Row] | Lost:
@@ -182,24 +167,24 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
         solver = permuted_solver(plugins.load_solver(spec.solver), spec.permutation)
         finished = _ExpressionRows(base, template.n_shapes, journal)
         if spec.mode == "replay":
-            params = packing_params(spec)
-            found, expressions, facts = _replay.pack(spec, solver, template, target, params)
-            verify = functools.partial(_replay.check, found, solver, template, expressions, params)
+            found, expressions, facts = _replay.pack(spec, solver, template, target, packing_params(spec))
+            check = found.check
         else:
-            analysis, expressions, facts = _pack(spec, solver, template, target, finished)
-            verify = functools.partial(_check, spec, solver, template, analysis, expressions)
+            pipeline, expressions, facts = _pack(spec, solver, template, target, finished)
+            check = pipeline.check
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
     # A plugin's sys.exit is its error, not the worker's (stop signals raise KeyboardInterrupt).
     except SystemExit as exit_:
         return stop("error", f"the solver called sys.exit({exit_.code!r})")
-    failed = _failed_expression(expressions)
+    failed = packing.failed_expression(expressions)
     if failed is not None:
         return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")
     if journal is not None:
         append_row(journal, {"kind": SEQUENCE_END})
     try:
-        verify()
+        # The harness's own analysis and the overlap the solver declares (0 for eq. 3b), and no other.
+        check(expressions, overlap=solver.capabilities.max_overlap)
     except Exception as error:  # noqa: BLE001 - CheckError and anything the checker raises
         return stop("invalid", _describe(error))
 
@@ -208,7 +193,7 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
     cell_row.update(
         facts,
         max_overlap=float(solver.capabilities.max_overlap),
-        sequence_time=float(sum(row[key] for row in expression_rows for key in _EXPRESSION_TIMES)),
+        sequence_time=float(sum(row[key] for row in expression_rows for key in packing.EXPRESSION_TIMES)),
         n_expressions=len(expressions),
         n_covered=expression_rows[-1]["covered"] if expression_rows else 0,
         cell_time=time.perf_counter() - started,
@@ -222,35 +207,17 @@ def _pack(
     template: Rig,
     target: Rig,
     on_expression: Callable[[Expression], None] | None = None,
-) -> tuple[Analysis, list[Expression], Row]:
-    """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
-    bounds on the number of expressions; ``on_expression`` sees each expression as soon as it is
-    finished."""
+) -> tuple[Pipeline, list[Expression], Row]:
+    """The cell's analysis (timed on its own; without a warp there is no target) and whole sequence
+    (Algorithm 1) with the cell's solver, and the cell row's facts with the bounds on the number of
+    expressions; ``on_expression`` sees each expression as soon as it is finished."""
     target_neutral = None if spec.warp == NO_WARP else target.neutral
-    with warnings.catch_warnings():
-        # Without a warp there is no target: distortion importance is 0 by design, not by mistake.
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)
-        clock = time.perf_counter()
-        analysis = packing.analyse(template, target_neutral, **packing_params(spec))
-        analysis_time = time.perf_counter() - clock
-    expressions = packing.sequence(
-        template,
-        solver,
-        analysis=analysis,
-        jmax=spec.jmax,
-        time_limit=spec.time_limit,
-        seed=spec.seed,
-        on_expression=on_expression,
+    pipeline = packing.Pipeline.analyse(template, target_neutral, **packing_params(spec))
+    expressions = pipeline.sequence(
+        solver, jmax=spec.jmax, time_limit=spec.time_limit, seed=spec.seed, on_expression=on_expression
     )
-    facts = {
-        "analysis_time": analysis_time,
-        "lower_bound": packing.expression_lower_bound(analysis).lower,
-        "n_pairs": len(analysis.pairs),
-        "n_empty": len(analysis.empty_names),
-        "backend_version": next((f"{e.backend} {e.version}".strip() for e in expressions if e.backend), ""),
-        **_minimum(spec, analysis),
-    }
-    return analysis, expressions, facts
+    facts = {**sequence_facts(pipeline, expressions), **_minimum(spec, pipeline.analysis)}
+    return pipeline, expressions, facts
 
 
 def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
@@ -263,28 +230,6 @@ def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
         analysis.problem, solver=name, time_limit=spec.time_limit, seed=spec.seed
     )
     return {"min_expressions": found.count, "min_expressions_status": str(found.status)}
-
-
-def _check(
-    spec: CellSpec, solver: LoadedSolver, template: Rig, analysis: Analysis, expressions: list[Expression]
-) -> None:
-    """Re-verify the sequence from the raw deltas (`packing.check`): with the symmetry pairs of the
-    harness's own analysis, the overlap the solver declares (``capabilities.max_overlap``, 0 for eq. 3b)
-    and no other, bounds at least the objectives, and maximal expressions where the solver ran to its
-    end."""
-    packing.check(
-        template,
-        expressions,
-        pairs=analysis.pairs,
-        overlap=solver.capabilities.max_overlap,
-        maximal=True,
-        **packing_params(spec),
-    )
-
-
-def _failed_expression(expressions: list[Expression]) -> Expression | None:
-    """The first expression whose solver reported an error (the sequence stops there)."""
-    return next((e for e in expressions if e.termination is Termination.ERROR), None)
 
 
 def _expression_rows(base: Row, expressions: list[Expression], n_shapes: int) -> list[Row]:
@@ -520,7 +465,7 @@ def timeout_rows(
     the expression it was stuck in (`reports._timing.timing_samples`) instead of a cut sequence as fast.
     """
     (cell_row,) = failure_rows(spec, "timeout", message)
-    spent = sum(float(row.get(column) or 0.0) for row in finished for column in _EXPRESSION_TIMES)
+    spent = sum(float(row.get(column) or 0.0) for row in finished for column in packing.EXPRESSION_TIMES)
     cell_row.update(cell_time=timeout, sequence_time=spent if whole else max(timeout, spent))
     if finished:
         cell_row.update(

@@ -4,6 +4,8 @@ A row is a mapping of column name to a plain number, string, flag, list or null 
 makes a cell's rows, `harness._records` types their columns with Arrow, and both read the ``expression``
 columns from one place (`expression_columns`): every recorded attribute of `packing.Expression`, typed by its
 annotation (`column_type`), so that a field added to the expression is recorded with no list to update.
+The ``cell`` row's facts of a packed sequence (`sequence_facts`) are made here too, for the cells that pack
+their own sequence and those that replay a reference (`harness._replay`).
 """
 
 from __future__ import annotations
@@ -13,9 +15,14 @@ import enum
 import functools
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
+import packing
 from packing import Expression
+
+if TYPE_CHECKING:
+    from packing import Pipeline
 
 #: A value of one records column (`harness._records`): a plain number, string, flag, list or null.
 RecordValue = str | int | float | bool | list[str] | list[float] | None
@@ -96,3 +103,16 @@ def _plain(value: object, kind: ColumnType) -> RecordValue:
         (item,) = typing.get_args(kind)
         return [item(element) for element in value]
     return kind(value)
+
+
+def sequence_facts(pipeline: Pipeline, expressions: Sequence[Expression]) -> Row:
+    """The ``cell`` row's columns a sequence and its analysis give: the analysis's seconds, the lower bound
+    on the number of expressions (`packing.expression_lower_bound`), the symmetry pairs and empty shapes
+    counted (sec. 4.1, 4.4), and the backend and version of the first answer that names one."""
+    return {
+        "analysis_time": pipeline.analysis_time,
+        "lower_bound": packing.expression_lower_bound(pipeline.analysis).lower,
+        "n_pairs": len(pipeline.analysis.pairs),
+        "n_empty": len(pipeline.analysis.empty_names),
+        "backend_version": next((f"{e.backend} {e.version}".strip() for e in expressions if e.backend), ""),
+    }

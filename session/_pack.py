@@ -66,7 +66,7 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import IsolatedSolver, check_settings, format_duration, input_paths, no_answer, resolve_rig
+from harness import IsolatedSolver, check_settings, format_duration, input_paths, resolve_rig
 from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
@@ -74,6 +74,7 @@ from session._mesh import TargetMesh, read_target
 from session._minimum import minimum_sequence
 from session._pictures import prepare_scene
 from session._solver import LoudSolver
+from solvers import no_answer
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -263,10 +264,9 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                 for number, names in (rejections or {}).items()
                 if (kept := names & set(rig.names))
             }
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-                target_vertices = None if target_mesh is None else target_mesh.vertices
-                analysis = packing.analyse(rig, target_vertices, **params)
+            target_vertices = None if target_mesh is None else target_mesh.vertices
+            pipeline = packing.Pipeline.analyse(rig, target_vertices, **params)  # no target: among the notes
+            analysis = pipeline.analysis
             scene = (
                 prepare_scene(rig, analysis.params.mu) if config.pictures else None
             )  # while the solver works
@@ -287,24 +287,14 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                     found.append(result.message())
             else:
                 refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
-                expressions = packing.sequence(
-                    rig,
+                expressions = pipeline.sequence(
                     LoudSolver(refining, config.solver),
-                    analysis=analysis,
                     jmax=config.jmax,
                     time_limit=config.time_limit,
                     seed=config.seed,
                 )
                 overlap = isolated.capabilities.max_overlap
-        packing.check(
-            rig,
-            expressions,
-            pairs=analysis.pairs,
-            overlap=overlap,
-            maximal=not config.minimum,
-            rejected=rejected,
-            **params,
-        )
+        pipeline.check(expressions, overlap=overlap, maximal=not config.minimum, rejected=rejected)
         timed_out = deadline is not None and deadline.expired
         refined = bool(rejections) or decide is not None
         missing, reason = _coverage(analysis, expressions, refined, config.timeout if timed_out else None)

@@ -34,10 +34,11 @@ if TYPE_CHECKING:
         Setting,
         Solver,
         cpu_seconds,
+        no_answer,
         package_availability,
     )
     from solvers._exact import ExactSolver
-    from solvers._loaded import LoadedSolver, load
+    from solvers._loaded import WARM_UP_LIMIT, LoadedSolver, load, warm_up
     from solvers._minimum import (
         MinimumExpressions,
         OrderedSequence,
@@ -72,10 +73,11 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "Setting",
             "Solver",
             "cpu_seconds",
+            "no_answer",
             "package_availability",
         ],
         "_exact": ["ExactSolver"],
-        "_loaded": ["LoadedSolver", "load"],
+        "_loaded": ["WARM_UP_LIMIT", "LoadedSolver", "load", "warm_up"],
         "_model": ["CliqueModel"],
         "_mps": ["MpsFile", "column_names", "solu_line", "write_mps"],
         "_open": ["OpenExpression"],
