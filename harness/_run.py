@@ -221,7 +221,7 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
     """
     out = Path(out)
     if resume and force:
-        raise RunDirectoryError("give either --resume or --force, not both")
+        raise RunDirectoryError("give either --resume (finish the run) or --force (replace it), not both")
     if resume:
         if not (out / RUN_FILE).is_file():
             raise RunDirectoryError(

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import ExitStack, nullcontext
 from dataclasses import dataclass, field
 from os import PathLike
@@ -211,6 +211,25 @@ class PackConfig:
     default_constraints: bool = True
 
 
+def check_minimum(
+    minimum: bool, *, refining: bool, extra_examples: bool, timeout: float | None, given: Collection[str] = ()
+) -> None:
+    """Refuse a ``minimum`` packing with what it cannot honour: refinement (``refining``: prompts or
+    rejections), extra examples, a ``timeout``, or an option ``given`` on the command line that it would
+    silently ignore (``--jmax``, ``--solver``, even at its default value).
+
+    Raises
+    ------
+    registry.HarnessError
+        Naming every option ``--minimum`` takes no part of.
+    """
+    if minimum and (refining or extra_examples or timeout is not None or given):
+        raise HarnessError(
+            "--minimum covers every shape in the fewest expressions, with CP-SAT: it takes no --jmax, "
+            "--solver, --refine, --reject, --extra-examples or --timeout (use --time-limit for the proof)"
+        )
+
+
 def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None = None) -> PackResult:
     """Pack one rig and write the session folder ``config.out`` (see the module docstring).
 
@@ -226,8 +245,8 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
     registry.OutputFolderError
         For an output folder that may not be used (before any packing is done).
     registry.HarnessError
-        For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
-        or for an expression the session does not have.
+        For ``minimum`` with refinement, extra examples or a timeout (`check_minimum`), a rejection of a
+        shape the rig lacks or for an expression the session does not have.
     harness.SolverFailure
         A solver that failed on an expression (it raised, answered items the problem does not have,
         claimed infeasibility, exited or crashed: it solves in a worker process), before anything is
@@ -236,14 +255,12 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
     import packing
 
     params, rejections = config.params, dict(config.rejections)
-
-    if config.minimum and (
-        rejections or decide is not None or params.get("extra_examples") or config.timeout is not None
-    ):
-        raise HarnessError(
-            "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
-            "--extra-examples or --timeout (use --time-limit for the proof)"
-        )
+    check_minimum(
+        config.minimum,
+        refining=bool(rejections) or decide is not None,
+        extra_examples=bool(params.get("extra_examples")),
+        timeout=config.timeout,
+    )
     check_settings([config.solver], [], solver_option="--solver")
     started = monotonic()
     with ExitStack() as held:  # the output folder's lock, once it is claimed
