@@ -4,8 +4,8 @@ Runs write ``OUT/run.json`` and ``OUT/records/*.parquet``; `read_run` and `read_
 columns are documented in `harness._records`); the tables made from them are the `reports` package's. The
 harness runs rigs through `packing`, `solvers` and `transfer` and never computes results itself. Beside
 them, the pieces other commands build on (`session`'s ``harness pack``, plugin commands): the shared options
-(`constraint_options`, `DURATION`, ...), the output folder (`claim`), the plugins (`load_solver`) and a
-solver in a worker process of its own (`IsolatedSolver`).
+(`packing_options`, `constraint_options`, `DURATION`, ...), the output folder (`claim`), the plugins
+(`load_solver`) and a solver in a worker process of its own (`IsolatedSolver`).
 
 Names are imported from their modules on first use (PEP 562), so that ``harness --help`` and the commands
 that need no records store start without importing pandas and pyarrow.
@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from harness._bench_session import SAMPLE_COLUMNS, Measurement, ProbeError, measure
     from harness._bench_suites import SUITES, Group, Suite, suite
     from harness._cli_constraints import check_file_pairs, constraint_options, constraint_params
+    from harness._cli_packing import JMAX, packing_options, packing_params
     from harness._cli_types import COUNT, DURATION, SOLVER_SEED, FiniteFloatRange, terminal
     from harness._commits import (
         CodeVersion,
@@ -45,7 +46,7 @@ if TYPE_CHECKING:
         CellSpec,
         RunConfig,
     )
-    from harness._isolated import IsolatedSolver, SolverFailure, last_line, late_allowance, no_answer
+    from harness._isolated import IsolatedSolver, SolverFailure, last_line, late_allowance
     from harness._plugins import check_settings, expand_names, load_solver, solver_names
     from harness._records import RECORD_COLUMNS, TIMING_COLUMNS, RecordsWriteError, read_records
     from harness._rigspec import input_paths, resolve_rig
@@ -72,6 +73,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "resolve",
         ],
         "_cli_constraints": ["check_file_pairs", "constraint_options", "constraint_params"],
+        "_cli_packing": ["JMAX", "packing_options", "packing_params"],
         "_cli_types": ["COUNT", "DURATION", "SOLVER_SEED", "FiniteFloatRange", "terminal"],
         "_durations": ["format_duration", "parse_duration"],
         "_environment": ["commits_since", "machine"],
@@ -84,7 +86,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "CellSpec",
             "RunConfig",
         ],
-        "_isolated": ["IsolatedSolver", "SolverFailure", "last_line", "late_allowance", "no_answer"],
+        "_isolated": ["IsolatedSolver", "SolverFailure", "last_line", "late_allowance"],
         "_records": ["RECORD_COLUMNS", "TIMING_COLUMNS", "RecordsWriteError", "read_records"],
         "_plugins": ["check_settings", "expand_names", "load_solver", "solver_names"],
         "_rigspec": ["input_paths", "resolve_rig"],

@@ -4,8 +4,8 @@ A ``replay`` cell (`harness._replay`) solves the instances of a reference sequen
 own, and has no transfers; a cell of permutation p > 0 gives its solver every problem with the items
 shuffled (`harness._permute`).
 
-Everything numerical is delegated: `rigs` builds and warps the rig, `packing.sequence` runs Algorithm 1 with
-the cell's solver, `packing.check` re-verifies the sequence from the raw deltas, and `transfer` methods
+Everything numerical is delegated: `rigs` builds and warps the rig, `packing.Pipeline` analyses it, runs
+Algorithm 1 with the cell's solver and re-verifies the sequence from the raw deltas, and `transfer` methods
 rebuild the target's blendshapes from the first J expressions, trained on the cell's examples
 (`harness._grid.EXAMPLES`: scan-like captures of the target, seeded by the cell's seed, or its ideal
 linear sums; or random expressions instead of the sequence), or retarget random source frames with them
@@ -19,57 +19,37 @@ the objective is rejected, and an expression of a solver that ran to its end mus
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
-import enum
 import functools
 import os
 import socket
 import time
 import types
-import typing
-import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 import packing
-import rigs
 import solvers
 from harness import _animation, _replay
 from harness import _plugins as plugins
-from harness._grid import NO_WARP, CellSpec, rig_digest
+from harness._cell_rigs import RigChangedError, packing_params, rig_pair, template_rig
+from harness._grid import NO_WARP, CellSpec
 from harness._journal import SEQUENCE_END, append_row
 from harness._permute import permuted_solver
-from harness._rigspec import is_rig_file, resolve_rig
+from harness._rows import RecordValue, Row, expression_record, sequence_facts
 from harness._settings import split_label
-from packing import Expression, Termination
+from packing import Expression
 from registry import BoundedMemo
 
 if TYPE_CHECKING:
-    from packing import Analysis
+    from packing import Analysis, Pipeline
     from rigs import Rig
     from solvers import LoadedSolver
 
-#: A value of one records column (`harness._records`): a plain number, string, flag, list or null.
-RecordValue = str | int | float | bool | list[str] | list[float] | None
-#: One row of the records table, by column name.
-Row = dict[str, RecordValue]
-#: The plain Python type of a records column: ``bool``, ``int``, ``float``, ``str`` or a list of one.
-ColumnType = type | types.GenericAlias
 
-#: Attributes of `packing.Expression` its ``expression`` row does not record: the item labels name its
-#: shapes again, the solution is recorded through the attributes the expression reads from it, and the
-#: solver's backend and version are the cell row's ``backend_version``.
-UNRECORDED_ATTRIBUTES = frozenset({"items", "solution", "backend", "version"})
-#: Records columns named otherwise than the `packing.Expression` attribute they record.
-_COLUMN_NAMES = {"index": "expression"}
-_SCALAR_TYPES = (bool, int, float, str)
-
-#: This process's last template and warped rigs, by (rig, digest, seed, warp).
-_RIGS: BoundedMemo[Rig] = BoundedMemo(4)
 #: Transfer errors by (rig, warp, method, examples, weights): solvers that agree share one computation.
 _TRANSFERS: BoundedMemo[Row] = BoundedMemo(512)
 #: Estimates (K, N, 3) of methods that ignore the training expressions, by (rig, warp, method).
@@ -94,76 +74,9 @@ class Lost:
     crash: str = ""
 
 
-#: The timed steps of one expression row; their sum is its share of the cell's ``sequence_time``.
-_EXPRESSION_TIMES: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
-
-
-class RigChangedError(RuntimeError):
-    """The rig file's content is no longer the one the run's cell ids were made from."""
-
-
 class CellSetupError(RuntimeError):
     """A machine other than the harness's cannot set a cell up: its rig cannot be built there, or one of
     its plugins does not load there (not installed, another version)."""
-
-
-#: Identifies a cell's template rig: (rig argument, content digest, seed).
-TemplateKey = tuple[str, str, int]
-
-
-def template_key(spec: CellSpec) -> TemplateKey:
-    """The key of a cell's template rig: cells with one key share one template."""
-    return spec.rig, spec.rig_digest, spec.rig_seed
-
-
-def generated(spec: CellSpec) -> bool:
-    """Whether a cell's template rig is generated from a preset's name and seed (it reads no file)."""
-    return not is_rig_file(spec.rig) and spec.rig in rigs.PRESETS
-
-
-def verified_template(spec: CellSpec) -> Rig:
-    """The template rig of a cell, after checking that its content still has the cell's digest (a rig file
-    is read once: the rig returned is the content checked).
-
-    Raises
-    ------
-    RigChangedError
-        When a rig file no longer has the content digest of ``spec.rig_digest``.
-    """
-    if not (spec.rig_digest and is_rig_file(spec.rig)):
-        return resolve_rig(spec.rig, seed=spec.rig_seed)
-    rig, inputs = rigs.load_with_inputs(spec.rig)
-    found = rig_digest(spec.rig, spec.rig_seed, inputs)
-    if found != spec.rig_digest:
-        raise RigChangedError(
-            f"rig {spec.rig} changed since the run started (content {found[:19]}..., "
-            f"the run's cells were made for {spec.rig_digest[:19]}...)"
-        )
-    return rig
-
-
-def _template(spec: CellSpec, given: Rig | None) -> Rig:
-    """A cell's template rig, cached per process: ``given`` (its content as the harness read it), else read
-    from ``spec.rig`` (`verified_template`)."""
-    key = (*template_key(spec), NO_WARP)
-    return _RIGS.get_or_build(key, lambda: verified_template(spec) if given is None else given)
-
-
-def rig_pair(spec: CellSpec, template: Rig | None = None) -> tuple[Rig, Rig]:
-    """Template rig and target rig (the template warped by ``spec.warp``) of a cell, cached per process.
-
-    ``template``, when given, is the template's content read by the harness (`verified_template`), used
-    instead of reading ``spec.rig`` here.
-
-    Raises
-    ------
-    RigChangedError
-        When a rig file no longer has the content digest of ``spec.rig_digest``.
-    """
-    source = _template(spec, template)
-    if spec.warp == NO_WARP:
-        return source, source
-    return source, _RIGS.get_or_build((*template_key(spec), spec.warp), lambda: rigs.warp(source, spec.warp))
 
 
 def set_up(spec: CellSpec, template: Rig | None = None) -> None:
@@ -177,7 +90,7 @@ def set_up(spec: CellSpec, template: Rig | None = None) -> None:
         Naming the machine and what failed: the cell cannot run here, which is no result of the cell.
     """
     try:
-        _template(spec, template)
+        template_rig(spec, template)
         for label, info in [
             (spec.solver, plugins.solver_info(spec.solver)),
             *((name, plugins.transfer_info(name)) for name in spec.transfers),
@@ -197,45 +110,18 @@ def started() -> str:
     return _worker_name()
 
 
-def packing_params(spec: CellSpec) -> dict[str, object]:
-    """Keyword arguments of `packing.analyse` / `packing.check` for a cell (`packing.PackingParams`)."""
-    params: dict[str, object] = {
-        "mu": spec.mu,
-        "alpha": spec.alpha,
-        "beta": spec.beta,
-        "symmetry": spec.symmetry,
-        "importance": spec.importance,
-        "max_per_expression": spec.cap,
-        "distortion": spec.distortion,
-        "together": spec.together,
-        "apart": spec.apart,
-    }
-    if spec.regions:
-        params["regions"] = {name: np.asarray(indices, dtype=np.int64) for name, indices in spec.regions}
-    return params
-
-
-#: Time limit of the warm-up solve when the run gives none or a longer one (the tiny problem is solved in
-#: milliseconds; an anytime heuristic searches until its limit).
-WARM_UP_LIMIT = 5.0
-
-
 def warm_up(solver_name: str, time_limit: float | None = None) -> None:
-    """Solve one tiny problem with a solver once per process, so import and start-up costs stay out of
-    every recorded timing, under the run's ``time_limit`` when it is below `WARM_UP_LIMIT` (a solver that
-    searches until its limit then warms up within the limit its cells have). Failures are ignored here: the
-    timed cell reports them."""
+    """Warm a solver up once per process (`solvers.warm_up`, within the run's ``time_limit``), so that
+    import and start-up costs stay out of every recorded timing. Failures are ignored here: the timed cell
+    reports them."""
     if solver_name in _warmed_up:
         return
     _warmed_up.add(solver_name)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", packing.MissingTargetWarning)
-            problem = packing.build_problem(rigs.generate("tiny"))
-        limit = WARM_UP_LIMIT if time_limit is None else min(WARM_UP_LIMIT, time_limit)
-        plugins.load_solver(solver_name).solve(problem, time_limit=limit, seed=0)
+        solver = plugins.load_solver(solver_name)
     except (Exception, SystemExit):  # noqa: BLE001 - the timed cell reports the real failure
-        pass
+        return
+    solvers.warm_up(solver, time_limit)
 
 
 def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = None) -> list[Row] | Lost:
@@ -252,8 +138,8 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
         A file (`harness._journal`) to which each expression's row is appended as soon as the expression
         is finished, so that an executor that stops the cell still has them.
     template : Rig, optional
-        The template rig's content as the harness read it (`verified_template`), instead of reading
-        ``spec.rig`` here (a Dask worker may have no such file).
+        The template rig's content as the harness read it (`harness._cell_rigs.verified_template`),
+        instead of reading ``spec.rig`` here (a Dask worker may have no such file).
     """
     base: Row = spec.record_fields()
     cell_row: Row = {
@@ -281,24 +167,24 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
         solver = permuted_solver(plugins.load_solver(spec.solver), spec.permutation)
         finished = _ExpressionRows(base, template.n_shapes, journal)
         if spec.mode == "replay":
-            params = packing_params(spec)
-            found, expressions, facts = _replay.pack(spec, solver, template, target, params)
-            verify = functools.partial(_replay.check, found, solver, template, expressions, params)
+            found, expressions, facts = _replay.pack(spec, solver, template, target, packing_params(spec))
+            check = found.check
         else:
-            analysis, expressions, facts = _pack(spec, solver, template, target, finished)
-            verify = functools.partial(_check, spec, solver, template, analysis, expressions)
+            pipeline, expressions, facts = _pack(spec, solver, template, target, finished)
+            check = pipeline.check
     except Exception as error:  # noqa: BLE001 - a solver that raises is recorded as an error
         return stop("error", _describe(error))
     # A plugin's sys.exit is its error, not the worker's (stop signals raise KeyboardInterrupt).
     except SystemExit as exit_:
         return stop("error", f"the solver called sys.exit({exit_.code!r})")
-    failed = _failed_expression(expressions)
+    failed = packing.failed_expression(expressions)
     if failed is not None:
         return stop("error", f"solver error in expression {failed.index}: {failed.message or 'no message'}")
     if journal is not None:
         append_row(journal, {"kind": SEQUENCE_END})
     try:
-        verify()
+        # The harness's own analysis and the overlap the solver declares (0 for eq. 3b), and no other.
+        check(expressions, overlap=solver.capabilities.max_overlap)
     except Exception as error:  # noqa: BLE001 - CheckError and anything the checker raises
         return stop("invalid", _describe(error))
 
@@ -307,7 +193,7 @@ def run_cell(spec: CellSpec, journal: str | None = None, template: Rig | None = 
     cell_row.update(
         facts,
         max_overlap=float(solver.capabilities.max_overlap),
-        sequence_time=float(sum(row[key] for row in expression_rows for key in _EXPRESSION_TIMES)),
+        sequence_time=float(sum(row[key] for row in expression_rows for key in packing.EXPRESSION_TIMES)),
         n_expressions=len(expressions),
         n_covered=expression_rows[-1]["covered"] if expression_rows else 0,
         cell_time=time.perf_counter() - started,
@@ -321,35 +207,17 @@ def _pack(
     template: Rig,
     target: Rig,
     on_expression: Callable[[Expression], None] | None = None,
-) -> tuple[Analysis, list[Expression], Row]:
-    """Rig analysis (timed on its own), the whole sequence (Algorithm 1) with the cell's solver, and the
-    bounds on the number of expressions; ``on_expression`` sees each expression as soon as it is
-    finished."""
+) -> tuple[Pipeline, list[Expression], Row]:
+    """The cell's analysis (timed on its own; without a warp there is no target) and whole sequence
+    (Algorithm 1) with the cell's solver, and the cell row's facts with the bounds on the number of
+    expressions; ``on_expression`` sees each expression as soon as it is finished."""
     target_neutral = None if spec.warp == NO_WARP else target.neutral
-    with warnings.catch_warnings():
-        # Without a warp there is no target: distortion importance is 0 by design, not by mistake.
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)
-        clock = time.perf_counter()
-        analysis = packing.analyse(template, target_neutral, **packing_params(spec))
-        analysis_time = time.perf_counter() - clock
-    expressions = packing.sequence(
-        template,
-        solver,
-        analysis=analysis,
-        jmax=spec.jmax,
-        time_limit=spec.time_limit,
-        seed=spec.seed,
-        on_expression=on_expression,
+    pipeline = packing.Pipeline.analyse(template, target_neutral, **packing_params(spec))
+    expressions = pipeline.sequence(
+        solver, jmax=spec.jmax, time_limit=spec.time_limit, seed=spec.seed, on_expression=on_expression
     )
-    facts = {
-        "analysis_time": analysis_time,
-        "lower_bound": packing.expression_lower_bound(analysis).lower,
-        "n_pairs": len(analysis.pairs),
-        "n_empty": len(analysis.empty_names),
-        "backend_version": next((f"{e.backend} {e.version}".strip() for e in expressions if e.backend), ""),
-        **_minimum(spec, analysis),
-    }
-    return analysis, expressions, facts
+    facts = {**sequence_facts(pipeline, expressions), **_minimum(spec, pipeline.analysis)}
+    return pipeline, expressions, facts
 
 
 def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
@@ -362,93 +230,6 @@ def _minimum(spec: CellSpec, analysis: Analysis) -> Row:
         analysis.problem, solver=name, time_limit=spec.time_limit, seed=spec.seed
     )
     return {"min_expressions": found.count, "min_expressions_status": str(found.status)}
-
-
-def _check(
-    spec: CellSpec, solver: LoadedSolver, template: Rig, analysis: Analysis, expressions: list[Expression]
-) -> None:
-    """Re-verify the sequence from the raw deltas (`packing.check`): with the symmetry pairs of the
-    harness's own analysis, the overlap the solver declares (``capabilities.max_overlap``, 0 for eq. 3b)
-    and no other, bounds at least the objectives, and maximal expressions where the solver ran to its
-    end."""
-    packing.check(
-        template,
-        expressions,
-        pairs=analysis.pairs,
-        overlap=solver.capabilities.max_overlap,
-        maximal=True,
-        **packing_params(spec),
-    )
-
-
-def _failed_expression(expressions: list[Expression]) -> Expression | None:
-    """The first expression whose solver reported an error (the sequence stops there)."""
-    return next((e for e in expressions if e.termination is Termination.ERROR), None)
-
-
-def column_type(annotation: object) -> ColumnType:
-    """The plain Python type of the records column recording values annotated ``annotation``.
-
-    ``X | None`` is recorded as X (every column is nullable), ``tuple[X, ...]`` as ``list[X]`` and a string
-    enumeration (`packing.Termination`, `packing.SolutionStatus`) as ``str``; ``bool``, ``int``, ``float``
-    and ``str`` as themselves.
-
-    Raises
-    ------
-    TypeError
-        For any other annotation: a records column holds no arrays, mappings or objects.
-    """
-    origin, arguments = typing.get_origin(annotation), typing.get_args(annotation)
-    if origin in (types.UnionType, typing.Union) and len(arguments) == 2 and type(None) in arguments:
-        return column_type(next(argument for argument in arguments if argument is not type(None)))
-    if origin is tuple and len(arguments) == 2 and arguments[1] is Ellipsis and arguments[0] in _SCALAR_TYPES:
-        return list[arguments[0]]
-    if isinstance(annotation, type) and issubclass(annotation, enum.StrEnum):
-        return str
-    if annotation in _SCALAR_TYPES:
-        return annotation
-    raise TypeError(f"a records column cannot hold values annotated {annotation!r}")
-
-
-@functools.cache
-def expression_columns(
-    expression_type: type[Expression] = Expression,
-) -> Mapping[str, tuple[str, ColumnType]]:
-    """The ``expression`` record columns an expression fills: column -> (attribute, plain type).
-
-    Every field and public property of ``expression_type`` (`packing.Expression`, whose properties read
-    its `packing.Solution`) but `UNRECORDED_ATTRIBUTES` is one column, named as the attribute (``index``
-    is ``expression``) and typed by its annotation (`column_type`): a field added to the dataclass is
-    recorded with no column list to update (`harness._records` places its column after the others).
-    """
-    hints = typing.get_type_hints(expression_type)
-    annotations = {field.name: hints[field.name] for field in dataclasses.fields(expression_type)}
-    for owner in reversed(expression_type.__mro__):
-        for name, member in vars(owner).items():
-            if isinstance(member, property) and not name.startswith("_"):
-                annotations[name] = typing.get_type_hints(member.fget)["return"]
-    return {
-        _COLUMN_NAMES.get(name, name): (name, column_type(annotation))
-        for name, annotation in annotations.items()
-        if name not in UNRECORDED_ATTRIBUTES
-    }
-
-
-def expression_record(expression: Expression) -> Row:
-    """The values of an expression's `expression_columns`, as plain Python values of the column types."""
-    return {
-        column: _plain(getattr(expression, attribute), kind)
-        for column, (attribute, kind) in expression_columns().items()
-    }
-
-
-def _plain(value: object, kind: ColumnType) -> RecordValue:
-    if value is None:
-        return None
-    if isinstance(kind, types.GenericAlias):
-        (item,) = typing.get_args(kind)
-        return [item(element) for element in value]
-    return kind(value)
 
 
 def _expression_rows(base: Row, expressions: list[Expression], n_shapes: int) -> list[Row]:
@@ -684,7 +465,7 @@ def timeout_rows(
     the expression it was stuck in (`reports._timing.timing_samples`) instead of a cut sequence as fast.
     """
     (cell_row,) = failure_rows(spec, "timeout", message)
-    spent = sum(float(row.get(column) or 0.0) for row in finished for column in _EXPRESSION_TIMES)
+    spent = sum(float(row.get(column) or 0.0) for row in finished for column in packing.EXPRESSION_TIMES)
     cell_row.update(cell_time=timeout, sequence_time=spent if whole else max(timeout, spent))
     if finished:
         cell_row.update(

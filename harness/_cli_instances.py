@@ -12,15 +12,17 @@ is stopped.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 from click.core import ParameterSource
 
-from harness._cli_types import COUNT, DURATION, SOLVER_SEED, FiniteFloatRange, terminal
+from harness._cli_packing import JMAX, PACKING_OPTIONS, packing_options, packing_params
+from harness._cli_types import COUNT, DURATION, SOLVER_SEED, terminal
 from registry import HarnessError
 
 #: Options that set the packing of a rig argument; a run directory has them in its run.json.
-PACKING_OPTIONS = ("mu", "alpha", "beta", "symmetry", "importance", "cap", "jmax", "seed")
+SEQUENCE_OPTIONS = (*(option.name for option in PACKING_OPTIONS), "jmax", "seed")
 
 
 @click.group(
@@ -56,30 +58,8 @@ def instances() -> None:
     help="Replace an earlier export in --out (a folder holding files harness did not write is refused; "
     "those are never replaced or removed).",
 )
-@click.option(
-    "--mu", type=FiniteFloatRange(0, 1, min_open=True), default=0.3, show_default=True,
-    help="Binary blendshape threshold, eq. 2.",
-)  # fmt: skip
-@click.option(
-    "--alpha", type=FiniteFloatRange(0, 1), default=0.5, show_default=True, help="Importance mix, eq. 4."
-)
-@click.option(
-    "--beta", type=FiniteFloatRange(min=0), default=0.0, show_default=True, help="Uniqueness weight, eq. 4."
-)
-@click.option(
-    "--symmetry/--no-symmetry",
-    default=True,
-    show_default=True,
-    help="Force symmetry pairs together (sec. 4.4).",
-)
-@click.option(
-    "--importance/--no-importance",
-    default=True,
-    show_default=True,
-    help="Importance weights (eq. 4); off = every weight 1.",
-)
-@click.option("--cap", type=COUNT, help="Most shapes per expression (sec. 6). [default: no cap]")
-@click.option("--jmax", type=COUNT, default=20, show_default=True, help="Most expressions (instances).")
+@packing_options(grid=False)
+@click.option("--jmax", type=COUNT, default=JMAX, show_default=True, help="Most expressions (instances).")
 @click.option(
     "--time-limit",
     type=DURATION,
@@ -98,24 +78,17 @@ def export(
     solver: str,
     run_rig: str | None,
     force: bool,
-    mu: float,
-    alpha: float,
-    beta: float,
-    symmetry: bool,
-    importance: bool,
-    cap: int | None,
     jmax: int,
     time_limit: float | None,
     seed: int,
+    **packing: Any,
 ) -> None:
     from harness.cli import UserError
 
     try:
         written = _export(
             ctx, rig_or_run, out, solver, run_rig, force, time_limit,
-            params={"mu": mu, "alpha": alpha, "beta": beta, "symmetry": symmetry, "importance": importance,
-                    "max_per_expression": cap},
-            jmax=jmax, seed=seed,
+            params=packing_params(packing), jmax=jmax, seed=seed,
         )  # fmt: skip
     except (HarnessError, FileNotFoundError, NotADirectoryError, PermissionError) as error:
         lines = [line for line in str(error).strip().splitlines() if line.strip()]
@@ -157,7 +130,7 @@ def _export(
     if sources.is_run_directory(argument):
         given = [
             f"--{name.replace('_', '-')}"
-            for name in PACKING_OPTIONS
+            for name in SEQUENCE_OPTIONS
             if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
         ]
         if given:

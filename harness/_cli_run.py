@@ -19,12 +19,11 @@ from click.core import ParameterSource
 from rich.markup import escape
 
 from harness._cli_constraints import constraint_options, grid_constraints
+from harness._cli_packing import grid_axes, packing_options
 from harness._cli_types import (
     AXIS_COUNT,
-    CAPS,
     COUNT,
     DURATION,
-    FLOATS,
     JOBS,
     NAMES,
     PLUGINS,
@@ -32,9 +31,7 @@ from harness._cli_types import (
     SCAN_SEED,
     SEEDS,
     SOLVER_SEED,
-    SWITCH,
     CommaList,
-    Command,
     terminal,
 )
 from harness._durations import format_duration
@@ -98,18 +95,6 @@ def _preset_help(key: str) -> str:
     return "; ".join(f"{name}: {show(_preset_value(name, key))}" for name in PRESETS)
 
 
-def _switch_options(name: str, help_text: str) -> Callable[[Command], Command]:
-    """Add ``--NAME`` (on, off or both: a grid axis; alone it means on) and ``--no-NAME`` (the same as
-    ``--NAME off``) to a click command; its callback receives ``NAME`` and ``no_NAME``."""
-
-    def add(command: Command) -> Command:
-        switch = click.option(f"--{name}", type=SWITCH, is_flag=False, flag_value="on", help=help_text)
-        negation = click.option(f"--no-{name}", f"no_{name}", is_flag=True, help=f"Same as --{name} off.")
-        return switch(negation(command))
-
-    return add
-
-
 class RunReporter(RichReporter):
     """`RichReporter` that also prints notices (broken part files set aside) and lost cells."""
 
@@ -162,17 +147,7 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
     help="Transfer methods evaluated after each sequence, with settings as for --solvers "
     f"(ebfr[beta=0.1,gcv]). [default: {_preset_help('transfers')}]",
 )
-@click.option("--mu", type=FLOATS, help="Binary blendshape threshold(s), eq. 2. [default: 0.3]")
-@click.option("--alpha", type=FLOATS, help="Importance mix(es), eq. 4. [default: 0.5]")
-@click.option("--beta", type=FLOATS, help="Uniqueness weight(s), eq. 4. [default: 0]")
-@_switch_options("symmetry", "Symmetry pairs (sec. 4.4): on, off or both (a grid axis). [default: on]")
-@_switch_options(
-    "importance",
-    "Importance weights (eq. 4): on, off (every weight 1) or both. [default: on; full: both]",
-)
-@click.option(
-    "--cap", type=CAPS, help="Most shapes per expression (sec. 6), comma list; none = no cap. [default: none]"
-)
+@packing_options(grid=True)
 @click.option(
     "--distortion",
     type=DISTORTION_NAMES,
@@ -322,8 +297,6 @@ def _given(ctx: click.Context, grid: Mapping[str, object]) -> dict[str, object]:
 )
 def run(
     preset: str,
-    no_symmetry: bool,
-    no_importance: bool,
     together: tuple[str, ...],
     apart: tuple[str, ...],
     constraints: Path | None,
@@ -348,11 +321,7 @@ def run(
     worker, a lost Dask scheduler) end the run incomplete with exit code 1; --resume runs them again.
     """
     ctx = click.get_current_context()
-    given = _given(ctx, grid)
-    if no_symmetry:
-        given["symmetry"] = (False,)
-    if no_importance:
-        given["importance"] = (False,)
+    given = {**grid_axes(ctx, grid), **_given(ctx, grid)}
     constraint_fields, constraint_origins = grid_constraints(together, apart, constraints, regions)
     given.update(constraint_fields)
     if variations_name is not None:
@@ -365,8 +334,6 @@ def run(
         raise click.UsageError("--scheduler is the Dask scheduler's address: give it with --executor dask")
     if resume is not None and out is not None and Path(out) != Path(resume):
         raise click.UsageError("give either --resume OUT or --out OUT, not two different directories")
-    if resume is not None and force:
-        raise click.UsageError("give either --resume (finish the run) or --force (replace it), not both")
     target = resume or out or Path("results") / preset
     preset_given = ctx.get_parameter_source("preset") is not ParameterSource.DEFAULT
     config: RunConfig | None = RunConfig(preset=preset, **PRESETS[preset]).with_overrides(**grid)

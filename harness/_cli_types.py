@@ -25,9 +25,15 @@ Item = TypeVar("Item")
 
 
 class CommaList(click.ParamType, Generic[Item]):
-    """``a,b,c`` -> tuple of items converted by ``item`` (``none`` -> None when ``allow_none``)."""
+    """``a,b,c`` -> tuple of items converted by ``item`` (``none`` -> None when ``allow_none``).
 
-    def __init__(self, item: Callable[[str], Item], name: str, *, allow_none: bool = False) -> None:
+    ``item`` is a function of one text, or the click type of the option's single value, whose own check
+    (a range, say) then holds for every item and words the error as it does for a single value.
+    """
+
+    def __init__(
+        self, item: Callable[[str], Item] | click.ParamType, name: str, *, allow_none: bool = False
+    ) -> None:
         self.item = item
         self.name = name
         self.allow_none = allow_none
@@ -44,6 +50,9 @@ class CommaList(click.ParamType, Generic[Item]):
         for part in parts:
             if self.allow_none and part.lower() in NONE_WORDS:
                 converted.append(None)
+                continue
+            if isinstance(self.item, click.ParamType):
+                converted.append(self.item.convert(part, param, ctx))
                 continue
             try:
                 converted.append(self.item(part))
@@ -179,9 +188,7 @@ def positive_int(text: str) -> int:
 NAMES = CommaList(str, "names")
 PLUGINS = PluginList()
 SEEDS = SeedList()
-FLOATS = CommaList(float, "numbers")
 POSITIVE_INTS = CommaList(positive_int, f"positive integers up to {COUNT_MAX}")
-CAPS = CommaList(positive_int, f"caps (1 to {COUNT_MAX}, or none)", allow_none=True)
 DURATION = Duration()
 SWITCH = Switch()
 

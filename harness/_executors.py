@@ -40,17 +40,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from harness._cell import (
-    Lost,
-    TemplateKey,
-    generated,
-    run_cell,
-    set_up,
-    template_key,
-    timeout_rows,
-    verified_template,
-    warm_up,
-)
+from harness._cell import Lost, run_cell, set_up, timeout_rows, warm_up
+from harness._cell_rigs import TemplateKey, generated, template_key, verified_template
 from harness._grid import CellSpec
 from harness._journal import SEQUENCE_END, new_journal, read_journal, remove_journal, remove_orphaned_journals
 from registry import HarnessError
@@ -154,7 +145,7 @@ class LocalExecutor:
     Attributes
     ----------
     templates : dict
-        Template rigs by `harness._cell.template_key`, sent to the workers with each cell of that rig
+        Template rigs by `harness._cell_rigs.template_key`, sent to the workers with each cell of that rig
         instead of its path (a Dask worker's cells: the rig was read where the harness runs).
     """
 

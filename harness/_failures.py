@@ -13,9 +13,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from harness._cell import Lost, Row, failure_rows
+from harness._cell import Lost, failure_rows
 from harness._grid import CellSpec
 from harness._records import read_records
+from harness._rows import Row
 
 #: Crashes of a cell's worker process after which the cell is recorded ``crashed`` instead of lost again.
 CRASH_LIMIT = 2

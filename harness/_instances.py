@@ -40,7 +40,6 @@ the manifest, and the export is written beside the folder and renamed into its p
 from __future__ import annotations
 
 import json
-import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +52,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from harness._isolated import IsolatedSolver
-    from packing import Analysis, Expression, PackingProblem, Solution, Termination
+    from packing import Expression, PackingProblem, Pipeline, Solution, Termination
     from rigs import Rig
     from solvers import LoadedSolver
 
@@ -172,11 +171,10 @@ def export(
 
 @dataclass(frozen=True)
 class RecordedSequence:
-    """A reference sequence (Algorithm 1 with one solver, checked) and the primary subproblems it solved,
-    each with the solver's answer, in order."""
+    """A reference sequence (Algorithm 1 with one solver, checked: its `packing.Pipeline`) and the primary
+    subproblems it solved, each with the solver's answer, in order."""
 
-    analysis: Analysis
-    analysis_time: float
+    pipeline: Pipeline
     expressions: list[Expression]
     solved: list[tuple[PackingProblem, Solution]]
 
@@ -201,35 +199,20 @@ def recorded_sequence(
     packing.CheckError
         When the sequence fails the independent check.
     """
-    import time
-
     import packing
 
     recorder = Recorder(solver)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", packing.MissingTargetWarning)  # no target: by design
-        clock = time.perf_counter()
-        analysis = packing.analyse(rig, target_neutral, **params)
-        analysis_time = time.perf_counter() - clock
-    expressions = packing.sequence(
-        rig, recorder, analysis=analysis, jmax=jmax, time_limit=time_limit, seed=seed
-    )
-    failed = next((e for e in expressions if e.termination is packing.Termination.ERROR), None)
+    pipeline = packing.Pipeline.analyse(rig, target_neutral, **params)
+    expressions = pipeline.sequence(recorder, jmax=jmax, time_limit=time_limit, seed=seed)
+    failed = packing.failed_expression(expressions)
     if failed is not None:
         reason = [line for line in str(failed.message).splitlines() if line.strip()]
         raise HarnessError(
             f"reference solver {solver.name} failed in expression {failed.index}"
             + (f": {reason[-1].strip()}" if reason else "")
         )
-    packing.check(
-        rig,
-        expressions,
-        pairs=analysis.pairs,
-        overlap=solver.capabilities.max_overlap,
-        maximal=True,
-        **params,
-    )
-    return RecordedSequence(analysis, analysis_time, expressions, recorder.solved)
+    pipeline.check(expressions, overlap=solver.capabilities.max_overlap)
+    return RecordedSequence(pipeline, expressions, recorder.solved)
 
 
 def _instance(sequence: Sequence, problem: PackingProblem, solution: Solution) -> tuple[dict[str, Any], str]:

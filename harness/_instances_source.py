@@ -160,10 +160,10 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
         For an unreadable ``run.json``, a ``rig`` the run does not have (listing those it has), or a rig
         file whose content changed since the run.
     """
-    from harness._cell import RigChangedError, packing_params, rig_pair
+    from harness._cell_rigs import RigChangedError, packing_params, rig_pair
     from harness._grid import NO_WARP, RunConfig
     from harness._rigspec import input_paths
-    from harness._run import read_run
+    from harness._run_file import read_run
 
     info = read_run(run)
     try:

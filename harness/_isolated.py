@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Final
 from registry import HarnessError
 
 if TYPE_CHECKING:
-    from packing import PackingProblem, Solution, Termination
+    from packing import PackingProblem, Solution
     from solvers import Availability, Capabilities, LoadedSolver
 
 #: Solvers loaded in this worker process, by label.
@@ -54,18 +54,12 @@ def load_in_worker(label: str) -> tuple[str, Capabilities]:
 
 
 def warm_in_worker(label: str) -> None:
-    """Solve a one-item problem with the solver ``label`` in the worker process, so that the imports of its
-    backend and of the packing problem are paid while the caller analyses the rig; whatever it answers or
-    raises is ignored (the packing's own solves report failures)."""
-    import numpy as np
-
-    from packing import problem_from_incidence
+    """Warm the solver ``label`` up in the worker process (`solvers.warm_up`), so that the imports of its
+    backend and of the packing problem are paid while the caller analyses the rig."""
+    from solvers import warm_up
 
     load_in_worker(label)
-    try:
-        _LOADED[label].solve(problem_from_incidence(np.ones((1, 1), dtype=bool), [1.0]))
-    except BaseException:  # noqa: BLE001, S110 - a solver that fails here fails again on the packing's solves
-        pass
+    warm_up(_LOADED[label])
 
 
 def availability_in_worker(label: str) -> Availability:
@@ -84,25 +78,10 @@ def solve_in_worker(label: str, problem: PackingProblem, time_limit: float | Non
         return failed(label, f"it called sys.exit({exit_.code!r})", time.perf_counter() - start)
 
 
-def no_answer(backend: str, termination: Termination, message: str, elapsed: float = 0.0) -> Solution:
-    """An answer of ``backend`` without items: why (``termination``, ``message``) and after how long."""
-    from packing import Solution
-
-    return Solution(
-        items=(),
-        shapes=(),
-        objective=0.0,
-        bound=None,
-        termination=termination,
-        solve_time=elapsed,
-        backend=backend,
-        message=message,
-    )
-
-
 def failed(backend: str, message: str, elapsed: float = 0.0) -> Solution:
-    """The ``Termination.ERROR`` answer of ``backend``, with the reason in ``message``."""
+    """The ``Termination.ERROR`` answer of ``backend`` (`solvers.no_answer`), the reason in ``message``."""
     from packing import Termination
+    from solvers import no_answer
 
     return no_answer(backend, Termination.ERROR, message, elapsed)
 
@@ -119,6 +98,7 @@ def _solution(reply: object, backend: str) -> Solution:
 def _stopped(backend: str, time_limit: float, elapsed: float) -> Solution:
     """The ``Termination.TIME_LIMIT`` answer of ``backend`` stopped for overrunning ``time_limit``."""
     from packing import Termination
+    from solvers import no_answer
 
     message = f"no answer within its time limit of {time_limit:g}s; stopped after {elapsed:.1f}s"
     return no_answer(backend, Termination.TIME_LIMIT, message, elapsed)
@@ -135,7 +115,7 @@ class IsolatedSolver:
     Notes
     -----
     The worker (one per label and process, `solvers.worker`) starts at once, loads the plugin and warms it up
-    on a one-item problem while the caller goes on (loading and analysing the rig); the plugin's library is
+    (`solvers.warm_up`) while the caller goes on (loading and analysing the rig); the plugin's library is
     imported there only. Its name and capabilities, and the first solve, wait for it.
     """
 

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from registry import append_text
 
 if TYPE_CHECKING:
-    from harness._cell import RecordValue, Row
+    from harness._rows import RecordValue, Row
 
 #: ``kind`` of the line a cell appends once its whole sequence is solved (checks and transfers follow).
 SEQUENCE_END = "sequence_end"

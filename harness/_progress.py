@@ -21,7 +21,7 @@ from harness._durations import format_duration
 from harness._grid import NO_WARP, CellSpec
 
 if TYPE_CHECKING:
-    from harness._cell import Row
+    from harness._rows import Row
 
 _STATUS_STYLE = {
     "ok": "green",

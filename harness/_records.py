@@ -85,7 +85,7 @@ finished         string         ISO 8601 time the cell finished
 
 ``kind == "expression"``, one per (cell, expression). Its columns record the attributes of the
 `packing.Expression` (and through it of its `packing.Solution`), but ``n_chosen``, ``covered`` and
-``coverage``, which the cell computes from the sequence (`harness._cell.expression_columns`):
+``coverage``, which the cell computes from the sequence (`harness._rows.expression_columns`):
 
 ================ ============== ==============================================================================
 expression       int64          1-based position in the sequence
@@ -170,7 +170,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from harness._cell import ColumnType, RecordValue, expression_columns
+from harness._rows import ColumnType, RecordValue, expression_columns
 from harness._run_file import RUN_FILE, read_run, run_cells
 from packing import Expression
 from registry import (
@@ -235,7 +235,7 @@ _CELL_COLUMNS: dict[str, pa.DataType] = {
     "finished": pa.string(),
 }
 
-#: The ``kind == "expression"`` columns in file order: `harness._cell.expression_columns`, typed by the
+#: The ``kind == "expression"`` columns in file order: `harness._rows.expression_columns`, typed by the
 #: annotations of `packing.Expression`, and `_SEQUENCE_COLUMNS`.
 _EXPRESSION_ORDER: tuple[str, ...] = (
     "expression",
@@ -291,7 +291,7 @@ _GROWN_COLUMNS: dict[str, pa.DataType] = {
 
 
 def arrow_type(kind: ColumnType) -> pa.DataType:
-    """The Arrow type of a records column of plain Python type ``kind`` (`harness._cell.column_type`)."""
+    """The Arrow type of a records column of plain Python type ``kind`` (`harness._rows.column_type`)."""
     if isinstance(kind, types.GenericAlias):
         (item,) = typing.get_args(kind)
         return pa.list_(_ARROW_TYPES[item])

@@ -11,16 +11,16 @@ solver, repetition and permutation.
 A replay cell records one ``expression`` row per instance (``expression`` is the instance's index in the
 reference): the objective, termination, bound, times and shapes of *its* solver's answer, the instance's
 size, ``presolve_time`` 0 (the instance is given). It has no transfers. Its answers are checked one by one
-(`check`): each must be valid on its own instance (overlap within the solver's declared ``max_overlap``, the
-cap, symmetry and artist pairs, a bound at least the objective) and, for a solver that ran to its end,
-maximal among the instance's items.
+(`Reference.check`): each must be valid on its own instance (overlap within the solver's declared
+``max_overlap``, the cap, symmetry and artist pairs, a bound at least the objective) and, for a solver that
+ran to its end, maximal among the instance's items.
 """
 
 from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from collections.abc import Hashable, Mapping
+from collections.abc import Hashable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -30,11 +30,12 @@ import packing
 from harness import _plugins as plugins
 from harness._grid import NO_WARP, CellSpec
 from harness._instances import recorded_sequence
+from harness._rows import sequence_facts
 from packing import Expression, Termination
 from registry import HarnessError
 
 if TYPE_CHECKING:
-    from packing import Analysis, PackingProblem
+    from packing import PackingProblem, Pipeline
     from rigs import Rig
     from solvers import LoadedSolver
 
@@ -50,13 +51,35 @@ _references: OrderedDict[Hashable, Reference] = OrderedDict()
 
 @dataclass(frozen=True)
 class Reference:
-    """One reference sequence: its analysis (and the seconds it took) and its instances in order, each with
-    the shapes the reference used before it (those its problem no longer holds)."""
+    """One reference sequence: its pipeline (the analysis, the seconds it took, the checker's parameters)
+    and its instances in order, each with the shapes the reference used before it (those its problem no
+    longer holds)."""
 
-    analysis: Analysis
-    analysis_time: float
+    pipeline: Pipeline
     instances: tuple[PackingProblem, ...]
     used_before: tuple[frozenset[str], ...]
+
+    def check(self, answers: Iterable[Any], *, overlap: float) -> None:
+        """Check every answer on its own instance (`packing.Pipeline.check` of the one expression): valid
+        with the reference's symmetry pairs and the solver's declared ``overlap``, and maximal where the
+        solver ran to its end, the shapes the reference used before the instance not counted as fitting.
+
+        Raises
+        ------
+        ValueError
+            For an answer that names no instance of the reference.
+        packing.CheckError
+            For the first answer that breaks a rule, naming its instance.
+        """
+        for answer in answers:
+            index = int(answer.index)
+            if not 1 <= index <= len(self.instances):
+                raise ValueError(f"instance {index} is not one of the reference's 1..{len(self.instances)}")
+            try:
+                self.pipeline.check([answer], overlap=overlap, rejected={1: self.used_before[index - 1]})
+            except packing.CheckError as error:
+                message = str(error).split(": ", 1)[-1]
+                raise packing.CheckError(f"(instance) {message}", kind=error.kind, expression=index) from None
 
 
 def reference(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, Any]) -> Reference:
@@ -100,8 +123,7 @@ def _build(spec: CellSpec, template: Rig, target: Rig, params: Mapping[str, Any]
     for expression in recorded.expressions:
         used.append(frozenset(expression.shapes).union(*used[-1:]))
     return Reference(
-        analysis=recorded.analysis,
-        analysis_time=recorded.analysis_time,
+        pipeline=recorded.pipeline,
         instances=tuple(problem for problem, _ in recorded.solved),
         used_before=(frozenset(), *used[:-1]),
     )
@@ -111,21 +133,14 @@ def pack(
     spec: CellSpec, solver: LoadedSolver, template: Rig, target: Rig, params: Mapping[str, Any]
 ) -> tuple[Reference, list[Expression], dict[str, Any]]:
     """The cell's reference, one expression per reference instance solved by the cell's solver (up to the
-    first that fails), and the cell facts (the reference's analysis time)."""
+    first that fails), and the cell facts (of the reference's analysis)."""
     found = reference(spec, template, target, params)
     expressions = []
     for problem in found.instances:
         expressions.append(_solve(problem, solver, spec))
         if expressions[-1].termination is Termination.ERROR:
             break
-    facts = {
-        "analysis_time": found.analysis_time,
-        "lower_bound": packing.expression_lower_bound(found.analysis).lower,
-        "n_pairs": len(found.analysis.pairs),
-        "n_empty": len(found.analysis.empty_names),
-        "backend_version": next((f"{e.backend} {e.version}".strip() for e in expressions if e.backend), ""),
-    }
-    return found, expressions, facts
+    return found, expressions, sequence_facts(found.pipeline, expressions)
 
 
 def _solve(problem: PackingProblem, solver: LoadedSolver, spec: CellSpec) -> Expression:
@@ -148,37 +163,3 @@ def _solve(problem: PackingProblem, solver: LoadedSolver, spec: CellSpec) -> Exp
         vertex_rows=problem.n_vertex_rows,
         clique_rows=len(problem.cliques),
     )
-
-
-def check(
-    found: Reference,
-    solver: LoadedSolver,
-    template: Rig,
-    expressions: list[Expression],
-    params: Mapping[str, Any],
-) -> None:
-    """Check every answer on its own instance (`packing.check` of the one expression): valid with the
-    harness's symmetry pairs and the solver's declared overlap, and maximal where the solver ran to its
-    end, the shapes the reference used before the instance not counted as fitting.
-
-    Raises
-    ------
-    packing.CheckError
-        For the first answer that breaks a rule, naming its instance.
-    """
-    for expression in expressions:
-        try:
-            packing.check(
-                template,
-                [expression],
-                pairs=found.analysis.pairs,
-                overlap=solver.capabilities.max_overlap,
-                maximal=True,
-                rejected={1: found.used_before[expression.index - 1]},
-                **params,
-            )
-        except packing.CheckError as error:
-            message = str(error).split(": ", 1)[-1]
-            raise packing.CheckError(
-                f"(instance) {message}", kind=error.kind, expression=expression.index
-            ) from None

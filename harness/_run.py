@@ -57,7 +57,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from harness import _environment as environment
 from harness import _plugins as plugins
 from harness._bounds import check_bounds
-from harness._cell import Lost, Row, failure_rows
+from harness._cell import Lost, failure_rows
 from harness._certificate import INCONSISTENT, certify
 from harness._executors import Executor
 from harness._failures import count_crash, failed_cells
@@ -75,6 +75,7 @@ from harness._records import (
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
 from harness._rigspec import check_rig_files, input_paths
+from harness._rows import Row
 from harness._run_file import RUN_FILE, RunDirectoryError, read_run
 from harness._verify import CellChecker
 from registry import HarnessError, OutputFolder, OutputFolderError, check_apart, stop_signals_deferred
@@ -191,7 +192,7 @@ def _check_packing_params(config: RunConfig, constraint_origins: Mapping[tuple[s
         packing.PackingParams(mu=mu, alpha=alpha, beta=beta, max_per_expression=cap, distortion=distortion)
     if not (config.together or config.apart or config.regions):
         return
-    from harness._cell import packing_params
+    from harness._cell_rigs import packing_params
     from harness._cli_constraints import check_file_pairs
     from harness._rigspec import resolve_rig
 
@@ -220,7 +221,7 @@ def previous_run(out: Path, *, resume: bool, force: bool) -> dict[str, Any] | No
     """
     out = Path(out)
     if resume and force:
-        raise RunDirectoryError("give either --resume or --force, not both")
+        raise RunDirectoryError("give either --resume (finish the run) or --force (replace it), not both")
     if resume:
         if not (out / RUN_FILE).is_file():
             raise RunDirectoryError(

@@ -2,13 +2,13 @@
 
 A cell runs in a worker process (`harness._executors`), where its solver plugin runs too, and a plugin can
 change anything in its own process: the worker's check (`harness._cell`) is no proof. So the run re-checks
-what each worker returned here, in the process that writes the records, with `packing.check` on the rig as
-this process reads it (`harness._cell.verified_template`), the symmetry pairs of this process's own analysis,
-the overlap the solver declares (``capabilities.max_overlap`` of the cell's solver made here with its
-settings), the cell's packing parameters, bounds at least the objectives, no infeasible verdict, and
+what each worker returned here, in the process that writes the records, with `packing.Pipeline.check` on the
+rig as this process reads it (`harness._cell_rigs.verified_template`), the symmetry pairs of this process's
+own analysis, the overlap the solver declares (``capabilities.max_overlap`` of the cell's solver made here
+with its settings), the cell's packing parameters, bounds at least the objectives, no infeasible verdict, and
 maximality where the solver ran to its end. A replay cell's answers are checked one by one on their own
-instances, as `harness._replay.check` does, with the reference sequence computed here. A cell whose rows
-fail is recorded ``invalid`` (the cell row alone, as a failed check in the worker gives), and so is one
+instances, as `harness._replay.Reference.check` does, with the reference sequence computed here. A cell whose
+rows fail is recorded ``invalid`` (the cell row alone, as a failed check in the worker gives), and so is one
 whose rows are not a cell's records at all.
 
 What is expensive is kept per rig and setting (`CellChecker`): the rigs, their analysis and the replay
@@ -24,12 +24,14 @@ from typing import TYPE_CHECKING, Any
 
 from harness import _plugins as plugins
 from harness import _replay
-from harness._cell import Row, failure_rows, packing_params, rig_pair
+from harness._cell import failure_rows
+from harness._cell_rigs import packing_params, rig_pair
 from harness._grid import NO_WARP, CellSpec
+from harness._rows import Row
 from registry import BoundedMemo
 
 if TYPE_CHECKING:
-    from packing import Analysis
+    from packing import Pipeline
 
 #: The ``kind`` of the row every cell's records start with.
 CELL_KIND = "cell"
@@ -45,7 +47,7 @@ class CellChecker:
     """
 
     def __init__(self) -> None:
-        self._analyses: BoundedMemo[Analysis] = BoundedMemo(8)
+        self._pipelines: BoundedMemo[Pipeline] = BoundedMemo(8)
         self._overlaps: dict[str, float] = {}
 
     def __call__(self, spec: CellSpec, rows: object) -> list[Row]:
@@ -65,7 +67,6 @@ class CellChecker:
 
     def _check(self, spec: CellSpec, rows: list[Row]) -> None:
         """Raise `packing.CheckError` (or another exception) when the cell's answer breaks a rule."""
-        import packing
 
         expressions = sorted(
             (row for row in rows if row.get("kind") == "expression"), key=lambda row: _number(row)
@@ -78,12 +79,11 @@ class CellChecker:
         overlap = self._overlap(spec.solver)
         answers = [_expression(row) for row in expressions]
         if spec.mode == "replay":
-            _check_replay(spec, template, target, params, overlap, answers)
+            _replay.reference(spec, template, target, params).check(answers, overlap=overlap)
             return
-        analysis = self._analysis(spec, template, target, params)
-        packing.check(template, answers, pairs=analysis.pairs, overlap=overlap, maximal=True, **params)
+        self._pipeline(spec, template, target, params).check(answers, overlap=overlap)
 
-    def _analysis(self, spec: CellSpec, template: Any, target: Any, params: Mapping[str, Any]) -> Analysis:
+    def _pipeline(self, spec: CellSpec, template: Any, target: Any, params: Mapping[str, Any]) -> Pipeline:
         """The analysis the cell's sequence is checked against (its symmetry pairs), once per rig and
         setting."""
         import packing
@@ -94,50 +94,19 @@ class CellChecker:
             spec.regions,
         )  # fmt: skip
 
-        def build() -> Analysis:
+        def build() -> Pipeline:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 neutral = None if spec.warp == NO_WARP else target.neutral
-                return packing.analyse(template, neutral, **params)
+                return packing.Pipeline.analyse(template, neutral, **params)
 
-        return self._analyses.get_or_build(key, build)
+        return self._pipelines.get_or_build(key, build)
 
     def _overlap(self, label: str) -> float:
         """The overlap the cell's solver declares, made here with its settings."""
         if label not in self._overlaps:
             self._overlaps[label] = float(plugins.solver_capabilities(label).max_overlap)
         return self._overlaps[label]
-
-
-def _check_replay(
-    spec: CellSpec,
-    template: Any,
-    target: Any,
-    params: Mapping[str, Any],
-    overlap: float,
-    answers: list[SimpleNamespace],
-) -> None:
-    """Each answer of a replay cell on its own instance of the reference sequence (`harness._replay`)."""
-    import packing
-
-    found = _replay.reference(spec, template, target, params)
-    for answer in answers:
-        index = int(answer.index)
-        if not 1 <= index <= len(found.instances):
-            raise ValueError(f"instance {index} is not one of the reference's 1..{len(found.instances)}")
-        try:
-            packing.check(
-                template,
-                [answer],
-                pairs=found.analysis.pairs,
-                overlap=overlap,
-                maximal=True,
-                rejected={1: found.used_before[index - 1]},
-                **params,
-            )
-        except packing.CheckError as error:
-            message = str(error).split(": ", 1)[-1]
-            raise packing.CheckError(f"(instance) {message}", kind=error.kind, expression=index) from None
 
 
 def _malformed(rows: object) -> str:

@@ -1,5 +1,6 @@
 """Expression packing (Carrigan et al. 2020, sec. 4): binary blendshapes, importance, symmetry, the
-packing problem and its presolve, the expression sequence (Algorithm 1) and the independent checker.
+packing problem and its presolve, the expression sequence (Algorithm 1), the independent checker, and the
+three as one checked pipeline (`Pipeline`).
 
 Names are imported from their modules on first use (PEP 562): ``from packing import PackingProblem``
 (what a solver plugin needs) loads neither the rig analysis, nor the rig loaders, nor networkx."""
@@ -26,10 +27,11 @@ if TYPE_CHECKING:
     from packing._face_rules import FaceRule, MatchedRules, match_rules, read_rules
     from packing._importance import DegenerateDistortionWarning, MissingTargetWarning, importance
     from packing._params import DEFAULT_REGION_PAIRS, PackingParams
+    from packing._pipeline import Pipeline, failed_expression
     from packing._presolve import ConflictSets, ConflictView, pack_bit_rows, unpack_bit_rows
     from packing._problem import PackingProblem, problem_from_incidence
     from packing._sequence import PackingSolver, sequence
-    from packing._solution import Expression, Solution, SolutionStatus, Termination
+    from packing._solution import EXPRESSION_TIMES, Expression, Solution, SolutionStatus, Termination
     from packing._symmetry import SymmetryResult, find_symmetry_pairs
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
@@ -51,9 +53,10 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "_importance": ["DegenerateDistortionWarning", "MissingTargetWarning", "importance"],
         "_params": ["DEFAULT_REGION_PAIRS", "PackingParams"],
         "_presolve": ["ConflictSets", "ConflictView", "pack_bit_rows", "unpack_bit_rows"],
+        "_pipeline": ["Pipeline", "failed_expression"],
         "_problem": ["PackingProblem", "problem_from_incidence"],
         "_sequence": ["PackingSolver", "sequence"],
-        "_solution": ["Expression", "Solution", "SolutionStatus", "Termination"],
+        "_solution": ["EXPRESSION_TIMES", "Expression", "Solution", "SolutionStatus", "Termination"],
         "_symmetry": ["SymmetryResult", "find_symmetry_pairs"],
     },
 )

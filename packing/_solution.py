@@ -86,6 +86,12 @@ class Solution:
         )
 
 
+#: The timed steps of one expression, as `Expression` attributes (and records columns of the same names):
+#: deriving its problem from the analysis (presolve, sec. 6), building the solver's model, solving eq. 3, and
+#: the second pass of sec. 6. Their sum is the expression's share of its sequence's time.
+EXPRESSION_TIMES: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
+
+
 @dataclass(frozen=True)
 class Expression:
     """One reference expression of the sequence (Carrigan et al. 2020, Algorithm 1): the solver's `Solution`

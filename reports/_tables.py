@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 import harness
+import packing
 from reports._paper import PAPER_AGREEMENT, PAPER_TIMINGS
 
 #: The solver whose times every other solver's are divided by (measured in the same run).
@@ -116,14 +117,11 @@ def ok_cells(records: pd.DataFrame) -> pd.DataFrame:
     return records[(records["kind"] == "cell") & (records["status"] == "ok")]
 
 
-#: Timed steps of one expression; their sum is its share of the cell's ``sequence_time``.
-EXPRESSION_TIME_COLUMNS: tuple[str, ...] = ("presolve_time", "build_time", "solve_time", "extra_time")
-
-
 def expression_rows(records: pd.DataFrame) -> pd.DataFrame:
-    """The ``expression`` rows, with ``seconds`` = presolve + build + solve + extra time (null = 0)."""
+    """The ``expression`` rows, with ``seconds`` = the sum of the expression's timed steps
+    (`packing.EXPRESSION_TIMES`: presolve, build, solve and extra time; null = 0)."""
     rows = records[records["kind"] == "expression"].copy()
-    rows["seconds"] = rows[list(EXPRESSION_TIME_COLUMNS)].astype(float).fillna(0.0).sum(axis=1)
+    rows["seconds"] = rows[list(packing.EXPRESSION_TIMES)].astype(float).fillna(0.0).sum(axis=1)
     return rows
 
 

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import ExitStack, nullcontext
 from dataclasses import dataclass, field
 from os import PathLike
@@ -66,7 +66,7 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import IsolatedSolver, check_settings, format_duration, input_paths, no_answer, resolve_rig
+from harness import IsolatedSolver, check_settings, format_duration, input_paths, resolve_rig
 from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
@@ -74,6 +74,7 @@ from session._mesh import TargetMesh, read_target
 from session._minimum import minimum_sequence
 from session._pictures import prepare_scene
 from session._solver import LoudSolver
+from solvers import no_answer
 
 if TYPE_CHECKING:
     from packing import Analysis, Expression, PackingProblem, Solution
@@ -210,6 +211,25 @@ class PackConfig:
     default_constraints: bool = True
 
 
+def check_minimum(
+    minimum: bool, *, refining: bool, extra_examples: bool, timeout: float | None, given: Collection[str] = ()
+) -> None:
+    """Refuse a ``minimum`` packing with what it cannot honour: refinement (``refining``: prompts or
+    rejections), extra examples, a ``timeout``, or an option ``given`` on the command line that it would
+    silently ignore (``--jmax``, ``--solver``, even at its default value).
+
+    Raises
+    ------
+    registry.HarnessError
+        Naming every option ``--minimum`` takes no part of.
+    """
+    if minimum and (refining or extra_examples or timeout is not None or given):
+        raise HarnessError(
+            "--minimum covers every shape in the fewest expressions, with CP-SAT: it takes no --jmax, "
+            "--solver, --refine, --reject, --extra-examples or --timeout (use --time-limit for the proof)"
+        )
+
+
 def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None = None) -> PackResult:
     """Pack one rig and write the session folder ``config.out`` (see the module docstring).
 
@@ -225,8 +245,8 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
     registry.OutputFolderError
         For an output folder that may not be used (before any packing is done).
     registry.HarnessError
-        For ``minimum`` with refinement, extra examples or a timeout, a rejection of a shape the rig lacks
-        or for an expression the session does not have.
+        For ``minimum`` with refinement, extra examples or a timeout (`check_minimum`), a rejection of a
+        shape the rig lacks or for an expression the session does not have.
     harness.SolverFailure
         A solver that failed on an expression (it raised, answered items the problem does not have,
         claimed infeasibility, exited or crashed: it solves in a worker process), before anything is
@@ -235,14 +255,12 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
     import packing
 
     params, rejections = config.params, dict(config.rejections)
-
-    if config.minimum and (
-        rejections or decide is not None or params.get("extra_examples") or config.timeout is not None
-    ):
-        raise HarnessError(
-            "--minimum covers every shape in the fewest expressions: it takes no --refine, --reject, "
-            "--extra-examples or --timeout (use --time-limit for the proof)"
-        )
+    check_minimum(
+        config.minimum,
+        refining=bool(rejections) or decide is not None,
+        extra_examples=bool(params.get("extra_examples")),
+        timeout=config.timeout,
+    )
     check_settings([config.solver], [], solver_option="--solver")
     started = monotonic()
     with ExitStack() as held:  # the output folder's lock, once it is claimed
@@ -263,10 +281,9 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                 for number, names in (rejections or {}).items()
                 if (kept := names & set(rig.names))
             }
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", packing.MissingTargetWarning)  # among the analysis notes
-                target_vertices = None if target_mesh is None else target_mesh.vertices
-                analysis = packing.analyse(rig, target_vertices, **params)
+            target_vertices = None if target_mesh is None else target_mesh.vertices
+            pipeline = packing.Pipeline.analyse(rig, target_vertices, **params)  # no target: among the notes
+            analysis = pipeline.analysis
             scene = (
                 prepare_scene(rig, analysis.params.mu) if config.pictures else None
             )  # while the solver works
@@ -287,24 +304,14 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                     found.append(result.message())
             else:
                 refining = _refining(deadline or isolated, rig, rejections, decide, rejected)
-                expressions = packing.sequence(
-                    rig,
+                expressions = pipeline.sequence(
                     LoudSolver(refining, config.solver),
-                    analysis=analysis,
                     jmax=config.jmax,
                     time_limit=config.time_limit,
                     seed=config.seed,
                 )
                 overlap = isolated.capabilities.max_overlap
-        packing.check(
-            rig,
-            expressions,
-            pairs=analysis.pairs,
-            overlap=overlap,
-            maximal=not config.minimum,
-            rejected=rejected,
-            **params,
-        )
+        pipeline.check(expressions, overlap=overlap, maximal=not config.minimum, rejected=rejected)
         timed_out = deadline is not None and deadline.expired
         refined = bool(rejections) or decide is not None
         missing, reason = _coverage(analysis, expressions, refined, config.timeout if timed_out else None)

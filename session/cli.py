@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from harness import (
     COUNT,
     DURATION,
+    JMAX,
     SOLVER_SEED,
-    FiniteFloatRange,
     constraint_options,
     constraint_params,
+    packing_options,
+    packing_params,
     terminal,
 )
 
@@ -39,7 +41,7 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
     "importance (eq. 6), and the expressions are also written on it (OUT/on_target/).",
 )
 @click.option("--solver", default="cpsat", help="Solver plugin (see harness list).")
-@click.option("--jmax", type=COUNT, default=20, help="Most expressions (not with --minimum).")
+@click.option("--jmax", type=COUNT, default=JMAX, help="Most expressions (not with --minimum).")
 @click.option(
     "--minimum",
     is_flag=True,
@@ -63,19 +65,7 @@ _COLUMNS: tuple[tuple[str, JustifyMethod], ...] = (
     help="Replace an earlier packing in --out (a folder holding files harness did not write is refused; "
     "those are never replaced or removed).",
 )
-@click.option(
-    "--mu",
-    type=FiniteFloatRange(0, 1, min_open=True),
-    default=0.3,
-    help="Binary blendshape threshold, eq. 2.",
-)
-@click.option("--alpha", type=FiniteFloatRange(0, 1), default=0.5, help="Importance mix, eq. 4.")
-@click.option("--beta", type=FiniteFloatRange(min=0), default=0.0, help="Uniqueness weight, eq. 4.")
-@click.option("--symmetry/--no-symmetry", default=True, help="Force symmetry pairs together (sec. 4.4).")
-@click.option(
-    "--importance/--no-importance", default=True, help="Importance weights (eq. 4); off = every weight 1."
-)
-@click.option("--cap", type=COUNT, help="Most shapes per expression (sec. 6). [default: no cap]")
+@packing_options(grid=False)
 @click.option(
     "--extra-examples/--no-extra-examples",
     default=False,
@@ -123,12 +113,6 @@ def pack(
     pictures: bool,
     glb: bool,
     force: bool,
-    mu: float,
-    alpha: float,
-    beta: float,
-    symmetry: bool,
-    importance: bool,
-    cap: int | None,
     extra_examples: bool,
     time_limit: float | None,
     timeout: float | None,
@@ -141,6 +125,7 @@ def pack(
     apart: tuple[str, ...],
     constraints: Path | None,
     regions: Path | None,
+    **packing: Any,
 ) -> None:
     """Choose the reference expressions of RIG (any rig file or folder, a preset name, or a fetched rig's
     name) and write the scanning session to OUT: expressions.json, neutral.obj and one OBJ per expression
@@ -152,21 +137,20 @@ def pack(
     from harness import expand_names, solver_names
     from session._constraints import parse_exclusions
     from session._files import SHEET_FILE
-    from session._pack import EXPRESSIONS_FILE, PackConfig, parse_rejections
+    from session._pack import EXPRESSIONS_FILE, PackConfig, check_minimum, parse_rejections
     from session._pack import pack as pack_rig
 
     if refine and reject:
         raise click.UsageError("use either --refine (interactive) or --reject (listed), not both")
     context = click.get_current_context()
-    given = {
-        name: context.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
+    given = [
+        f"--{name}"
         for name in ("jmax", "solver")
-    }
-    if minimum and (refine or reject or extra_examples or timeout is not None or any(given.values())):
-        raise click.UsageError(
-            "--minimum covers every shape in the fewest expressions, with CP-SAT: it takes no --jmax, "
-            "--solver, --refine, --reject, --extra-examples or --timeout (use --time-limit for the proof)"
-        )
+        if context.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
+    ]
+    check_minimum(
+        minimum, refining=refine or bool(reject), extra_examples=extra_examples, timeout=timeout, given=given
+    )
     expand_names([solver], solver_names(), "solver", "--solver")
 
     def decide(expression: int, shape: str, extra_example: bool) -> bool:
@@ -174,12 +158,7 @@ def pack(
         return click.confirm(f"expression {expression}: keep {shape}{role}?", default=True)
 
     params = {
-        "mu": mu,
-        "alpha": alpha,
-        "beta": beta,
-        "symmetry": symmetry,
-        "importance": importance,
-        "max_per_expression": cap,
+        **packing_params(packing),
         "extra_examples": extra_examples,
         **constraint_params(together, apart, constraints, regions),
     }

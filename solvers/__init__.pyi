@@ -21,6 +21,7 @@ from ._base import (
 )
 from ._base import (
     cpu_seconds as cpu_seconds,
+    no_answer as no_answer,
 )
 from ._base import (
     package_availability as package_availability,

@@ -220,6 +220,31 @@ def make_solution(
     )
 
 
+def no_answer(
+    backend: str, termination: Termination, message: str, elapsed: float = 0.0, *, version: str = ""
+) -> Solution:
+    """An answer of ``backend`` without items: why (``termination``, ``message``) and after how long.
+
+    What a failed solve gives instead of raising (a plugin that raised or answered nonsense, a worker process
+    that died or overran its time limit, a deadline already spent), so that the expression sequence stops at
+    an empty expression and its caller says why.
+    """
+    from packing import Solution
+
+    return Solution(
+        items=(),
+        shapes=(),
+        objective=0.0,
+        bound=None,
+        termination=termination,
+        build_time=0.0,
+        solve_time=float(elapsed),
+        backend=backend,
+        version=version,
+        message=message,
+    )
+
+
 def trivial_bound(problem: PackingProblem, items: np.ndarray | None = None) -> float:
     """Upper bound on eq. 3a that needs no solver: the sum of the positive weights (of ``items`` only, for
     the packings of those items)."""

@@ -1,10 +1,10 @@
 """Solver plugins that cheat in their own process, for the harness's own check (`test_parent_check.py`).
 
-`CheckBreaker` turns `packing.check` (and the replay check) into no-ops in the process it solves in, then
-answers every problem with all its items, which overlap: a worker's own check then passes it. `ForkingSolver`
-forks, and both processes answer; the child stays behind, holding the worker's streams.
-`SilentAvailability` never says whether it is available, `SleepingSolver` ignores its time limit and
-`ExitingSolver` calls ``sys.exit(0)``.
+`CheckBreaker` turns the pipeline's check (`packing.Pipeline.check`, which the replay check calls too) into a
+no-op in the process it solves in, then answers every problem with all its items, which overlap: a worker's
+own check then passes it. `ForkingSolver` forks, and both processes answer; the child stays behind, holding
+the worker's streams. `SilentAvailability` never says whether it is available, `SleepingSolver` ignores its
+time limit and `ExitingSolver` calls ``sys.exit(0)``.
 """
 
 from __future__ import annotations
@@ -34,10 +34,7 @@ class CheckBreaker:
         return Availability.available("0")
 
     def solve(self, problem: PackingProblem, *, time_limit: float | None = None, seed: int = 0) -> Result:
-        import harness._replay
-
-        packing.check = _nothing
-        harness._replay.check = _nothing
+        packing.Pipeline.check = _nothing
         return Result(tuple(range(problem.n_items)), Termination.OPTIMAL)
 
 

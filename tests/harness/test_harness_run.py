@@ -211,12 +211,12 @@ def test_a_cell_timed_out_after_its_sequence_says_so(rig_file, tmp_path, test_pl
 def test_a_sequence_the_checker_rejects_is_recorded_invalid_without_results(
     rig_file, tmp_path, monkeypatch, inline
 ) -> None:
-    def reject(rig, expressions, **params):
+    def reject(pipeline, expressions, **options):
         raise packing.CheckError(
             "'bump0_L' and 'bump1_L' share 3 active vertices", kind="overlap", expression=2
         )
 
-    monkeypatch.setattr(packing, "check", reject)
+    monkeypatch.setattr(packing.Pipeline, "check", reject)
     summary = harness.run_grid(_config(rig_file, solvers=("greedy",)), tmp_path, make_executor=inline)
     assert summary.statuses == {"invalid": 1}
     records = harness.read_records(tmp_path)

@@ -12,7 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import packing
-from harness import _cell, _records
+from harness import _cell, _records, _rows
 from packing import Expression, Solution, Termination
 
 _STRINGS = pa.list_(pa.string())
@@ -190,10 +190,10 @@ def test_the_expression_columns_follow_the_dataclass() -> None:
     expected = {
         "expression" if name == "index" else name: annotation
         for name, annotation in annotations.items()
-        if name not in _cell.UNRECORDED_ATTRIBUTES
+        if name not in _rows.UNRECORDED_ATTRIBUTES
     }
-    assert _cell.UNRECORDED_ATTRIBUTES == {"items", "solution", "backend", "version"}
-    assert set(_cell.expression_columns()) == set(expected)
+    assert _rows.UNRECORDED_ATTRIBUTES == {"items", "solution", "backend", "version"}
+    assert set(_rows.expression_columns()) == set(expected)
     types = {
         str: pa.string(),
         int: pa.int64(),
@@ -218,7 +218,7 @@ def test_a_field_added_to_the_expression_becomes_a_column() -> None:
     section = _records.expression_section(CheckedExpression)
     assert list(section) == [*_records.expression_section(), "check_time", "rejected"]
     assert section["check_time"] == pa.float64() and section["rejected"] == _STRINGS
-    assert _cell.expression_columns(CheckedExpression)["check_time"] == ("check_time", float)
+    assert _rows.expression_columns(CheckedExpression)["check_time"] == ("check_time", float)
 
 
 def test_a_column_whose_attribute_is_gone_is_refused() -> None:
@@ -237,7 +237,7 @@ def test_an_attribute_no_column_can_hold_is_refused() -> None:
         vertices: np.ndarray | None = None
 
     with pytest.raises(TypeError, match="cannot hold values annotated"):
-        _cell.expression_columns(WithVertices)
+        _rows.expression_columns(WithVertices)
 
 
 @pytest.mark.parametrize(
@@ -254,17 +254,17 @@ def test_an_attribute_no_column_can_hold_is_refused() -> None:
     ],
 )
 def test_column_types_of_annotations(annotation: object, expected: object) -> None:
-    assert _cell.column_type(annotation) == expected
+    assert _rows.column_type(annotation) == expected
 
 
 @pytest.mark.parametrize("annotation", [tuple[str, int], tuple[tuple[str, ...], ...], dict[str, int], object])
 def test_annotations_without_a_column_type(annotation: object) -> None:
     with pytest.raises(TypeError, match="cannot hold values annotated"):
-        _cell.column_type(annotation)
+        _rows.column_type(annotation)
 
 
 def test_an_expression_record_holds_plain_values() -> None:
-    record = _cell.expression_record(_expression(extra_examples=("browUp",), extra_time=0.0625))
+    record = _rows.expression_record(_expression(extra_examples=("browUp",), extra_time=0.0625))
     assert record == {
         "expression": 1,
         "shapes": ["jawOpen", "smile_L", "smile_R"],

@@ -108,7 +108,7 @@ def test_fallback_is_set_exactly_when_the_greedy_packing_is_answered(answer: str
 
 @pytest.mark.filterwarnings("ignore::packing.MissingTargetWarning")
 def test_fallback_reaches_the_expression_and_its_record() -> None:
-    from harness._cell import expression_record
+    from harness._rows import expression_record
 
     plugin = type("Scripted", (_Scripted,), {"answer": "none", "starts": []})
     expressions = packing.sequence(rigs.generate("tiny"), solvers.load(plugin), time_limit=0.05, jmax=1)
