@@ -33,8 +33,7 @@ import numpy as np
 
 import packing
 import solvers
-from harness import _animation, _replay
-from harness import _plugins as plugins
+from harness import _animation, _plugins as plugins, _replay
 from harness._cell_rigs import RigChangedError, packing_params, rig_pair, template_rig
 from harness._grid import NO_WARP, CellSpec
 from harness._journal import SEQUENCE_END, append_row

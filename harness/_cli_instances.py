@@ -121,8 +121,7 @@ def _export(
     jmax: int,
     seed: int,
 ):
-    from harness import _instances_source as sources
-    from harness import _plugins as plugins
+    from harness import _instances_source as sources, _plugins as plugins
     from harness._instances import export as export_instances
     from harness._isolated import IsolatedSolver
 

@@ -54,8 +54,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from harness import _environment as environment
-from harness import _plugins as plugins
+from harness import _environment as environment, _plugins as plugins
 from harness._bounds import check_bounds
 from harness._cell import Lost, failure_rows
 from harness._certificate import INCONSISTENT, certify

@@ -22,8 +22,7 @@ from collections.abc import Mapping
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
-from harness import _plugins as plugins
-from harness import _replay
+from harness import _plugins as plugins, _replay
 from harness._cell import failure_rows
 from harness._cell_rigs import packing_params, rig_pair
 from harness._grid import NO_WARP, CellSpec

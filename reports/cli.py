@@ -220,8 +220,7 @@ def compare(
     from rich.console import Console
     from rich.markup import escape
 
-    from reports._compare import changed_inputs, comparison_table
-    from reports._compare import compare as compare_runs
+    from reports._compare import changed_inputs, compare as compare_runs, comparison_table
 
     if commits is not None:
         if old is not None or new is not None:

@@ -6,13 +6,7 @@ from ._files import (
 )
 from ._pack import (
     EXPRESSIONS_FILE as EXPRESSIONS_FILE,
-)
-from ._pack import (
     PackConfig as PackConfig,
-)
-from ._pack import (
     PackResult as PackResult,
-)
-from ._pack import (
     pack as pack,
 )

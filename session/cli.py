@@ -137,8 +137,7 @@ def pack(
     from harness import expand_names, solver_names
     from session._constraints import parse_exclusions
     from session._files import SHEET_FILE
-    from session._pack import EXPRESSIONS_FILE, PackConfig, check_minimum, parse_rejections
-    from session._pack import pack as pack_rig
+    from session._pack import EXPRESSIONS_FILE, PackConfig, check_minimum, pack as pack_rig, parse_rejections
 
     if refine and reject:
         raise click.UsageError("use either --refine (interactive) or --reject (listed), not both")

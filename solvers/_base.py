@@ -21,10 +21,12 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-from registry import Availability as Availability
-from registry import AvailabilityStatus as AvailabilityStatus
-from registry import Setting as Setting
-from registry import package_availability as package_availability
+from registry import (
+    Availability as Availability,
+    AvailabilityStatus as AvailabilityStatus,
+    Setting as Setting,
+    package_availability as package_availability,
+)
 
 if TYPE_CHECKING:  # imported where used, so that listing plugins does not import the method
     from packing import PackingProblem, Solution, Termination

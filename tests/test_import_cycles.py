@@ -19,8 +19,6 @@ import pytest
 
 from tests.test_package_graph import ORDER, ROOT
 
-#: Packages whose loop is broken on another branch; the mark goes when that branch is merged.
-STILL_LOOPED = {"harness": "harness's modules import each other in a loop until the pipeline work is merged"}
 #: At most this many cycles are listed per package (a dense loop has very many).
 SHOWN = 50
 
@@ -103,15 +101,7 @@ def cycles(graph: nx.DiGraph) -> list[list[str]]:
     return sorted(found, key=lambda cycle: (len(cycle), cycle))
 
 
-@pytest.mark.parametrize(
-    "package",
-    [
-        pytest.param(package, marks=pytest.mark.xfail(strict=True, reason=STILL_LOOPED[package]))
-        if package in STILL_LOOPED
-        else package
-        for package in ORDER
-    ],
-)
+@pytest.mark.parametrize("package", ORDER)
 def test_the_modules_of_a_package_import_each_other_without_a_loop(package: str) -> None:
     graph = import_graph(package)
     assert graph.number_of_nodes() > 1, f"no modules in {package}"

@@ -10,12 +10,9 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
-from registry import OutputFolderError, atomic_write, claim
-from registry import _atomic as atomic
-from registry import _outdir as outdir
+from registry import OutputFolderError, _atomic as atomic, _outdir as outdir, atomic_write, claim
 from registry._outdir import MANIFEST_NAME, file_sha256
 
 

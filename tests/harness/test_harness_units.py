@@ -8,8 +8,7 @@ import shutil
 
 import pyarrow.parquet as pq
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
+from hypothesis import given, strategies as st
 
 import harness
 import rigs

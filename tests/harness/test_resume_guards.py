@@ -19,8 +19,7 @@ from harness._cell import Lost, run_cell
 from harness._grid import RunConfig, digest_key, rig_digest
 from harness._run import locked
 from harness.cli import cli
-from tests.rigs.test_rig_inputs import FORMS as RIG_FORMS
-from tests.rigs.test_rig_inputs import touch
+from tests.rigs.test_rig_inputs import FORMS as RIG_FORMS, touch
 
 
 def _config(rig: Path, **changes) -> RunConfig:

@@ -7,8 +7,7 @@ import itertools
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from packing import problem_from_incidence
 from packing._presolve import ConflictSets, maximal_conflict_sets

@@ -7,8 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
 from rigs._arrow_lines import read_vertex_lines, triangle_lines, vertex_lines
