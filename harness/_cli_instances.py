@@ -125,7 +125,7 @@ def _export(
     from harness._instances import export as export_instances
     from harness._isolated import IsolatedSolver
 
-    plugins.expand_names([solver_name], plugins.solver_names(), "solver", "--solver")
+    (solver_name,) = plugins.expand_names([solver_name], plugins.solver_names(), "solver", "--solver")
     if sources.is_run_directory(argument):
         given = [
             f"--{name.replace('_', '-')}"

@@ -36,10 +36,11 @@ SEQUENCE_FIELDS = (
 )  # fmt: skip
 #: The fields that do not: the cell's solver and its settings and seed (the reference sequence is the exact
 #: reference solver's, whose tie-broken optimum no seed changes), its repetition, its transfers and their
-#: training examples, whether it replays a reference, and the order its items are given in.
+#: training examples and the animation frames they retarget, whether it replays a reference, and the order
+#: its items are given in.
 OTHER_FIELDS = (
     "solver", "solver_settings", "seed", "repetition", "transfers", "j_values", "examples", "scan_seed",
-    "mode", "permutation",
+    "frames", "mode", "permutation",
 )  # fmt: skip
 
 

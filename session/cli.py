@@ -150,7 +150,7 @@ def pack(
     check_minimum(
         minimum, refining=refine or bool(reject), extra_examples=extra_examples, timeout=timeout, given=given
     )
-    expand_names([solver], solver_names(), "solver", "--solver")
+    (solver,) = expand_names([solver], solver_names(), "solver", "--solver")
 
     def decide(expression: int, shape: str, extra_example: bool) -> bool:
         role = " as an extra example" if extra_example else ""

@@ -14,7 +14,6 @@ import highspy
 import numpy as np
 import pytest
 
-import harness._plugins
 import packing
 import solvers
 from harness import cli as harness_cli
@@ -127,22 +126,31 @@ def test_the_files_are_the_models_the_exact_backends_solve(registered, tmp_path:
     assert list(lp.row_upper_) == list(model.upper())
 
 
+CUT_SHORT = """
+import dataclasses
+
+import solvers
+from solvers.cpsat import CpSatSolver
+
+
+class CutShortSolver(CpSatSolver):
+    \"\"\"CP-SAT's answer, reported as stopped by its time limit.\"\"\"
+
+    name = "cut-short"
+
+    def solve(self, problem, *, time_limit=None, seed=0):
+        found = super().solve(problem, time_limit=time_limit, seed=seed)
+        return dataclasses.replace(found, termination=solvers.Termination.TIME_LIMIT)
+"""
+
+
 def test_a_time_limited_reference_is_best_not_opt(registered, tmp_path: Path, monkeypatch) -> None:
-    real = harness._plugins.load_solver
-
-    class CutShort:
-        """The real solver's answer, reported as stopped by its time limit."""
-
-        def __init__(self, inner):
-            self.inner, self.name, self.capabilities = inner, inner.name, inner.capabilities
-
-        def solve(self, problem, *, time_limit=None, seed=0):
-            solution = self.inner.solve(problem, time_limit=time_limit, seed=seed)
-            return dataclasses.replace(solution, termination=packing.Termination.TIME_LIMIT)
-
-    monkeypatch.setattr(harness._plugins, "load_solver", lambda name: CutShort(real(name)))
+    # The reference solves in a worker process: the solver is a plugin file the worker loads itself.
+    monkeypatch.setenv("HARNESS_PLUGIN_FILES", "[]")
+    (tmp_path / "cut_short.py").write_text(CUT_SHORT)
     out = tmp_path / "instances"
-    result = export("tiny", "--out", out, "--time-limit", "1s")
+    result = export("tiny", "--out", out, "--time-limit", "1s", "--solver", str(tmp_path / "cut_short.py"))
+    solvers.refresh()
     assert result.exit_code == 0, result.output
     solu = read_solu(out)
     assert solu and all(status == "best" for status, _ in solu.values())
@@ -199,7 +207,7 @@ def test_a_run_directory_gives_one_sequence_per_rig_warp_and_setting(registered,
     config = RunConfig(
         rigs=("tiny",), warps=("none", "big-eyes"), solvers=("greedy",), transfers=(), symmetry=(True, False)
     )
-    (run / "run.json").write_text(json.dumps({"config": config.to_dict(), "rig_digests": {}}))
+    (run / "run.json").write_text(json.dumps({"format": 1, "state": "complete", "config": config.to_dict()}))
     assert_one_line_error(export(run, "--out", tmp_path / "x", "--mu", "0.4"), "run directory", "--mu")
     assert_one_line_error(export(run, "--out", tmp_path / "x", "--rig", "female"), "--rig 'female'")
     out = tmp_path / "instances"
@@ -320,7 +328,7 @@ def test_a_run_of_seeds_and_distortions_exports_every_sequence(registered, tmp_p
         rigs=("tiny",), warps=("big-eyes",), solvers=("greedy",), transfers=(), seed=(0, 1, 2),
         distortion=("paper", "excess"),
     )  # fmt: skip
-    (run / "run.json").write_text(json.dumps({"config": config.to_dict(), "rig_digests": {}}))
+    (run / "run.json").write_text(json.dumps({"format": 1, "state": "complete", "config": config.to_dict()}))
     out = tmp_path / "instances"
     result = export(run, "--out", out)
     assert result.exit_code == 0, result.output
