@@ -90,12 +90,21 @@ class Browser:
         self.wait_for(f"location.href === {json.dumps(url)} && document.readyState === 'complete'")
 
     def wait_for(self, condition: str, seconds: float = 30.0) -> None:
-        """Wait until a JavaScript condition holds."""
+        """Wait until a JavaScript condition holds; a page that is navigating away meanwhile (the condition
+        asked of a page being replaced) is asked again once the next one is there."""
         deadline = time.monotonic() + seconds
-        while not self.evaluate(condition):
+        while not self._holds(condition):
             if time.monotonic() > deadline:
                 raise TimeoutError(condition)
             time.sleep(0.1)
+
+    def _holds(self, condition: str) -> bool:
+        try:
+            return bool(self.evaluate(condition))
+        except RuntimeError as error:
+            if "navigated or closed" in str(error) or "Cannot find context" in str(error):
+                return False
+            raise
 
     def click(self, selector: str) -> None:
         """Click the middle of the first element ``selector`` matches, as a mouse would."""

@@ -503,7 +503,7 @@ for label, options, fragment in [
     ("transfer-negative-beta", ["--solvers", "greedy", "--transfers", "ebfr[beta=-1]"], "beta"),
     ("j-values-zero", ["--solvers", "greedy", "--j-values", "0"], "--j-values"),
     ("seeds-reversed-range", ["--solvers", "greedy", "--seeds", "5-2"], "--seeds"),
-    ("mu-list-with-nan", ["--solvers", "greedy", "--mu", "0.3,nan"], "mu must be"),
+    ("mu-list-with-nan", ["--solvers", "greedy", "--mu", "0.3,nan"], "'--mu': expected a finite number"),
     ("seeds-ten-billion", ["--solvers", "greedy", "--seeds", "0-10000000000"], "--seeds"),
     ("seeds-past-64-bits", ["--solvers", "greedy", "--seeds", str(2**63)], "seeds go up to 2**63 - 1"),
     ("solver-seed-past-32-bits", ["--solvers", "greedy", "--solver-seed", str(2**40)], "--solver-seed"),

@@ -23,7 +23,7 @@ def test_report_on_a_session_folder_says_it_is_one(tmp_path) -> None:
 def test_an_earlier_report_is_replaced_only_with_force(tmp_path) -> None:
     run = tmp_path / "run"
     run.mkdir()
-    (run / "run.json").write_text(json.dumps({"config": {}}))
+    (run / "run.json").write_text(json.dumps({"format": 1, "state": "complete", "config": {}}))
     claim(run / "report", kind="report", force=False).replace({"index.html": "<html>earlier</html>\n"})
     assert_one_line_error(invoke("report", run), "holds a harness report (index.html)", "--force")
     assert (run / "report" / "index.html").read_text() == "<html>earlier</html>\n"
