@@ -259,7 +259,9 @@ def measure(
         Least CPU seconds of one sample (asv's ``min_time``): fast solves are repeated within a sample.
     budget : float, optional
         Seconds the whole session may take: no round starts that would end past it (judged from the rounds
-        so far), once ``min_rounds`` rounds are done.
+        so far) once ``min_rounds`` rounds are done, and a round after the first stops taking samples when
+        the budget is spent (its jobs are shuffled, so the jobs it leaves out are a random few), so that a
+        loaded machine shortens the session instead of lengthening it.
     timeout : float
         Seconds a probe may take over one request before it is killed.
     seed : int
@@ -292,6 +294,8 @@ def measure(
             jobs = session.jobs(labels, list(prepared.values()))
             random.Random(seed * 1_000_003 + round_).shuffle(jobs)
             for position, job in enumerate(jobs):
+                if budget is not None and round_ > 0 and time.monotonic() - started > budget:
+                    break
                 for sample in range(repeat):
                     sides = order if (position + sample) % 2 == 0 else order[::-1]
                     taken = [

@@ -117,3 +117,6 @@ def test_a_budget_ends_the_rounds_after_the_least(tmp_path):
     suite = Suite("test", (Group("tiny", "none"),), ("greedy",))
     found = harness.measure([_here("a")], suite, scratch=tmp_path, rounds=5, repeat=1, budget=0.001)
     assert found.rounds == 2
+    # The first round is whole; the second stops taking samples once the budget is spent (here at once).
+    rounds = found.samples.groupby("round").size()
+    assert rounds.loc[0] > 0 and rounds.get(1, 0) == 0
