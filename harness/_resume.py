@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from harness._rigspec import is_rig_file
+from rigs import is_rig_path
 
 if TYPE_CHECKING:
     from harness._grid import RunConfig
@@ -63,7 +63,7 @@ def rigs_changed(
         if key not in stored or stored[key] == digest:
             continue
         rig, _, seed = key.rpartition("@")
-        named = rig if is_rig_file(rig) else f"{rig} (seed {seed})"
+        named = rig if is_rig_path(rig) else f"{rig} (seed {seed})"
         changes: list[str] = []
         if rig in stored_inputs and rig in inputs:
             before = RigInputs.from_document(inputs[rig].root, stored_inputs[rig])

@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+import rigs
 from harness import _environment as environment, _plugins as plugins
 from harness._bounds import check_bounds
 from harness._cell import Lost, failure_rows
@@ -73,7 +74,7 @@ from harness._records import (
     write_listed,
 )
 from harness._resume import options_changed, rigs_changed, versions_changed
-from harness._rigspec import check_rig_files, input_paths
+from harness._rig_checks import check_rig_files
 from harness._rows import Row
 from harness._run_file import RUN_FILE, RunDirectoryError, read_run
 from harness._verify import CellChecker
@@ -191,15 +192,15 @@ def _check_packing_params(config: RunConfig, constraint_origins: Mapping[tuple[s
         packing.PackingParams(mu=mu, alpha=alpha, beta=beta, max_per_expression=cap, distortion=distortion)
     if not (config.together or config.apart or config.regions):
         return
+    import rigs
     from harness._cell_rigs import packing_params
     from harness._cli_constraints import check_file_pairs
-    from harness._rigspec import resolve_rig
 
     options = [name for name in ("together", "apart", "regions") if getattr(config, name)]
     given = " ".join(f"--{name}" for name in options)
     spec = config.cells()[0]
     for argument in config.rigs:
-        rig = resolve_rig(argument, seed=config.seed[0])
+        rig = rigs.resolve(argument, seed=config.seed[0])
         check_file_pairs(rig, {"together": config.together, "apart": config.apart}, constraint_origins)
         try:
             with warnings.catch_warnings():
@@ -264,7 +265,7 @@ def _check_apart_from_rigs(out: Path, arguments: tuple[str, ...]) -> None:
     """The run folder may not be a rig's file or folder or lie inside a rig folder (its content would
     change as the run writes)."""
     try:
-        check_apart(out, [path for argument in arguments for path in input_paths(argument)])
+        check_apart(out, [path for argument in arguments for path in rigs.argument_paths(argument)])
     except OutputFolderError as error:
         raise RunDirectoryError(f"--out {error}") from None
 

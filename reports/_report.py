@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 import harness
+import rigs
 from registry import claim
 from reports._agreement import agreement_counts
 from reports._animation import (
@@ -103,7 +104,7 @@ def _contact_sheets(records: pd.DataFrame, expressions: int) -> list[Image | str
     blocks: list[Image | str] = []
     for (rig_name, rig_seed), of_rig in rows.groupby(["rig", "rig_seed"], sort=True):
         try:
-            rig = harness.resolve_rig(rig_name, seed=int(rig_seed))
+            rig = rigs.resolve(rig_name, seed=int(rig_seed))
         except (OSError, ValueError) as error:
             blocks.append(f"No contact sheet for rig {labels[rig_name]}: it could not be rebuilt ({error}).")
             continue

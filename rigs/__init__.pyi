@@ -1,6 +1,13 @@
 """The public names of `rigs`, read by type checkers and by its lazy loader (`lazy_loader.attach_stub`):
 each is imported from its module on first use."""
 
+from ._argument import (
+    FETCHED_RIGS as FETCHED_RIGS,
+    argument_paths as argument_paths,
+    fetched_path as fetched_path,
+    is_rig_path as is_rig_path,
+    resolve as resolve,
+)
 from ._camera import (
     frontal_camera as frontal_camera,
     three_quarter_camera as three_quarter_camera,

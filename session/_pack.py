@@ -66,7 +66,8 @@ from pathlib import Path
 from time import monotonic
 from typing import TYPE_CHECKING, Any
 
-from harness import IsolatedSolver, check_settings, format_duration, input_paths, resolve_rig
+import rigs
+from harness import IsolatedSolver, check_settings, format_duration
 from registry import HarnessError, OutputFolder, claim
 from session._constraints import session_constraints
 from session._files import session_files
@@ -288,7 +289,7 @@ def pack(config: PackConfig, *, decide: Callable[[int, str, bool], bool] | None 
                 prepare_scene(rig, analysis.params.mu) if config.pictures else None
             )  # while the solver works
             regions = params.get("regions")
-            protect = [*input_paths(config.rig), *config.inputs]
+            protect = [*rigs.argument_paths(config.rig), *config.inputs]
             protect += [Path(path) for path in (config.target, regions) if isinstance(path, str | PathLike)]
             folder = held.enter_context(
                 claim(config.out, kind="pack", force=config.force, protect=protect, lock=True)
@@ -504,7 +505,7 @@ def _read_inputs(config: PackConfig) -> tuple[Rig, TargetMesh | None, list[str]]
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        rig = resolve_rig(config.rig, seed=config.seed)
+        rig = rigs.resolve(config.rig, seed=config.seed)
         target = read_target(config.target, rig)
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)

@@ -10,6 +10,7 @@ from click.testing import CliRunner
 import harness
 import packing
 import reports
+import rigs
 import solvers
 from harness.cli import cli
 
@@ -30,7 +31,7 @@ def test_the_quick_preset_runs_every_solver_and_its_records_pass_the_checker(tmp
     assert set(cells.loc[cells["solver"].isin(available), "status"]) == {"ok"}
     assert set(cells.loc[~cells["solver"].isin(available), "status"]) <= {"skipped"}
     for cell in cells[cells["status"] == "ok"].itertuples():
-        template = harness.resolve_rig(cell.rig, seed=cell.rig_seed)
+        template = rigs.resolve(cell.rig, seed=cell.rig_seed)
         expressions = records[(records["cell"] == cell.cell) & (records["kind"] == "expression")]
         solver = solvers.get(cell.solver)
         overlap = solver.capabilities.max_overlap

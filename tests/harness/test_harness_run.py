@@ -11,6 +11,7 @@ import pytest
 import harness
 import packing
 import reports
+import rigs
 from harness import _plugins
 from harness._grid import RunConfig
 from harness._run import RUN_FILE
@@ -44,7 +45,7 @@ def test_a_small_grid_records_every_cell_and_every_sequence_passes_the_checker(r
     cells = records[records["kind"] == "cell"]
     assert len(cells) == 6 and set(cells["status"]) == {"ok"}
     assert (cells["analysis_time"] > 0).all() and (cells["lower_bound"] >= 1).all()
-    rig = harness.resolve_rig(str(rig_file))
+    rig = rigs.resolve(str(rig_file))
     for cell in cells.itertuples():
         expressions = records[(records["cell"] == cell.cell) & (records["kind"] == "expression")]
         assert list(expressions["expression"]) == list(range(1, cell.n_expressions + 1))

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 import harness
 import packing
-from harness._rigspec import resolve_rig
+import rigs
 from harness.cli import cli
 
 
@@ -109,7 +109,7 @@ def test_bad_constraints_and_regions_are_one_line_errors_before_any_cell(
 
 
 def test_regions_from_the_face_groups_of_an_obj_reach_every_cell(tmp_path) -> None:
-    tiny = resolve_rig("tiny")
+    tiny = rigs.resolve("tiny")
     lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in tiny.neutral]
     expected = {}
     for name in sorted(tiny.regions):

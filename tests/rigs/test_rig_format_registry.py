@@ -12,7 +12,6 @@ import pytest
 from click.testing import CliRunner
 
 import rigs
-from harness._rigspec import input_paths
 from harness.cli import cli
 from rigs import Rig, RigError
 from rigs._format_table import REGISTERED, RigFormat
@@ -116,7 +115,7 @@ def test_the_digest_covers_what_the_format_read(tmp_path, points_format) -> None
 def test_the_harness_reads_a_format_it_does_not_know_by_name(tmp_path, points_format) -> None:
     (tmp_path / "rig").mkdir()
     path = rigs.save(grid_rig(), tmp_path / "rig" / "face.points")
-    assert input_paths(str(path)) == [path]  # the format reads the file alone
+    assert rigs.argument_paths(str(path)) == [path]  # the format reads the file alone
     out = tmp_path / "session"
     result = CliRunner().invoke(
         cli,

@@ -1,16 +1,14 @@
-"""Rig arguments on the command line: a rig file or folder `rigs.load` reads, a generator preset name, or
-the name of a rig ``harness rigs fetch`` put in the user cache (`FETCHED_RIGS`)."""
+"""Rig arguments as commands take them: a rig file or folder `rigs.load` reads, a generator preset name, or
+the name of a rig ``harness rigs fetch`` put in the user cache (`FETCHED_RIGS`). Every command that reads a
+rig (``harness run``, ``pack``, ``instances export``, ``rigs info``) resolves it here."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from registry import HarnessError
-
 if TYPE_CHECKING:
-    from rigs import Rig, RigInputs, Warp
+    from rigs import Rig
 
 #: Rigs ``harness rigs fetch NAME`` downloads and converts into the user cache, by name.
 FETCHED_RIGS = {
@@ -27,12 +25,12 @@ def fetched_path(name: str) -> Path | None:
     return None
 
 
-def is_rig_file(text: str) -> bool:
+def is_rig_path(text: str) -> bool:
     """Whether a rig argument names an existing file or folder (else it must be a preset name)."""
     return Path(text).exists()
 
 
-def resolve_rig(text: str, *, seed: int = 0) -> Rig:
+def resolve(text: str, *, seed: int = 0) -> Rig:
     """The rig a command-line argument names: a loadable file or folder, else a `rigs.PRESETS` name, else
     a fetched rig (`FETCHED_RIGS`) from the user cache.
 
@@ -45,7 +43,7 @@ def resolve_rig(text: str, *, seed: int = 0) -> Rig:
     """
     import rigs
 
-    if is_rig_file(text):
+    if is_rig_path(text):
         return rigs.load(text)
     if text in rigs.PRESETS:
         return rigs.generate(text, seed=seed)
@@ -59,60 +57,7 @@ def resolve_rig(text: str, *, seed: int = 0) -> Rig:
     )
 
 
-def check_rig_files(arguments: Iterable[str], warps: Iterable[str], *, no_warp: str) -> dict[str, RigInputs]:
-    """Every rig file among ``arguments`` reads and has blendshapes, and every warp finds the centres it needs
-    on it.
-
-    Run before any cell, so that a rig without the landmarks or regions a warp needs (e.g. ``big-eyes`` on
-    a rig without eyelid regions) is one error up front, not one failed cell per solver.
-
-    Returns
-    -------
-    dict
-        Per rig file or folder argument, what its read opened (`rigs.load_with_inputs`): its content.
-
-    Raises
-    ------
-    rigs.RigError
-        For an unreadable file (naming it and the problem).
-    HarnessError
-        For a rig without blendshapes.
-    ValueError
-        For a warp that cannot be applied, naming the warp, the rig, the missing centre and the warps
-        that do apply.
-    """
-    import rigs
-
-    warps = [name for name in warps if name != no_warp]
-    found = {}
-    for argument in arguments:
-        if not is_rig_file(argument):
-            continue
-        rig, found[argument] = rigs.load_with_inputs(argument)
-        if not rig.n_shapes:
-            raise HarnessError(f"rig {argument}: it has no blendshapes, so there is nothing to pack")
-        for name in warps:
-            try:
-                rigs.WARPS[name].resolve(rig)
-            except rigs.RigError as error:
-                usable = [other for other in sorted(rigs.WARPS) if _applies(rigs.WARPS[other], rig)]
-                raise HarnessError(
-                    f"--warps {name}: {error}; warps that apply to this rig: {', '.join([*usable, no_warp])}"
-                ) from None
-    return found
-
-
-def _applies(warp: Warp, rig: Rig) -> bool:
-    import rigs
-
-    try:
-        warp.resolve(rig)
-    except rigs.RigError:
-        return False
-    return True
-
-
-def input_paths(text: str) -> list[Path]:
+def argument_paths(text: str) -> list[Path]:
     """The files and folders a rig argument reads, which an output folder must stay apart from.
 
     A preset reads nothing; a fetched rig reads its cache folder; a folder is read whole; a file its
@@ -121,7 +66,7 @@ def input_paths(text: str) -> list[Path]:
     """
     import rigs
 
-    if not is_rig_file(text):
+    if not is_rig_path(text):
         if text in FETCHED_RIGS and fetched_path(text) is not None:
             return [fetched_path(text).parent]
         return []
