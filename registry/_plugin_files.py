@@ -104,20 +104,25 @@ def defined_classes(path: str, shown: str | None = None) -> list[type]:
 
 def recorded(group: str) -> list[FilePoint]:
     """The plugin files of ``group`` registered in this process or the one that started it."""
-    try:
-        entries = json.loads(os.environ.get(PLUGIN_FILES) or "[]")
-    except ValueError:
-        raise HarnessError(f"environment variable {PLUGIN_FILES} is not the JSON list it must be") from None
     return [
         FilePoint(str(entry["name"]), group, str(entry["path"]))
-        for entry in entries
+        for entry in _entries()
         if isinstance(entry, dict) and entry.get("group") == group
     ]
 
 
 def record(point: FilePoint) -> None:
     """Add ``point`` to `PLUGIN_FILES` (once), for the processes this one starts."""
-    entries = [entry for entry in json.loads(os.environ.get(PLUGIN_FILES) or "[]") if entry != vars(point)]
-    os.environ[PLUGIN_FILES] = json.dumps(
-        [*entries, {"group": point.group, "name": point.name, "path": point.path}]
-    )
+    entries = [entry for entry in _entries() if entry != vars(point)]
+    os.environ[PLUGIN_FILES] = json.dumps([*entries, vars(point)])
+
+
+def _entries() -> list[Any]:
+    """The entries of `PLUGIN_FILES` (none when it is unset)."""
+    try:
+        entries = json.loads(os.environ.get(PLUGIN_FILES) or "[]")
+    except ValueError:
+        entries = None
+    if not isinstance(entries, list):
+        raise HarnessError(f"environment variable {PLUGIN_FILES} is not the JSON list it must be")
+    return entries
